@@ -1,0 +1,197 @@
+//! `demcal`: the command-line front end. Each subcommand parses its arguments and hands the work to
+//! a library crate; nothing here knows physics.
+
+use clap::{Parser, Subcommand};
+use dem::output::{write_vtk, LoadWriter};
+use dem::scene::Scene;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(
+    name = "demcal",
+    version,
+    about = "Calibrate DEM models of agricultural materials"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene file: snapshots (VTK), geometry loads (CSV) and a one-line summary.
+    Simulate {
+        scene: PathBuf,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Write output here instead of the scene's [output] directory.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Run a peer benchmark and print particle-steps per second.
+    Bench {
+        #[arg(value_parser = ["settle"])]
+        name: String,
+        #[arg(long)]
+        steps: Option<u64>,
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+}
+
+fn set_threads(threads: Option<usize>) -> Result<(), String> {
+    if let Some(t) = threads {
+        if t == 0 {
+            return Err("--threads: expected at least 1".into());
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build_global()
+            .map_err(|e| format!("--threads: {e}"))?;
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate {
+            scene,
+            threads,
+            out,
+        } => set_threads(threads).and_then(|_| simulate(&scene, out.as_deref())),
+        Command::Bench {
+            name: _,
+            steps,
+            threads,
+        } => set_threads(threads).and_then(|_| bench_settle(steps)),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn progress_bar(len: u64) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {msg}  eta {eta}")
+            .expect("valid template"),
+    );
+    bar
+}
+
+fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
+    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+    let Scene {
+        mut simulation,
+        steps,
+        output,
+        rayleigh_time_step,
+        hertz_collision_time,
+        warnings,
+    } = scene;
+    let dt = simulation.params.time_step;
+    eprintln!(
+        "{}: {} particles, {} geometries, dt = {:.3e} s ({:.1} % of the Rayleigh step {:.3e} s), Hertz collision time {:.3e} s, {} steps",
+        path.display(),
+        simulation.particles.len(),
+        simulation.geometries.len(),
+        dt,
+        100.0 * dt / rayleigh_time_step,
+        rayleigh_time_step,
+        hertz_collision_time,
+        steps
+    );
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    let dir = out
+        .map(Path::to_path_buf)
+        .unwrap_or(output.directory.clone());
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| format!("{}: cannot create output directory: {e}", dir.display()))?;
+    let io = |e: std::io::Error| format!("{}: {e}", dir.display());
+    let snapshot_every = output
+        .snapshot_interval
+        .map(|s| ((s / dt).round() as u64).max(1));
+    let load_every = ((output.force_interval / dt).round() as u64).max(1);
+    let mut snapshots = 0;
+    let mut snapshot = |sim: &dem::Simulation| -> Result<(), String> {
+        write_vtk(
+            &dir.join(format!("particles_{:06}.vtk", sim.steps)),
+            &sim.particles,
+            sim.time,
+        )
+        .map_err(io)?;
+        snapshots += 1;
+        Ok(())
+    };
+    snapshot(&simulation)?;
+    let mut loads =
+        LoadWriter::create(&dir.join("geometry_forces.csv"), &simulation.geometries).map_err(io)?;
+    let bar = progress_bar(steps);
+    let start = Instant::now();
+    let mut failure = None;
+    while simulation.steps < steps {
+        if let Err(e) = simulation.step() {
+            failure = Some(e.to_string());
+            break;
+        }
+        let s = simulation.steps;
+        if s % load_every == 0 {
+            loads
+                .record(simulation.time, &simulation.geometries)
+                .map_err(io)?;
+        }
+        if snapshot_every.is_some_and(|k| s % k == 0) && s != steps {
+            snapshot(&simulation)?;
+        }
+        if s % 200 == 0 {
+            bar.set_position(s);
+            bar.set_message(format!("t = {:.4} s", simulation.time));
+        }
+    }
+    bar.finish_and_clear();
+    loads.finish().map_err(io)?;
+    if let Some(e) = failure {
+        return Err(format!("{}: {e}", path.display()));
+    }
+    snapshot(&simulation)?;
+    let wall = start.elapsed().as_secs_f64();
+    eprintln!("stages: {}", simulation.timers.breakdown());
+    println!(
+        "simulate: particles={} steps={} simulated_s={:.4} wall_s={:.1} particle_steps_per_s={:.2e} kinetic_energy_j={:.3e} snapshots={} output={}",
+        simulation.particles.len(),
+        simulation.steps,
+        simulation.time,
+        wall,
+        simulation.particles.len() as f64 * simulation.steps as f64 / wall.max(1e-9),
+        simulation.particles.kinetic_energy(),
+        snapshots,
+        dir.display()
+    );
+    Ok(())
+}
+
+fn bench_settle(steps: Option<u64>) -> Result<(), String> {
+    let total = steps.unwrap_or(50_000);
+    let bar = progress_bar(total);
+    let r = dem::bench::settle(steps, |done| bar.set_position(done))?;
+    bar.finish_and_clear();
+    println!("stages: {}", r.stages);
+    println!(
+        "neighbour rebuilds: {}, threads: {}",
+        r.neighbour_rebuilds,
+        rayon::current_num_threads()
+    );
+    println!("{}", r.line("settle"));
+    Ok(())
+}

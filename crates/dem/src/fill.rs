@@ -1,0 +1,463 @@
+//! Creating particles: size distributions, lattice fills and seeded random fills of a region.
+
+use glam::DVec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::f64::consts::PI;
+
+/// Particle radius distribution.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SizeDistribution {
+    Fixed {
+        radius: f64,
+    },
+    Uniform {
+        min: f64,
+        max: f64,
+    },
+    /// Normal in radius, truncated to [min, max] (default mean +/- 3 std).
+    TruncatedNormal {
+        mean: f64,
+        std: f64,
+        min: f64,
+        max: f64,
+    },
+    /// Discrete classes; `fractions` are by number, or by mass when `by_mass` (same density).
+    Classes {
+        radii: Vec<f64>,
+        fractions: Vec<f64>,
+        by_mass: bool,
+    },
+}
+
+impl SizeDistribution {
+    pub fn sample(&self, rng: &mut Pcg64) -> f64 {
+        match self {
+            SizeDistribution::Fixed { radius } => *radius,
+            SizeDistribution::Uniform { min, max } => min + (max - min) * rng.gen::<f64>(),
+            SizeDistribution::TruncatedNormal {
+                mean,
+                std,
+                min,
+                max,
+            } => loop {
+                // Box-Muller; rejection keeps the truncated shape exact.
+                let u1: f64 = 1.0 - rng.gen::<f64>();
+                let u2: f64 = rng.gen();
+                let z = (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos();
+                let r = mean + std * z;
+                if r >= *min && r <= *max {
+                    break r;
+                }
+            },
+            SizeDistribution::Classes {
+                radii,
+                fractions,
+                by_mass,
+            } => {
+                let weights: Vec<f64> = radii
+                    .iter()
+                    .zip(fractions)
+                    .map(|(r, f)| if *by_mass { f / r.powi(3) } else { *f })
+                    .collect();
+                let total: f64 = weights.iter().sum();
+                let mut u = rng.gen::<f64>() * total;
+                for (r, w) in radii.iter().zip(&weights) {
+                    if u < *w {
+                        return *r;
+                    }
+                    u -= w;
+                }
+                *radii.last().unwrap()
+            }
+        }
+    }
+
+    pub fn min_radius(&self) -> f64 {
+        match self {
+            SizeDistribution::Fixed { radius } => *radius,
+            SizeDistribution::Uniform { min, .. }
+            | SizeDistribution::TruncatedNormal { min, .. } => *min,
+            SizeDistribution::Classes { radii, .. } => {
+                radii.iter().cloned().fold(f64::INFINITY, f64::min)
+            }
+        }
+    }
+
+    pub fn max_radius(&self) -> f64 {
+        match self {
+            SizeDistribution::Fixed { radius } => *radius,
+            SizeDistribution::Uniform { max, .. }
+            | SizeDistribution::TruncatedNormal { max, .. } => *max,
+            SizeDistribution::Classes { radii, .. } => radii.iter().cloned().fold(0.0, f64::max),
+        }
+    }
+}
+
+/// A region to fill.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Region {
+    Box {
+        min: DVec3,
+        max: DVec3,
+    },
+    /// Solid cylinder from `base` along unit `axis`.
+    Cylinder {
+        base: DVec3,
+        axis: DVec3,
+        radius: f64,
+        length: f64,
+    },
+}
+
+impl Region {
+    /// True when a sphere of radius `r` at `x` lies inside (use r = 0 for "centre inside").
+    pub fn contains(&self, x: DVec3, r: f64) -> bool {
+        match *self {
+            Region::Box { min, max } => {
+                x.cmpge(min + DVec3::splat(r)).all() && x.cmple(max - DVec3::splat(r)).all()
+            }
+            Region::Cylinder {
+                base,
+                axis,
+                radius,
+                length,
+            } => {
+                let rel = x - base;
+                let h = rel.dot(axis);
+                let rho = (rel - h * axis).length();
+                h >= r && h <= length - r && rho <= radius - r
+            }
+        }
+    }
+
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        match *self {
+            Region::Box { min, max } => (min, max),
+            Region::Cylinder {
+                base,
+                axis,
+                radius,
+                length,
+            } => {
+                let top = base + axis * length;
+                let ext = DVec3::new(
+                    (1.0 - axis.x * axis.x).max(0.0).sqrt(),
+                    (1.0 - axis.y * axis.y).max(0.0).sqrt(),
+                    (1.0 - axis.z * axis.z).max(0.0).sqrt(),
+                ) * radius;
+                (base.min(top) - ext, base.max(top) + ext)
+            }
+        }
+    }
+
+    pub fn volume(&self) -> f64 {
+        match *self {
+            Region::Box { min, max } => (max - min).element_product(),
+            Region::Cylinder { radius, length, .. } => PI * radius * radius * length,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lattice {
+    SimpleCubic,
+    HexagonalClosePacked,
+}
+
+/// Lattice points (centres) inside `region`. The lattice is anchored at `origin`; `spacing` is the
+/// nearest-neighbour distance. Points are those whose centre lies inside the region, as LIGGGHTS'
+/// `create_atoms region` does, so shrink the region by the radius to keep spheres inside walls.
+pub fn lattice_points(
+    region: &Region,
+    lattice: Lattice,
+    spacing: f64,
+    origin: DVec3,
+) -> Vec<DVec3> {
+    let (lo, hi) = region.bounds();
+    let mut out = Vec::new();
+    let eps = 1e-9 * spacing;
+    match lattice {
+        Lattice::SimpleCubic => {
+            let k0 = ((lo - origin) / spacing - DVec3::splat(1e-9)).ceil();
+            let k1 = ((hi - origin) / spacing + DVec3::splat(1e-9)).floor();
+            for z in k0.z as i64..=k1.z as i64 {
+                for y in k0.y as i64..=k1.y as i64 {
+                    for x in k0.x as i64..=k1.x as i64 {
+                        let p = origin + DVec3::new(x as f64, y as f64, z as f64) * spacing;
+                        if region.contains(p, -eps) {
+                            out.push(p);
+                        }
+                    }
+                }
+            }
+        }
+        Lattice::HexagonalClosePacked => {
+            let dy = spacing * 3f64.sqrt() / 2.0;
+            let dz = spacing * (2.0f64 / 3.0).sqrt();
+            let z0 = ((lo.z - origin.z) / dz).ceil() as i64 - 1;
+            let z1 = ((hi.z - origin.z) / dz).floor() as i64 + 1;
+            let y0 = ((lo.y - origin.y) / dy).floor() as i64 - 2;
+            let y1 = ((hi.y - origin.y) / dy).ceil() as i64 + 2;
+            let x0 = ((lo.x - origin.x) / spacing).floor() as i64 - 2;
+            let x1 = ((hi.x - origin.x) / spacing).ceil() as i64 + 2;
+            for z in z0..=z1 {
+                // ABAB stacking: B layers shift by (a/2, a sqrt(3)/6).
+                let (sx, sy) = if z.rem_euclid(2) == 1 {
+                    (0.5 * spacing, spacing * 3f64.sqrt() / 6.0)
+                } else {
+                    (0.0, 0.0)
+                };
+                for y in y0..=y1 {
+                    let row = if y.rem_euclid(2) == 1 {
+                        0.5 * spacing
+                    } else {
+                        0.0
+                    };
+                    for x in x0..=x1 {
+                        let p = origin
+                            + DVec3::new(
+                                x as f64 * spacing + row + sx,
+                                y as f64 * dy + sy,
+                                z as f64 * dz,
+                            );
+                        if region.contains(p, -eps) {
+                            out.push(p);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// How much to generate in a random fill.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FillTarget {
+    Count(usize),
+    /// Total mass in kg (with the given density).
+    Mass {
+        mass: f64,
+        density: f64,
+    },
+}
+
+/// Seeded random sequential insertion of non-overlapping spheres wholly inside `region`, avoiding
+/// `existing` spheres too. Radii are drawn first and placed largest first, which packs better.
+pub fn random_fill(
+    region: &Region,
+    sizes: &SizeDistribution,
+    target: FillTarget,
+    seed: u64,
+    existing: &[(DVec3, f64)],
+) -> Result<Vec<(DVec3, f64)>, String> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut radii = Vec::new();
+    match target {
+        FillTarget::Count(n) => {
+            for _ in 0..n {
+                radii.push(sizes.sample(&mut rng));
+            }
+        }
+        FillTarget::Mass { mass, density } => {
+            let mut m = 0.0;
+            while m < mass {
+                let r = sizes.sample(&mut rng);
+                m += density * 4.0 / 3.0 * PI * r.powi(3);
+                radii.push(r);
+                if radii.len() > 50_000_000 {
+                    return Err("target mass needs more than 50 million particles".into());
+                }
+            }
+        }
+    }
+    radii.sort_by(|a, b| b.partial_cmp(a).unwrap());
+    let max_r = sizes
+        .max_radius()
+        .max(existing.iter().map(|e| e.1).fold(0.0, f64::max));
+    let (lo, hi) = region.bounds();
+    let cell = 2.0 * max_r;
+    let dims = (((hi - lo) / cell).ceil().max(DVec3::ONE)).as_uvec3();
+    let (nx, ny, nz) = (dims.x as usize, dims.y as usize, dims.z as usize);
+    if (nx as f64) * (ny as f64) * (nz as f64) > 2e8 {
+        return Err("region is too large for its particle size".into());
+    }
+    let mut grid: Vec<Vec<u32>> = vec![Vec::new(); nx * ny * nz];
+    let mut placed: Vec<(DVec3, f64)> = Vec::new();
+    let cell_of = |x: DVec3| -> Option<[i64; 3]> {
+        let c = ((x - lo) / cell).floor();
+        Some([c.x as i64, c.y as i64, c.z as i64])
+    };
+    let insert = |grid: &mut Vec<Vec<u32>>, placed: &mut Vec<(DVec3, f64)>, x: DVec3, r: f64| {
+        let c = cell_of(x).unwrap();
+        if c.iter()
+            .zip([nx, ny, nz])
+            .all(|(&v, d)| v >= 0 && (v as usize) < d)
+        {
+            grid[c[0] as usize + nx * (c[1] as usize + ny * c[2] as usize)]
+                .push(placed.len() as u32);
+        }
+        placed.push((x, r));
+    };
+    let n_existing = existing.len();
+    for &(x, r) in existing {
+        insert(&mut grid, &mut placed, x, r);
+    }
+    let free = |grid: &Vec<Vec<u32>>, placed: &Vec<(DVec3, f64)>, x: DVec3, r: f64| -> bool {
+        let c = cell_of(x).unwrap();
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (a, b, d) = (c[0] + dx, c[1] + dy, c[2] + dz);
+                    if a < 0
+                        || b < 0
+                        || d < 0
+                        || a as usize >= nx
+                        || b as usize >= ny
+                        || d as usize >= nz
+                    {
+                        continue;
+                    }
+                    for &k in &grid[a as usize + nx * (b as usize + ny * d as usize)] {
+                        let (y, s) = placed[k as usize];
+                        if (x - y).length_squared() < (r + s) * (r + s) {
+                            return false;
+                        }
+                    }
+                }
+            }
+        }
+        true
+    };
+    let attempts_per_particle = 2000;
+    for (k, &r) in radii.iter().enumerate() {
+        let mut ok = false;
+        for _ in 0..attempts_per_particle {
+            let x = lo + (hi - lo) * DVec3::new(rng.gen(), rng.gen(), rng.gen());
+            if region.contains(x, r) && free(&grid, &placed, x, r) {
+                insert(&mut grid, &mut placed, x, r);
+                ok = true;
+                break;
+            }
+        }
+        if !ok {
+            let solid: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r.powi(3)).sum();
+            return Err(format!(
+                "placed only {k} of {} particles without overlap: the region is too small \
+                 (requested solid fraction {:.2}; random insertion reaches about 0.3)",
+                radii.len(),
+                solid / region.volume()
+            ));
+        }
+    }
+    Ok(placed.split_off(n_existing))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settle_lattice_has_21160_points() {
+        let region = Region::Box {
+            min: DVec3::new(0.002, 0.002, 0.002),
+            max: DVec3::new(0.098, 0.098, 0.17),
+        };
+        let pts = lattice_points(&region, Lattice::SimpleCubic, 0.0042, DVec3::ZERO);
+        assert_eq!(pts.len(), 21160);
+    }
+
+    #[test]
+    fn hcp_nearest_neighbours_at_spacing() {
+        let region = Region::Box {
+            min: DVec3::ZERO,
+            max: DVec3::splat(0.01),
+        };
+        let a = 0.001;
+        let pts = lattice_points(&region, Lattice::HexagonalClosePacked, a, DVec3::ZERO);
+        let mut min_d = f64::INFINITY;
+        let mut twelve = 0;
+        for (k, p) in pts.iter().enumerate() {
+            let mut near = 0;
+            for (l, q) in pts.iter().enumerate() {
+                if k != l {
+                    let d = (*p - *q).length();
+                    min_d = min_d.min(d);
+                    if d < a * 1.001 {
+                        near += 1;
+                    }
+                }
+            }
+            if near == 12 {
+                twelve += 1;
+            }
+        }
+        assert!((min_d - a).abs() < 1e-12);
+        assert!(
+            twelve > 100,
+            "interior points have 12 neighbours ({twelve})"
+        );
+        // HCP packing of spheres of radius a/2: solid fraction pi / (3 sqrt 2) = 0.7405.
+        let solid = pts.len() as f64 * 4.0 / 3.0 * PI * (a / 2.0f64).powi(3) / region.volume();
+        assert!(solid > 0.65 && solid < 0.76, "{solid}");
+    }
+
+    #[test]
+    fn random_fill_is_seeded_and_overlap_free() {
+        let region = Region::Cylinder {
+            base: DVec3::ZERO,
+            axis: DVec3::Z,
+            radius: 0.02,
+            length: 0.04,
+        };
+        let sizes = SizeDistribution::Uniform {
+            min: 0.001,
+            max: 0.0015,
+        };
+        let a = random_fill(&region, &sizes, FillTarget::Count(500), 7, &[]).unwrap();
+        let b = random_fill(&region, &sizes, FillTarget::Count(500), 7, &[]).unwrap();
+        assert_eq!(a, b);
+        for (k, (x, r)) in a.iter().enumerate() {
+            assert!(region.contains(*x, *r));
+            for (y, s) in &a[k + 1..] {
+                assert!((*x - *y).length() >= r + s);
+            }
+        }
+    }
+
+    #[test]
+    fn classes_by_mass_fraction() {
+        let sizes = SizeDistribution::Classes {
+            radii: vec![0.001, 0.002],
+            fractions: vec![0.5, 0.5],
+            by_mass: true,
+        };
+        let mut rng = Pcg64::seed_from_u64(1);
+        let (mut m1, mut m2) = (0.0, 0.0);
+        for _ in 0..200_000 {
+            let r = sizes.sample(&mut rng);
+            if r < 0.0015 {
+                m1 += r.powi(3)
+            } else {
+                m2 += r.powi(3)
+            }
+        }
+        assert!((m1 / (m1 + m2) - 0.5).abs() < 0.01, "{}", m1 / (m1 + m2));
+    }
+
+    #[test]
+    fn truncated_normal_stays_in_bounds_with_right_mean() {
+        let sizes = SizeDistribution::TruncatedNormal {
+            mean: 0.002,
+            std: 0.0002,
+            min: 0.0016,
+            max: 0.0024,
+        };
+        let mut rng = Pcg64::seed_from_u64(3);
+        let xs: Vec<f64> = (0..100_000).map(|_| sizes.sample(&mut rng)).collect();
+        assert!(xs.iter().all(|&r| (0.0016..=0.0024).contains(&r)));
+        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
+        assert!((mean - 0.002).abs() < 2e-6);
+    }
+}

@@ -1,0 +1,23 @@
+//! The demcal DEM engine.
+//!
+//! Spheres with per-particle radius and material, Hertz-Mindlin (no slip) contacts with constant
+//! directional torque or elastic-plastic spring-dashpot rolling friction, analytic walls and STL
+//! meshes with prescribed motion, cell-grid neighbour lists with a skin, velocity Verlet, and TOML
+//! scene files. The physics contract is `shared/spec/physics.md`; [`sim`] explains the step pipeline.
+
+pub mod bench;
+pub mod contact;
+pub mod fill;
+pub mod geometry;
+pub mod material;
+pub mod neighbour;
+pub mod output;
+pub mod particles;
+pub mod scene;
+pub mod sim;
+pub mod timestep;
+
+pub use geometry::{Element, Geometry, Load, Motion};
+pub use material::{Interaction, Material, MaterialTable};
+pub use particles::Particles;
+pub use sim::{SimError, Simulation, SimulationParams};

@@ -1,0 +1,302 @@
+//! Neighbour search: a cell grid, cell-ordered particles, and Verlet lists with a skin.
+//!
+//! At each rebuild the particles are sorted by cell (counting sort) so that neighbours sit close in
+//! memory, then the half pair list (i < j) is rebuilt as CSR rows. Because particles are in cell order
+//! and the 27 neighbour cells are visited in increasing cell index, each row comes out sorted by j,
+//! which lets the contact history move from the old list to the new one by a merge. A reverse index
+//! (pairs in which a particle is j) lets forces be summed per particle without atomics.
+
+use crate::particles::Particles;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// One candidate pair with its contact history.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Pair {
+    pub i: u32,
+    pub j: u32,
+    /// Tangential spring (relative to i).
+    pub shear: DVec3,
+    /// Rolling moment history (epsd).
+    pub rolling: DVec3,
+}
+
+impl Pair {
+    #[inline(always)]
+    pub fn has_history(&self) -> bool {
+        self.shear != DVec3::ZERO || self.rolling != DVec3::ZERO
+    }
+}
+
+/// What one pair contributes this step, written by the pair phase and summed by the particle phase.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PairOutput {
+    /// Force on i (j gets the opposite).
+    pub force: DVec3,
+    pub torque_i: DVec3,
+    pub torque_j: DVec3,
+    /// Constant-directional rolling torque magnitudes for i and j.
+    pub rolling_i: f64,
+    pub rolling_j: f64,
+}
+
+#[derive(Default)]
+pub struct NeighbourList {
+    pub skin: f64,
+    pub pairs: Vec<Pair>,
+    pub output: Vec<PairOutput>,
+    /// CSR rows over i into `pairs`.
+    pub row_start: Vec<u32>,
+    /// CSR rows over j into `reverse`, which holds pair indices.
+    pub reverse_start: Vec<u32>,
+    pub reverse: Vec<u32>,
+    /// Positions at the last build, for the displacement check.
+    pub built_at: Vec<DVec3>,
+    pub rebuilds: u64,
+    // Reused buffers.
+    cell_of: Vec<u32>,
+    cell_start: Vec<u32>,
+    order: Vec<u32>,
+    inverse: Vec<u32>,
+    scratch: Vec<u8>,
+    carried: Vec<(u64, DVec3, DVec3)>,
+    grid: Grid,
+}
+
+#[derive(Default, Clone, Copy)]
+struct Grid {
+    lo: DVec3,
+    inv_cell: f64,
+    dims: [i64; 3],
+}
+
+impl Grid {
+    #[inline(always)]
+    fn coords(&self, x: DVec3) -> [i64; 3] {
+        let c = (x - self.lo) * self.inv_cell;
+        [
+            (c.x as i64).clamp(0, self.dims[0] - 1),
+            (c.y as i64).clamp(0, self.dims[1] - 1),
+            (c.z as i64).clamp(0, self.dims[2] - 1),
+        ]
+    }
+
+    #[inline(always)]
+    fn index(&self, c: [i64; 3]) -> usize {
+        (c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])) as usize
+    }
+}
+
+/// The permutation applied to particles at a rebuild: `order[new] = old`, `inverse[old] = new`.
+pub struct Reorder<'a> {
+    pub order: &'a [u32],
+    pub inverse: &'a [u32],
+}
+
+impl NeighbourList {
+    pub fn new(skin: f64) -> Self {
+        NeighbourList {
+            skin,
+            ..Default::default()
+        }
+    }
+
+    /// Sorts particles by cell and rebuilds the pair list, carrying contact history across.
+    /// `extra_reach` widens the search for models that act beyond touching (cohesion).
+    /// Returns the permutation so the caller can move its own per-particle data.
+    pub fn rebuild(&mut self, particles: &mut Particles, extra_reach: f64) -> Reorder<'_> {
+        let n = particles.len();
+        let max_r = particles.radius.iter().cloned().fold(0.0, f64::max);
+        let reach = 2.0 * max_r + self.skin + extra_reach;
+
+        // Grid over the particle bounds, coarsened if the particles are spread thinly.
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for &x in &particles.position {
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        if n == 0 {
+            lo = DVec3::ZERO;
+            hi = DVec3::ZERO;
+        }
+        let ext = (hi - lo).max(DVec3::splat(1e-12));
+        let mut cell = reach.max(1e-12);
+        let max_cells = (8 * n + 64) as f64;
+        while (ext.x / cell + 1.0) * (ext.y / cell + 1.0) * (ext.z / cell + 1.0) > max_cells {
+            cell *= 1.26;
+        }
+        self.grid = Grid {
+            lo,
+            inv_cell: 1.0 / cell,
+            dims: [
+                (ext.x / cell) as i64 + 1,
+                (ext.y / cell) as i64 + 1,
+                (ext.z / cell) as i64 + 1,
+            ],
+        };
+        let grid = self.grid;
+        let ncell = (grid.dims[0] * grid.dims[1] * grid.dims[2]) as usize;
+
+        // Counting sort by cell.
+        self.cell_of.clear();
+        self.cell_of.extend(
+            particles
+                .position
+                .iter()
+                .map(|&x| grid.index(grid.coords(x)) as u32),
+        );
+        self.cell_start.clear();
+        self.cell_start.resize(ncell + 1, 0);
+        for &c in &self.cell_of {
+            self.cell_start[c as usize + 1] += 1;
+        }
+        for c in 0..ncell {
+            self.cell_start[c + 1] += self.cell_start[c];
+        }
+        self.order.clear();
+        self.order.resize(n, 0);
+        {
+            let mut fill = self.cell_start.clone();
+            for (old, &c) in self.cell_of.iter().enumerate() {
+                self.order[fill[c as usize] as usize] = old as u32;
+                fill[c as usize] += 1;
+            }
+        }
+        self.inverse.clear();
+        self.inverse.resize(n, 0);
+        for (new, &old) in self.order.iter().enumerate() {
+            self.inverse[old as usize] = new as u32;
+        }
+        particles.permute(&self.order, &mut self.scratch);
+
+        // Old history, renamed to the new indices and sorted like the new list will be.
+        self.carried.clear();
+        for p in &self.pairs {
+            if p.has_history() {
+                let (a, b) = (self.inverse[p.i as usize], self.inverse[p.j as usize]);
+                if a < b {
+                    self.carried
+                        .push((((a as u64) << 32) | b as u64, p.shear, p.rolling));
+                } else {
+                    self.carried
+                        .push((((b as u64) << 32) | a as u64, -p.shear, -p.rolling));
+                }
+            }
+        }
+        self.carried.sort_unstable_by_key(|c| c.0);
+
+        // New half list, built in parallel over blocks of particles and joined in order.
+        let skin = self.skin + extra_reach;
+        let pos = &particles.position;
+        let rad = &particles.radius;
+        let cell_start = &self.cell_start;
+        let block = 1024;
+        let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(block))
+            .into_par_iter()
+            .map(|b| {
+                let lo_i = b * block;
+                let hi_i = ((b + 1) * block).min(n);
+                let mut counts = Vec::with_capacity(hi_i - lo_i);
+                let mut js = Vec::with_capacity((hi_i - lo_i) * 8);
+                for i in lo_i..hi_i {
+                    let before = js.len();
+                    let xi = pos[i];
+                    let ri = rad[i];
+                    let c = grid.coords(xi);
+                    for dz in -1..=1 {
+                        let z = c[2] + dz;
+                        if z < 0 || z >= grid.dims[2] {
+                            continue;
+                        }
+                        for dy in -1..=1 {
+                            let y = c[1] + dy;
+                            if y < 0 || y >= grid.dims[1] {
+                                continue;
+                            }
+                            let x0 = (c[0] - 1).max(0);
+                            let x1 = (c[0] + 1).min(grid.dims[0] - 1);
+                            // Cells x0..=x1 of one row are contiguous, so scan them as one range.
+                            let first = grid.index([x0, y, z]);
+                            let last = grid.index([x1, y, z]);
+                            let start = (cell_start[first] as usize).max(i + 1);
+                            let end = cell_start[last + 1] as usize;
+                            for j in start..end {
+                                let cut = ri + rad[j] + skin;
+                                if (pos[j] - xi).length_squared() < cut * cut {
+                                    js.push(j as u32);
+                                }
+                            }
+                        }
+                    }
+                    counts.push((js.len() - before) as u32);
+                }
+                (counts, js)
+            })
+            .collect();
+
+        self.pairs.clear();
+        self.row_start.clear();
+        self.row_start.push(0);
+        let mut i = 0u32;
+        for (counts, js) in &blocks {
+            let mut k = 0;
+            for &c in counts {
+                for &j in &js[k..k + c as usize] {
+                    self.pairs.push(Pair {
+                        i,
+                        j,
+                        ..Default::default()
+                    });
+                }
+                k += c as usize;
+                self.row_start.push(self.pairs.len() as u32);
+                i += 1;
+            }
+        }
+
+        // Merge the carried history into the new list (both sorted by (i, j)).
+        let mut c = 0;
+        for p in self.pairs.iter_mut() {
+            if c >= self.carried.len() {
+                break;
+            }
+            let key = ((p.i as u64) << 32) | p.j as u64;
+            while c < self.carried.len() && self.carried[c].0 < key {
+                c += 1;
+            }
+            if c < self.carried.len() && self.carried[c].0 == key {
+                p.shear = self.carried[c].1;
+                p.rolling = self.carried[c].2;
+                c += 1;
+            }
+        }
+
+        // Reverse index: for each j, the pairs it belongs to, in pair order.
+        self.reverse_start.clear();
+        self.reverse_start.resize(n + 1, 0);
+        for p in &self.pairs {
+            self.reverse_start[p.j as usize + 1] += 1;
+        }
+        for k in 0..n {
+            self.reverse_start[k + 1] += self.reverse_start[k];
+        }
+        self.reverse.clear();
+        self.reverse.resize(self.pairs.len(), 0);
+        {
+            let mut fill = self.reverse_start.clone();
+            for (k, p) in self.pairs.iter().enumerate() {
+                self.reverse[fill[p.j as usize] as usize] = k as u32;
+                fill[p.j as usize] += 1;
+            }
+        }
+        self.output.clear();
+        self.output.resize(self.pairs.len(), PairOutput::default());
+        self.built_at.clear();
+        self.built_at.extend_from_slice(&particles.position);
+        self.rebuilds += 1;
+        Reorder {
+            order: &self.order,
+            inverse: &self.inverse,
+        }
+    }
+}

@@ -1,0 +1,108 @@
+//! Particle state as a struct of arrays.
+//!
+//! The engine reorders particles by grid cell from time to time so that neighbours sit close in
+//! memory; `id` keeps each particle's stable identity for output.
+
+use glam::DVec3;
+use std::f64::consts::PI;
+
+#[derive(Clone, Debug, Default)]
+pub struct Particles {
+    /// Stable id (index at creation).
+    pub id: Vec<u32>,
+    pub position: Vec<DVec3>,
+    pub velocity: Vec<DVec3>,
+    pub angular_velocity: Vec<DVec3>,
+    pub force: Vec<DVec3>,
+    pub torque: Vec<DVec3>,
+    /// Sum over contacts of the constant-directional rolling torque magnitude (applied against the
+    /// spin when velocities are updated, see `Simulation`).
+    pub rolling_torque_limit: Vec<f64>,
+    pub radius: Vec<f64>,
+    pub mass: Vec<f64>,
+    pub inv_mass: Vec<f64>,
+    pub inv_inertia: Vec<f64>,
+    pub material: Vec<u16>,
+}
+
+impl Particles {
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Appends a solid sphere.
+    pub fn push(
+        &mut self,
+        position: DVec3,
+        velocity: DVec3,
+        radius: f64,
+        density: f64,
+        material: usize,
+    ) {
+        let mass = density * 4.0 / 3.0 * PI * radius.powi(3);
+        let inertia = 0.4 * mass * radius * radius;
+        self.id.push(self.position.len() as u32);
+        self.position.push(position);
+        self.velocity.push(velocity);
+        self.angular_velocity.push(DVec3::ZERO);
+        self.force.push(DVec3::ZERO);
+        self.torque.push(DVec3::ZERO);
+        self.rolling_torque_limit.push(0.0);
+        self.radius.push(radius);
+        self.mass.push(mass);
+        self.inv_mass.push(1.0 / mass);
+        self.inv_inertia.push(1.0 / inertia);
+        self.material.push(material as u16);
+    }
+
+    /// Reorders every array so that new index k holds old particle `order[k]`.
+    pub fn permute(&mut self, order: &[u32], scratch: &mut Vec<u8>) {
+        fn apply<T: Copy>(v: &mut Vec<T>, order: &[u32], scratch: &mut Vec<u8>) {
+            // Reuse one byte buffer for every array so a reorder allocates nothing after warm-up.
+            let bytes = std::mem::size_of::<T>() * v.len();
+            scratch.clear();
+            scratch.reserve(bytes + std::mem::align_of::<T>());
+            let base = scratch.as_mut_ptr();
+            let offset = base.align_offset(std::mem::align_of::<T>());
+            // SAFETY: the buffer holds at least `bytes` bytes past an offset aligned for T, and every
+            // slot is written before it is read.
+            unsafe {
+                let tmp = base.add(offset) as *mut T;
+                for (k, &o) in order.iter().enumerate() {
+                    tmp.add(k).write(v[o as usize]);
+                }
+                std::ptr::copy_nonoverlapping(tmp, v.as_mut_ptr(), v.len());
+            }
+        }
+        apply(&mut self.id, order, scratch);
+        apply(&mut self.position, order, scratch);
+        apply(&mut self.velocity, order, scratch);
+        apply(&mut self.angular_velocity, order, scratch);
+        apply(&mut self.force, order, scratch);
+        apply(&mut self.torque, order, scratch);
+        apply(&mut self.rolling_torque_limit, order, scratch);
+        apply(&mut self.radius, order, scratch);
+        apply(&mut self.mass, order, scratch);
+        apply(&mut self.inv_mass, order, scratch);
+        apply(&mut self.inv_inertia, order, scratch);
+        apply(&mut self.material, order, scratch);
+    }
+
+    /// Translational plus rotational kinetic energy.
+    pub fn kinetic_energy(&self) -> f64 {
+        (0..self.len())
+            .map(|k| {
+                0.5 * self.mass[k] * self.velocity[k].length_squared()
+                    + 0.5 * self.angular_velocity[k].length_squared() / self.inv_inertia[k]
+            })
+            .sum()
+    }
+
+    pub fn total_mass(&self) -> f64 {
+        self.mass.iter().sum()
+    }
+}

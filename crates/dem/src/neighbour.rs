@@ -300,3 +300,96 @@ impl NeighbourList {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn history_of(nl: &NeighbourList, p: &Particles, a: u32, b: u32) -> DVec3 {
+        let pair = nl
+            .pairs
+            .iter()
+            .find(|q| {
+                let ids = (p.id[q.i as usize], p.id[q.j as usize]);
+                ids == (a, b) || ids == (b, a)
+            })
+            .expect("pair listed");
+        if p.id[pair.i as usize] == a {
+            pair.shear
+        } else {
+            -pair.shear
+        }
+    }
+
+    #[test]
+    fn history_follows_the_pair_when_particles_are_reordered() {
+        let mut p = Particles::default();
+        p.push(DVec3::new(0.0, 0.0, 0.0), DVec3::ZERO, 0.001, 1000.0, 0);
+        p.push(DVec3::new(0.0019, 0.0, 0.0), DVec3::ZERO, 0.001, 1000.0, 0);
+        p.push(DVec3::new(0.05, 0.0, 0.0), DVec3::ZERO, 0.001, 1000.0, 0);
+        let mut nl = NeighbourList::new(0.0002);
+        nl.rebuild(&mut p, 0.0);
+        assert_eq!(nl.pairs.len(), 1);
+        let k = nl.pairs.iter().position(|_| true).unwrap();
+        let sign = if p.id[nl.pairs[k].i as usize] == 0 {
+            1.0
+        } else {
+            -1.0
+        };
+        nl.pairs[k].shear = sign * DVec3::new(0.0, 1e-6, 0.0);
+        assert_eq!(history_of(&nl, &p, 0, 1), DVec3::new(0.0, 1e-6, 0.0));
+
+        // Move particle 1 to the other side of 0 and particle 2 far to the left: the cell sort
+        // now puts them in the opposite order.
+        for k in 0..3 {
+            match p.id[k] {
+                1 => p.position[k].x = -0.0019,
+                2 => p.position[k].x = -0.05,
+                _ => {}
+            }
+        }
+        let before: Vec<u32> = p.id.clone();
+        nl.rebuild(&mut p, 0.0);
+        assert_ne!(before, p.id, "the rebuild reordered the particles");
+        assert_eq!(history_of(&nl, &p, 0, 1), DVec3::new(0.0, 1e-6, 0.0));
+        assert_eq!(history_of(&nl, &p, 1, 0), DVec3::new(0.0, -1e-6, 0.0));
+    }
+
+    #[test]
+    fn half_list_holds_every_close_pair_once() {
+        let mut p = Particles::default();
+        let mut k = 0u64;
+        for x in 0..8 {
+            for y in 0..8 {
+                for z in 0..8 {
+                    k = k
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    let jitter = (k >> 40) as f64 / (1u64 << 24) as f64 * 0.0005;
+                    p.push(
+                        DVec3::new(x as f64, y as f64, z as f64) * 0.0021 + DVec3::splat(jitter),
+                        DVec3::ZERO,
+                        0.001,
+                        1000.0,
+                        0,
+                    );
+                }
+            }
+        }
+        let mut nl = NeighbourList::new(0.0003);
+        nl.rebuild(&mut p, 0.0);
+        let n = p.len();
+        let mut brute = 0;
+        for i in 0..n {
+            for j in i + 1..n {
+                if (p.position[i] - p.position[j]).length() < 0.0023 {
+                    brute += 1;
+                }
+            }
+        }
+        assert_eq!(nl.pairs.len(), brute);
+        for w in nl.pairs.windows(2) {
+            assert!((w[0].i, w[0].j) < (w[1].i, w[1].j), "rows sorted by (i, j)");
+        }
+    }
+}

@@ -704,6 +704,20 @@ fn wall_contacts(
                 outs[k] = WallOutput::default();
                 continue;
             }
+            if pass == Region::Face {
+                // A centre right above an edge shared by two coplanar triangles sees the same face
+                // point in both.
+                let duplicate = accepted.iter().any(|&(a, q, _)| {
+                    cands[a].geometry == geometry && (q - cl.point).length_squared() < tol * tol
+                });
+                if duplicate {
+                    let c = &mut cands[k];
+                    c.shear = DVec3::ZERO;
+                    c.rolling = DVec3::ZERO;
+                    outs[k] = WallOutput::default();
+                    continue;
+                }
+            }
             if pass == Region::Edge {
                 let duplicate = accepted.iter().any(|&(a, q, region)| {
                     if cands[a].geometry != geometry {

@@ -61,7 +61,6 @@ fn smallest_per_material(particles: &Particles, n: usize) -> Vec<Option<(f64, f6
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::material::Material;
 
     #[test]

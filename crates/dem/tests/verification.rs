@@ -1,0 +1,235 @@
+//! Verification cases V1-V5 of shared/spec/physics.md, with the tolerances given there.
+
+mod common;
+
+use common::*;
+use dem::contact::RollingModel;
+use dem::particles::Particles;
+use glam::DVec3;
+
+const CDT: RollingModel = RollingModel::ConstantDirectionalTorque;
+
+/// Peak force, largest overlap and contact duration of a head-on collision of two equal spheres.
+fn head_on(youngs: f64, poisson: f64, density: f64) -> (f64, f64, f64) {
+    let r = 0.01;
+    let m = material("m", youngs, poisson, density);
+    let t = table(m.clone(), m, interaction(1.0, 0.0, 0.0));
+    let mut p = Particles::default();
+    p.push(
+        DVec3::new(-r - 1e-6, 0.0, 0.0),
+        DVec3::new(10.0, 0.0, 0.0),
+        r,
+        density,
+        0,
+    );
+    p.push(
+        DVec3::new(r + 1e-6, 0.0, 0.0),
+        DVec3::new(-10.0, 0.0, 0.0),
+        r,
+        density,
+        0,
+    );
+    let dt = 1e-8;
+    let mut sim = simulation(p, t, vec![], dt, DVec3::ZERO, CDT);
+    let (mut peak, mut deepest, mut steps_in_contact) = (0.0f64, 0.0f64, 0u64);
+    for _ in 0..20_000 {
+        sim.step().unwrap();
+        let x = &sim.particles.position;
+        let overlap = 2.0 * r - (x[0] - x[1]).length();
+        if overlap > 0.0 {
+            steps_in_contact += 1;
+            peak = peak.max(sim.particles.force[0].length());
+            deepest = deepest.max(overlap);
+        }
+    }
+    (peak, deepest, steps_in_contact as f64 * dt)
+}
+
+#[test]
+fn v1_glass_spheres_head_on() {
+    let (f, d, t) = head_on(48e9, 0.2, 2800.0);
+    eprintln!(
+        "V1 glass: peak {f:.1} N, overlap {:.2} um, contact {:.2} us",
+        d * 1e6,
+        t * 1e6
+    );
+    assert!(rel_err(f, 10.70e3) < 0.01, "peak force {f}");
+    assert!(rel_err(d, 274.1e-6) < 0.01, "max overlap {d}");
+    assert!(rel_err(t, 40.3e-6) < 0.01, "contact time {t}");
+}
+
+#[test]
+fn v1_limestone_spheres_head_on() {
+    let (f, d, t) = head_on(20e9, 0.25, 2500.0);
+    eprintln!(
+        "V1 limestone: peak {f:.1} N, overlap {:.2} um, contact {:.2} us",
+        d * 1e6,
+        t * 1e6
+    );
+    assert!(rel_err(f, 7.11e3) < 0.01, "peak force {f}");
+    assert!(rel_err(d, 368.3e-6) < 0.01, "max overlap {d}");
+    assert!(rel_err(t, 54.2e-6) < 0.01, "contact time {t}");
+}
+
+/// A sphere dropped onto a wall: peak force, largest overlap, contact time and rebound speed.
+fn wall_impact(
+    r: f64,
+    speed: f64,
+    youngs: f64,
+    poisson: f64,
+    density: f64,
+    e: f64,
+    dt: f64,
+) -> (f64, f64, f64, f64) {
+    let m = material("m", youngs, poisson, density);
+    // The wall is a million times stiffer: rigid to six digits.
+    let wall = material("wall", youngs * 1e6, poisson, density);
+    let t = table(m, wall, interaction(e, 0.0, 0.0));
+    let mut p = Particles::default();
+    p.push(
+        DVec3::new(0.0, 0.0, r * 1.0001),
+        DVec3::new(0.0, 0.0, -speed),
+        r,
+        density,
+        0,
+    );
+    let mut sim = simulation(p, t, vec![floor(1)], dt, DVec3::ZERO, CDT);
+    let (mut peak, mut deepest, mut steps, mut was_in) = (0.0f64, 0.0f64, 0u64, false);
+    loop {
+        sim.step().unwrap();
+        let overlap = r - sim.particles.position[0].z;
+        if overlap > 0.0 {
+            was_in = true;
+            steps += 1;
+            peak = peak.max(sim.particles.force[0].length());
+            deepest = deepest.max(overlap);
+        } else if was_in {
+            break;
+        }
+        assert!(sim.steps < 10_000_000, "no rebound");
+    }
+    (
+        peak,
+        deepest,
+        steps as f64 * dt,
+        sim.particles.velocity[0].z / speed,
+    )
+}
+
+#[test]
+fn v2_aluminium_sphere_on_rigid_wall() {
+    let (f, d, t, _) = wall_impact(0.1, 0.2, 70e9, 0.33, 2700.0, 1.0, 2e-7);
+    eprintln!(
+        "V2 Al: peak {f:.1} N, overlap {:.2} um, contact {:.2} us",
+        d * 1e6,
+        t * 1e6
+    );
+    assert!(rel_err(f, 11.47e3) < 0.01, "peak force {f}");
+    assert!(rel_err(d, 49.31e-6) < 0.01, "max overlap {d}");
+    assert!(rel_err(t, 725.6e-6) < 0.01, "contact time {t}");
+}
+
+#[test]
+fn v2_magnesium_sphere_on_rigid_wall() {
+    let (f, d, t, _) = wall_impact(0.1, 0.2, 40e9, 0.35, 1800.0, 1.0, 2e-7);
+    eprintln!(
+        "V2 Mg: peak {f:.1} N, overlap {:.2} um, contact {:.2} us",
+        d * 1e6,
+        t * 1e6
+    );
+    assert!(rel_err(f, 7.23e3) < 0.01, "peak force {f}");
+    assert!(rel_err(d, 52.12e-6) < 0.01, "max overlap {d}");
+    assert!(rel_err(t, 767.1e-6) < 0.01, "contact time {t}");
+}
+
+#[test]
+fn v3_restitution_equals_input_at_every_level() {
+    for k in 1..=10 {
+        let e = k as f64 / 10.0;
+        let (_, _, _, ratio) = wall_impact(2.5e-3, 3.9, 380e9, 0.23, 4000.0, e, 2e-9);
+        eprintln!("V3 e = {e}: rebound/incident {ratio:.5}");
+        assert!(rel_err(ratio, e) < 0.005, "e = {e}: measured {ratio}");
+    }
+}
+
+/// A sphere resting (at its equilibrium overlap) on a floor, with gravity tilted by `theta`
+/// so the floor is an incline; returns the simulation and the sphere radius.
+fn on_incline(theta_deg: f64, mu_s: f64, mu_r: f64) -> (dem::Simulation, f64) {
+    let (r, rho, youngs, nu) = (0.01, 2500.0, 1e8, 0.3);
+    let th = theta_deg.to_radians();
+    let g = DVec3::new(9.81 * th.sin(), 0.0, -9.81 * th.cos());
+    let m = material("m", youngs, nu, rho);
+    let t = table(m.clone(), m, interaction(0.5, mu_s, mu_r));
+    let mut p = Particles::default();
+    p.push(DVec3::ZERO, DVec3::ZERO, r, rho, 0);
+    let weight = p.mass[0] * 9.81 * th.cos();
+    let e_star = t.pair(0, 1).e_star;
+    p.position[0] = DVec3::new(0.0, 0.0, r - resting_overlap(weight, e_star, r));
+    (simulation(p, t, vec![floor(1)], 2e-5, g, CDT), r)
+}
+
+#[test]
+fn v4_sphere_held_by_rolling_and_static_friction_stays_put() {
+    // tan(10 deg) = 0.176 < mu_r = 0.3 and < mu_s = 0.5.
+    let (mut sim, r) = on_incline(10.0, 0.5, 0.3);
+    let start = sim.particles.position[0];
+    sim.run(50_000).unwrap(); // 1 s
+    let drift = (sim.particles.position[0] - start).length();
+    eprintln!("V4 held: drift {:.3e} R", drift / r);
+    assert!(drift < 1e-3 * r, "drift {drift} m");
+}
+
+/// Mean acceleration along the incline between 0.2 s and 0.6 s.
+fn incline_acceleration(theta: f64, mu_s: f64) -> (f64, dem::Simulation) {
+    let (mut sim, _) = on_incline(theta, mu_s, 0.0);
+    sim.run(10_000).unwrap();
+    let v0 = sim.particles.velocity[0].x;
+    sim.run(20_000).unwrap();
+    let v1 = sim.particles.velocity[0].x;
+    ((v1 - v0) / 0.4, sim)
+}
+
+#[test]
+fn v4_sphere_rolls_without_slipping_below_the_slip_angle() {
+    // tan(20 deg) = 0.364 < 3.5 mu_s = 1.05.
+    let th = 20f64.to_radians();
+    let (a, sim) = incline_acceleration(20.0, 0.3);
+    let want = 5.0 / 7.0 * 9.81 * th.sin();
+    eprintln!("V4 rolling: a = {a:.5}, want {want:.5}");
+    assert!(rel_err(a, want) < 0.01, "a = {a}, want {want}");
+    // Rolling without slipping: v = w R.
+    let (v, w) = (
+        sim.particles.velocity[0].x,
+        sim.particles.angular_velocity[0].y,
+    );
+    assert!(rel_err(w * 0.01, v) < 0.01, "v = {v}, w R = {}", w * 0.01);
+}
+
+#[test]
+fn v4_sphere_slides_above_the_slip_angle() {
+    // tan(30 deg) = 0.577 > 3.5 mu_s = 0.35.
+    let th = 30f64.to_radians();
+    let (a, _) = incline_acceleration(30.0, 0.1);
+    let want = 9.81 * (th.sin() - 0.1 * th.cos());
+    eprintln!("V4 sliding: a = {a:.5}, want {want:.5}");
+    assert!(rel_err(a, want) < 0.01, "a = {a}, want {want}");
+}
+
+#[test]
+fn v5_rolling_friction_decelerates_at_five_sevenths_mu_r_g() {
+    let mu_r = 0.1;
+    let (mut sim, r) = on_incline(0.0, 0.5, mu_r);
+    sim.particles.velocity[0] = DVec3::new(1.0, 0.0, 0.0);
+    sim.particles.angular_velocity[0] = DVec3::new(0.0, 1.0 / r, 0.0);
+    sim.run(5_000).unwrap(); // let the tangential spring settle
+    let v0 = sim.particles.velocity[0].x;
+    sim.run(40_000).unwrap(); // 0.8 s
+    let v1 = sim.particles.velocity[0].x;
+    let decel = (v0 - v1) / 0.8;
+    let want = 5.0 / 7.0 * mu_r * 9.81;
+    eprintln!("V5: deceleration {decel:.5}, want {want:.5}");
+    assert!(
+        rel_err(decel, want) < 0.02,
+        "deceleration {decel}, want {want}"
+    );
+}

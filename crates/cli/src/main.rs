@@ -119,10 +119,6 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     std::fs::create_dir_all(&dir)
         .map_err(|e| format!("{}: cannot create output directory: {e}", dir.display()))?;
     let io = |e: std::io::Error| format!("{}: {e}", dir.display());
-    let snapshot_every = output
-        .snapshot_interval
-        .map(|s| ((s / dt).round() as u64).max(1));
-    let load_every = ((output.force_interval / dt).round() as u64).max(1);
     let mut snapshots = 0;
     let mut snapshot = |sim: &dem::Simulation| -> Result<(), String> {
         write_vtk(
@@ -137,6 +133,13 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     snapshot(&simulation)?;
     let mut loads =
         LoadWriter::create(&dir.join("geometry_forces.csv"), &simulation.geometries).map_err(io)?;
+    loads
+        .record(simulation.time, &simulation.geometries)
+        .map_err(io)?;
+    // Schedules by simulated time, so intervals that are not whole multiples of dt still land.
+    let mut next_load = output.force_interval;
+    let mut next_snapshot = output.snapshot_interval.unwrap_or(f64::INFINITY);
+    let mut last_snapshot_step = 0;
     let bar = progress_bar(steps);
     let start = Instant::now();
     let mut failure = None;
@@ -145,18 +148,19 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
             failure = Some(e.to_string());
             break;
         }
-        let s = simulation.steps;
-        if s % load_every == 0 {
-            loads
-                .record(simulation.time, &simulation.geometries)
-                .map_err(io)?;
+        let (s, t) = (simulation.steps, simulation.time);
+        if t >= next_load - 0.5 * dt {
+            loads.record(t, &simulation.geometries).map_err(io)?;
+            next_load += output.force_interval;
         }
-        if snapshot_every.is_some_and(|k| s % k == 0) && s != steps {
+        if t >= next_snapshot - 0.5 * dt {
             snapshot(&simulation)?;
+            last_snapshot_step = s;
+            next_snapshot += output.snapshot_interval.unwrap_or(f64::INFINITY);
         }
         if s % 200 == 0 {
             bar.set_position(s);
-            bar.set_message(format!("t = {:.4} s", simulation.time));
+            bar.set_message(format!("t = {t:.4} s"));
         }
     }
     bar.finish_and_clear();
@@ -164,7 +168,9 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     if let Some(e) = failure {
         return Err(format!("{}: {e}", path.display()));
     }
-    snapshot(&simulation)?;
+    if last_snapshot_step != simulation.steps {
+        snapshot(&simulation)?;
+    }
     let wall = start.elapsed().as_secs_f64();
     eprintln!("stages: {}", simulation.timers.breakdown());
     println!(

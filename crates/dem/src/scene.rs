@@ -311,7 +311,12 @@ impl Scene {
         let parsed: SceneFile = serde_path_to_error::deserialize(de).map_err(|e| {
             let key = e.path().to_string();
             let inner = e.into_inner();
-            let msg = inner.message().trim().to_string();
+            // toml spreads some messages over lines; an error here is always one line.
+            let msg = inner
+                .message()
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" ");
             let at = inner
                 .span()
                 .map(|s| {

@@ -147,6 +147,15 @@ struct Shared<T>(*mut T);
 unsafe impl<T> Send for Shared<T> {}
 unsafe impl<T> Sync for Shared<T> {}
 
+impl<T> Shared<T> {
+    /// Going through a method makes closures capture the whole wrapper (which is Send), not the
+    /// raw pointer field.
+    #[inline(always)]
+    fn ptr(self) -> *mut T {
+        self.0
+    }
+}
+
 const BLOCK: usize = 256;
 
 impl Simulation {
@@ -370,6 +379,7 @@ impl Simulation {
         Ok(max_d2.sqrt())
     }
 
+    #[allow(clippy::needless_range_loop)]
     fn rebuild(&mut self) {
         let old_walls = std::mem::take(&mut self.walls);
         let old_start = std::mem::take(&mut self.wall_start);
@@ -569,8 +579,6 @@ impl Simulation {
             .zip(p.angular_velocity.par_chunks_mut(BLOCK))
             .enumerate()
             .for_each(|(b, ((((fs, ts), ls), vs), ws))| {
-                let walls = walls;
-                let wall_out = wall_out;
                 for k in 0..fs.len() {
                     let i = b * BLOCK + k;
                     let mut f = gravity * mass[i];
@@ -594,9 +602,10 @@ impl Simulation {
                         // SAFETY: candidate ranges of different particles are disjoint, and each
                         // particle is handled by exactly one task.
                         let cands =
-                            unsafe { std::slice::from_raw_parts_mut(walls.0.add(w0), w1 - w0) };
-                        let outs =
-                            unsafe { std::slice::from_raw_parts_mut(wall_out.0.add(w0), w1 - w0) };
+                            unsafe { std::slice::from_raw_parts_mut(walls.ptr().add(w0), w1 - w0) };
+                        let outs = unsafe {
+                            std::slice::from_raw_parts_mut(wall_out.ptr().add(w0), w1 - w0)
+                        };
                         let body = WallBody {
                             x: position[i],
                             v: vs[k],

@@ -1,0 +1,203 @@
+//! The `demcal` binary end to end: simulate writes what it promises, bad input gives one line.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const SCENE: &str = r#"
+[simulation]
+duration = 0.05
+time_step_percent = 20
+domain = { min = [-0.1, -0.1, -0.1], max = [0.1, 0.1, 0.2] }
+
+[output]
+directory = "out"
+snapshot_interval = 0.02
+force_interval = 0.01
+
+[[material]]
+name = "glass"
+density = 2500
+poisson_ratio = 0.25
+shear_modulus = 1e7
+
+[[interaction]]
+materials = ["glass", "glass"]
+restitution = 0.5
+static_friction = 0.5
+rolling_friction = 0.05
+
+[[geometry]]
+name = "cup"
+type = "cylinder"
+material = "glass"
+base = [0.0, 0.0, 0.0]
+radius = 0.02
+length = 0.05
+caps = "bottom"
+
+[[particles]]
+material = "glass"
+size = { type = "classes", radii = [0.002, 0.0015], fractions = [0.5, 0.5], basis = "mass" }
+region = { type = "cylinder", base = [0.0, 0.0, 0.0], radius = 0.02, length = 0.05 }
+fill = { type = "random", count = 150, seed = 4 }
+"#;
+
+fn demcal() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_demcal"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("demcal-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(dir: &Path, text: &str) -> PathBuf {
+    let p = dir.join("scene.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn simulate_writes_snapshots_loads_and_a_summary() {
+    let dir = temp_dir("ok");
+    let scene = write(&dir, SCENE);
+    let out = demcal()
+        .args(["simulate", scene.to_str().unwrap(), "--threads", "2"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary = stdout.lines().last().unwrap();
+    assert!(
+        summary.starts_with("simulate: particles=150 steps="),
+        "{summary}"
+    );
+
+    let mut vtk: Vec<_> = std::fs::read_dir(dir.join("out"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.ends_with(".vtk"))
+        .collect();
+    vtk.sort();
+    // t = 0, 0.02, 0.04 and the end.
+    assert_eq!(vtk.len(), 4, "{vtk:?}");
+    let text = std::fs::read_to_string(dir.join("out").join(&vtk[3])).unwrap();
+    assert!(text.contains("POINTS 150 double"));
+    for field in [
+        "SCALARS radius",
+        "SCALARS material_id",
+        "VECTORS velocity",
+        "VECTORS angular_velocity",
+    ] {
+        assert!(text.contains(field), "{field}");
+    }
+    // Every particle is inside the cup at the end (it fell and stayed).
+    let points: Vec<Vec<f64>> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("POINTS"))
+        .skip(1)
+        .take(150)
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert!(points
+        .iter()
+        .all(|p| (p[0] * p[0] + p[1] * p[1]).sqrt() < 0.02 && p[2] > 0.0));
+
+    let csv = std::fs::read_to_string(dir.join("out").join("geometry_forces.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "time_s,cup_fx_n,cup_fy_n,cup_fz_n,cup_tx_nm,cup_ty_nm,cup_tz_nm"
+    );
+    let rows: Vec<&str> = lines.collect();
+    // t = 0, 0.01, ..., 0.05.
+    assert_eq!(rows.len(), 6);
+}
+
+#[test]
+fn bad_scene_gives_one_line_naming_file_and_key() {
+    let dir = temp_dir("bad");
+    let scene = write(
+        &dir,
+        &SCENE.replace("restitution = 0.5", "restitution = 1.5"),
+    );
+    let out = demcal()
+        .args(["simulate", scene.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with(&format!(
+            "error: {}: interaction[0].restitution: expected a value in (0, 1]",
+            scene.display()
+        )),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn exploding_simulation_stops_with_the_reason() {
+    let dir = temp_dir("explode");
+    let text = SCENE
+        .replace(
+            "fill = { type = \"random\", count = 150, seed = 4 }",
+            "fill = { type = \"random\", count = 150, seed = 4 }\nvelocity = [0.0, 0.0, 30.0]",
+        )
+        .replace("length = 0.05\ncaps", "length = 0.5\ncaps");
+    let scene = write(&dir, &text);
+    let out = demcal()
+        .args(["simulate", scene.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let last = stderr.lines().last().unwrap();
+    assert!(
+        last.contains("left the simulation domain at t ="),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn bench_settle_prints_the_agreed_line() {
+    let out = demcal()
+        .args(["bench", "settle", "--steps", "300"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let last = stdout.lines().last().unwrap();
+    let fields: Vec<&str> = last.split(' ').collect();
+    assert_eq!(fields[0], "settle:");
+    let keys: Vec<&str> = fields[1..]
+        .iter()
+        .map(|f| f.split('=').next().unwrap())
+        .collect();
+    assert_eq!(
+        keys,
+        [
+            "particles",
+            "steps",
+            "wall_s",
+            "particle_steps_per_s",
+            "bed_height_m",
+            "kinetic_energy_j"
+        ]
+    );
+    assert_eq!(fields[1], "particles=21160");
+    assert_eq!(fields[2], "steps=300");
+    // After 6 ms of free fall from rest the lattice has not moved far: the top is still near 0.17 m.
+    let bed: f64 = fields[5]
+        .trim_start_matches("bed_height_m=")
+        .parse()
+        .unwrap();
+    assert!((bed - 0.17).abs() < 0.001, "{bed}");
+}

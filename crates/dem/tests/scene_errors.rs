@@ -1,0 +1,298 @@
+//! Bad scene files stop with one line naming the file, the key and what was expected.
+
+use dem::scene::Scene;
+use std::path::Path;
+
+const GOOD: &str = r#"
+[simulation]
+duration = 0.01
+time_step_percent = 20
+
+[[material]]
+name = "steel"
+density = 7800
+poisson_ratio = 0.3
+shear_modulus = 7e10
+
+[[material]]
+name = "kernel"
+density = 1200
+poisson_ratio = 0.4
+shear_modulus = 1e7
+
+[[interaction]]
+materials = ["kernel", "kernel"]
+restitution = 0.3
+static_friction = 0.3
+rolling_friction = 0.1
+
+[[interaction]]
+materials = ["kernel", "steel"]
+restitution = 0.5
+static_friction = 0.5
+rolling_friction = 0.2
+
+[[geometry]]
+name = "floor"
+type = "plane"
+material = "steel"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+
+[[particles]]
+material = "kernel"
+size = { type = "fixed", radius = 0.004 }
+region = { type = "box", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }
+fill = { type = "lattice", lattice = "sc", spacing = 0.01 }
+"#;
+
+fn load(text: &str) -> Result<Scene, String> {
+    Scene::from_toml(text, "scene.toml", Path::new(".")).map_err(|e| e.to_string())
+}
+
+/// Loads `GOOD` with `from` replaced by `to` and returns the error line.
+fn error_after(from: &str, to: &str) -> String {
+    assert!(
+        GOOD.contains(from),
+        "test edits text that is in the scene: {from}"
+    );
+    let text = GOOD.replacen(from, to, 1);
+    match load(&text) {
+        Ok(_) => panic!("scene with {to:?} was accepted"),
+        Err(e) => {
+            assert!(!e.contains('\n'), "one line: {e}");
+            assert!(e.starts_with("scene.toml: "), "names the file: {e}");
+            e
+        }
+    }
+}
+
+fn assert_has(e: &str, parts: &[&str]) {
+    for p in parts {
+        assert!(e.contains(p), "{e:?} should contain {p:?}");
+    }
+}
+
+#[test]
+fn the_good_scene_loads() {
+    let s = load(GOOD).unwrap();
+    assert_eq!(s.simulation.particles.len(), 6 * 6 * 5);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let dt = s.simulation.params.time_step;
+    assert!((dt / s.rayleigh_time_step - 0.2).abs() < 1e-12);
+    assert_eq!(s.steps, (0.01 / dt).round() as u64);
+}
+
+#[test]
+fn unknown_key() {
+    let e = error_after(
+        "static_friction = 0.3",
+        "static_friction = 0.3\nstatic_frictoin = 0.3",
+    );
+    assert_has(
+        &e,
+        &["interaction[0]", "unknown field `static_frictoin`", "line"],
+    );
+    let e = error_after("[simulation]", "[simulation]\nthreads = 2");
+    assert_has(&e, &["simulation", "unknown field `threads`"]);
+}
+
+#[test]
+fn key_of_another_type() {
+    let e = error_after(
+        "normal = [0.0, 0.0, 1.0]",
+        "normal = [0.0, 0.0, 1.0]\nradius = 0.1",
+    );
+    assert_has(&e, &["geometry[0].radius", "not used by type \"plane\""]);
+}
+
+#[test]
+fn negative_radius() {
+    let e = error_after("radius = 0.004", "radius = -0.004");
+    assert_has(
+        &e,
+        &[
+            "particles[0].size.radius",
+            "expected a positive number, got -0.004",
+        ],
+    );
+}
+
+#[test]
+fn restitution_outside_zero_one() {
+    let e = error_after("restitution = 0.3", "restitution = 1.2");
+    assert_has(
+        &e,
+        &[
+            "interaction[0].restitution",
+            "expected a value in (0, 1], got 1.2",
+        ],
+    );
+    let e = error_after("restitution = 0.3", "restitution = 0.0");
+    assert_has(&e, &["interaction[0].restitution", "(0, 1]"]);
+}
+
+#[test]
+fn time_step_larger_than_rayleigh() {
+    let e = error_after("time_step_percent = 20", "time_step_percent = 150");
+    assert_has(
+        &e,
+        &[
+            "simulation.time_step_percent",
+            "larger than the Rayleigh time step",
+        ],
+    );
+    let e = error_after("time_step_percent = 20", "time_step = 1e-3");
+    assert_has(
+        &e,
+        &["simulation.time_step", "larger than the Rayleigh time step"],
+    );
+}
+
+#[test]
+fn particles_overlapping_beyond_tolerance() {
+    let text = GOOD.replacen(
+        "[[particles]]",
+        "[[particles]]\nmaterial = \"kernel\"\nsize = { type = \"fixed\", radius = 0.001 }\nregion = { type = \"box\", min = [0.0048, 0.0, 0.005], max = [0.0049, 0.0001, 0.0051] }\nfill = { type = \"lattice\", spacing = 0.01 }\n\n[[particles]]",
+        1,
+    );
+    let Err(e) = load(&text) else {
+        panic!("accepted")
+    };
+    assert_has(
+        &e,
+        &[
+            "scene.toml: particles[",
+            "overlap at start by 20.0 %",
+            "simulation.max_initial_overlap",
+        ],
+    );
+    // Raising the tolerance accepts it.
+    let text = text.replacen(
+        "[simulation]",
+        "[simulation]\nmax_initial_overlap = 0.25",
+        1,
+    );
+    load(&text).unwrap();
+}
+
+#[test]
+fn lattice_spacing_below_diameter() {
+    let e = error_after("spacing = 0.01", "spacing = 0.006");
+    assert_has(
+        &e,
+        &[
+            "particles[0].fill.spacing",
+            "smaller than the largest diameter",
+        ],
+    );
+}
+
+#[test]
+fn missing_stl_file() {
+    let e = error_after(
+        "type = \"plane\"\nmaterial = \"steel\"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]",
+        "type = \"mesh\"\nmaterial = \"steel\"\nfile = \"no/such/chute.stl\"",
+    );
+    assert_has(
+        &e,
+        &[
+            "geometry[0].file",
+            "STL file",
+            "no/such/chute.stl",
+            "does not exist",
+        ],
+    );
+}
+
+#[test]
+fn unknown_material() {
+    let e = error_after("material = \"steel\"\npoint", "material = \"stee1\"\npoint");
+    assert_has(
+        &e,
+        &[
+            "geometry[0].material",
+            "unknown material \"stee1\"",
+            "kernel",
+        ],
+    );
+}
+
+#[test]
+fn missing_interaction() {
+    let e = error_after(
+        "materials = [\"kernel\", \"steel\"]",
+        "materials = [\"steel\", \"steel\"]",
+    );
+    assert_has(
+        &e,
+        &[
+            "interaction",
+            "no [[interaction]] for materials \"kernel\" and \"steel\"",
+        ],
+    );
+}
+
+#[test]
+fn dynamic_friction_is_an_alias_of_rolling_friction() {
+    let text = GOOD.replacen("rolling_friction = 0.1", "dynamic_friction = 0.1", 1);
+    let s = load(&text).unwrap();
+    let k = s.simulation.materials.id_of("kernel").unwrap();
+    assert_eq!(
+        s.simulation
+            .materials
+            .interaction(k, k)
+            .unwrap()
+            .rolling_friction,
+        0.1
+    );
+    let e = error_after(
+        "rolling_friction = 0.1",
+        "rolling_friction = 0.1\ndynamic_friction = 0.1",
+    );
+    assert_has(&e, &["interaction[0]", "duplicate"]);
+}
+
+#[test]
+fn wrong_value_type() {
+    let e = error_after("density = 1200", "density = \"heavy\"");
+    assert_has(&e, &["material[1].density", "invalid type", "expected f64"]);
+}
+
+#[test]
+fn poisson_ratio_out_of_range() {
+    let e = error_after("poisson_ratio = 0.4", "poisson_ratio = 0.5");
+    assert_has(&e, &["material[1].poisson_ratio", "(-1, 0.5)"]);
+}
+
+#[test]
+fn unknown_geometry_type_and_motion() {
+    let e = error_after("type = \"plane\"", "type = \"cone\"");
+    assert_has(&e, &["geometry[0].type", "unknown geometry type \"cone\""]);
+    let e = error_after(
+        "normal = [0.0, 0.0, 1.0]",
+        "normal = [0.0, 0.0, 1.0]\n[[geometry.motion]]\ntype = \"translation\"\nvelocity = [0.0, 0.0, 1.0]\nstart = 1.0\nend = 0.5",
+    );
+    assert_has(&e, &["geometry[0].motion[0].end", "expected end > start"]);
+}
+
+#[test]
+fn missing_duration() {
+    let e = error_after("duration = 0.01", "");
+    assert_has(&e, &["simulation.duration", "missing"]);
+}
+
+#[test]
+fn toml_syntax_error_names_the_line() {
+    let e = error_after("density = 7800", "density = = 7800");
+    assert_has(&e, &["line"]);
+}
+
+#[test]
+fn random_fill_that_cannot_fit() {
+    let e = error_after(
+        "fill = { type = \"lattice\", lattice = \"sc\", spacing = 0.01 }",
+        "fill = { type = \"random\", count = 100000 }",
+    );
+    assert_has(&e, &["particles[0].fill", "region is too small"]);
+}

@@ -435,11 +435,13 @@ impl Scene {
         // Particles.
         let mut particles = Particles::default();
         let mut group_of: Vec<usize> = Vec::new();
+        let mut smallest: Vec<(usize, f64)> = Vec::new();
         for (k, p) in f.particles.iter().enumerate() {
             let key = |s: &str| format!("particles[{k}].{s}");
             let mat = material_id(&p.material, key("material"))?;
             let sizes = build_size(ctx, &key("size"), &p.size)?;
             let region = build_region(ctx, &key("region"), &p.region)?;
+            smallest.push((mat, sizes.min_radius()));
             let velocity = v3(p.velocity.unwrap_or([0.0; 3]));
             let density = table.material(mat).density;
             let fk = |s: &str| format!("particles[{k}].fill.{s}");
@@ -570,7 +572,7 @@ impl Scene {
         }
 
         // Time step.
-        let rayleigh = timestep::rayleigh_time_step(&particles, &table);
+        let rayleigh = timestep::rayleigh_time_step_for(&table, &smallest);
         let dt = match (s.time_step, s.time_step_percent) {
             (Some(dt), None) => ctx.positive(dt, "simulation.time_step".into())?,
             (None, Some(p)) => {
@@ -630,7 +632,7 @@ impl Scene {
                 }
                 Some((v3(d.min), v3(d.max)))
             }
-            None => None,
+            None => Some(default_domain(&particles, &geometries)),
         };
 
         // Hertz collision time at the fastest speed we can foresee.
@@ -724,6 +726,26 @@ impl Scene {
             warnings,
         })
     }
+}
+
+/// The box holding the particles and every finite geometry, grown by its largest extent on every
+/// side: a particle that gets out of it has been thrown out by an unstable simulation (or fell off
+/// the set-up), and running on would waste the time of a study.
+fn default_domain(particles: &Particles, geometries: &[Geometry]) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for (x, r) in particles.position.iter().zip(&particles.radius) {
+        lo = lo.min(*x - DVec3::splat(*r));
+        hi = hi.max(*x + DVec3::splat(*r));
+    }
+    for e in geometries.iter().flat_map(|g| &g.elements) {
+        let (a, b) = e.bounds();
+        if a.is_finite() && b.is_finite() {
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+    }
+    let pad = DVec3::splat((hi - lo).max_element());
+    (lo - pad, hi + pad)
 }
 
 fn material_lookup(

@@ -12,6 +12,16 @@ pub fn rayleigh_time_step(particles: &Particles, materials: &MaterialTable) -> f
         .fold(f64::INFINITY, f64::min)
 }
 
+/// Rayleigh time step for the smallest radius each material can have (its size distribution's lower
+/// bound: mean - 3 std for a normal distribution unless capped), the minimum over materials. This is
+/// what EDEM reports the time step against.
+pub fn rayleigh_time_step_for(materials: &MaterialTable, smallest: &[(usize, f64)]) -> f64 {
+    smallest
+        .iter()
+        .map(|&(m, r)| materials.material(m).rayleigh_time_step(r))
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// Hertz collision time T_H = 2.87 (m*^2 / (R* E*^2 v))^(1/5).
 pub fn hertz_collision_time(m_eff: f64, r_eff: f64, e_star: f64, speed: f64) -> f64 {
     2.87 * (m_eff * m_eff / (r_eff * e_star * e_star * speed)).powf(0.2)

@@ -233,3 +233,42 @@ fn v5_rolling_friction_decelerates_at_five_sevenths_mu_r_g() {
         "deceleration {decel}, want {want}"
     );
 }
+
+#[test]
+fn epsd_rolling_resistance_decelerates_at_five_sevenths_mu_r_g_once_plastic() {
+    // With the epsd model the rolling moment saturates at mu_r R* |F_n| (R* = R against a wall), so a
+    // sphere rolling on a flat wall decelerates like the cdt model once the spring is at its limit.
+    let mu_r = 0.1;
+    let (mut sim, r) = on_incline(0.0, 0.5, mu_r);
+    sim.params.rolling_model = RollingModel::Epsd {
+        viscous_damping: 0.3,
+    };
+    sim.particles.velocity[0] = DVec3::new(1.0, 0.0, 0.0);
+    sim.particles.angular_velocity[0] = DVec3::new(0.0, 1.0 / r, 0.0);
+    sim.run(5_000).unwrap();
+    let v0 = sim.particles.velocity[0].x;
+    sim.run(40_000).unwrap();
+    let v1 = sim.particles.velocity[0].x;
+    let decel = (v0 - v1) / 0.8;
+    let want = 5.0 / 7.0 * mu_r * 9.81;
+    eprintln!("epsd: deceleration {decel:.5}, want {want:.5}");
+    assert!(
+        rel_err(decel, want) < 0.02,
+        "deceleration {decel}, want {want}"
+    );
+}
+
+#[test]
+fn epsd_holds_a_sphere_on_an_incline_below_the_rolling_limit() {
+    // tan(10 deg) = 0.176 < mu_r = 0.3: the rolling spring takes up the load and the sphere stops.
+    let (mut sim, r) = on_incline(10.0, 0.5, 0.3);
+    sim.params.rolling_model = RollingModel::Epsd {
+        viscous_damping: 0.3,
+    };
+    sim.run(25_000).unwrap();
+    let mid = sim.particles.position[0];
+    sim.run(25_000).unwrap();
+    let drift = (sim.particles.position[0] - mid).length();
+    eprintln!("epsd held: drift over the last 0.5 s {:.3e} R", drift / r);
+    assert!(drift < 1e-3 * r, "drift {drift}");
+}

@@ -435,6 +435,30 @@ mod tests {
     }
 
     #[test]
+    fn random_fill_to_a_target_mass() {
+        let region = Region::Box {
+            min: DVec3::ZERO,
+            max: DVec3::splat(0.05),
+        };
+        let sizes = SizeDistribution::Fixed { radius: 0.002 };
+        let density = 1200.0;
+        let placed = random_fill(
+            &region,
+            &sizes,
+            FillTarget::Mass {
+                mass: 0.02,
+                density,
+            },
+            1,
+            &[],
+        )
+        .unwrap();
+        let one = density * 4.0 / 3.0 * PI * 0.002f64.powi(3);
+        let total = placed.len() as f64 * one;
+        assert!(total >= 0.02 && total < 0.02 + one, "{total}");
+    }
+
+    #[test]
     fn classes_by_mass_fraction() {
         let sizes = SizeDistribution::Classes {
             radii: vec![0.001, 0.002],

@@ -690,6 +690,46 @@ mod tests {
     }
 
     #[test]
+    fn motion_sequence_translates_then_turns_about_the_moved_axis() {
+        let p = DVec3::new(1.0, 0.0, 0.0);
+        let mut g = Geometry::new(
+            "g",
+            0,
+            vec![Element::Plane {
+                point: p,
+                normal: DVec3::Z,
+            }],
+        )
+        .with_motion(vec![
+            Motion::Translation {
+                velocity: DVec3::new(0.0, 0.0, 1.0),
+                start: 0.0,
+                end: 0.5,
+            },
+            Motion::Rotation {
+                axis_point: DVec3::ZERO,
+                axis: DVec3::Y,
+                angular_velocity: std::f64::consts::TAU,
+                start: 0.5,
+                end: 1.0,
+            },
+        ]);
+        for k in 0..2000 {
+            g.advance(k as f64 * 1e-3, 1e-3);
+        }
+        // Up by 0.5, then half a turn about the y axis through the lifted origin (0, 0, 0.5):
+        // (1, 0, 0.5) goes to (-1, 0, 0.5), and the normal flips.
+        if let Element::Plane { point, normal } = g.elements[0] {
+            assert!(
+                (point - DVec3::new(-1.0, 0.0, 0.5)).length() < 1e-9,
+                "{point}"
+            );
+            assert!((normal + DVec3::Z).length() < 1e-9, "{normal}");
+        }
+        assert!(!g.is_moving_at(1.5));
+    }
+
+    #[test]
     fn rotation_motion_keeps_axis_point_fixed() {
         let mut g = Geometry::new(
             "g",

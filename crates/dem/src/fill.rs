@@ -141,11 +141,7 @@ impl Region {
                 length,
             } => {
                 let top = base + axis * length;
-                let ext = DVec3::new(
-                    (1.0 - axis.x * axis.x).max(0.0).sqrt(),
-                    (1.0 - axis.y * axis.y).max(0.0).sqrt(),
-                    (1.0 - axis.z * axis.z).max(0.0).sqrt(),
-                ) * radius;
+                let ext = crate::geometry::disc_extent(axis, radius);
                 (base.min(top) - ext, base.max(top) + ext)
             }
         }

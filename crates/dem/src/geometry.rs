@@ -190,11 +190,7 @@ impl Element {
                 normal,
                 radius,
             } => {
-                let ext = DVec3::new(
-                    (1.0 - normal.x * normal.x).max(0.0).sqrt(),
-                    (1.0 - normal.y * normal.y).max(0.0).sqrt(),
-                    (1.0 - normal.z * normal.z).max(0.0).sqrt(),
-                ) * radius;
+                let ext = disc_extent(normal, radius);
                 (center - ext, center + ext)
             }
             Element::CylinderShell {
@@ -203,11 +199,7 @@ impl Element {
                 radius,
                 length,
             } => {
-                let ext = DVec3::new(
-                    (1.0 - axis.x * axis.x).max(0.0).sqrt(),
-                    (1.0 - axis.y * axis.y).max(0.0).sqrt(),
-                    (1.0 - axis.z * axis.z).max(0.0).sqrt(),
-                ) * radius;
+                let ext = disc_extent(axis, radius);
                 let top = base + axis * length;
                 (base.min(top) - ext, base.max(top) + ext)
             }
@@ -266,6 +258,11 @@ impl Element {
             },
         }
     }
+}
+
+/// Half extents along x, y, z of a circle of `radius` whose plane has unit normal `axis`.
+pub fn disc_extent(axis: DVec3, radius: f64) -> DVec3 {
+    (DVec3::ONE - axis * axis).max(DVec3::ZERO).powf(0.5) * radius
 }
 
 /// Closest point on triangle abc to x (Ericson, Real-Time Collision Detection, 5.1.5), with the

@@ -110,15 +110,11 @@ impl NeighbourList {
         let reach = 2.0 * max_r + self.skin + extra_reach;
 
         // Grid over the particle bounds, coarsened if the particles are spread thinly.
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for &x in &particles.position {
-            lo = lo.min(x);
-            hi = hi.max(x);
-        }
-        if n == 0 {
-            lo = DVec3::ZERO;
-            hi = DVec3::ZERO;
-        }
+        let (lo, hi) = if n == 0 {
+            (DVec3::ZERO, DVec3::ZERO)
+        } else {
+            particles.bounds(false)
+        };
         let ext = (hi - lo).max(DVec3::splat(1e-12));
         let mut cell = reach.max(1e-12);
         let max_cells = (8 * n + 64) as f64;

@@ -92,6 +92,18 @@ impl Particles {
         apply(&mut self.material, order, scratch);
     }
 
+    /// Axis-aligned box around the centres, grown by each radius when `with_radius`.
+    pub fn bounds(&self, with_radius: bool) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for (x, r) in self.position.iter().zip(&self.radius) {
+            let pad = DVec3::splat(if with_radius { *r } else { 0.0 });
+            lo = lo.min(*x - pad);
+            hi = hi.max(*x + pad);
+        }
+        (lo, hi)
+    }
+
     /// Translational plus rotational kinetic energy.
     pub fn kinetic_energy(&self) -> f64 {
         (0..self.len())

@@ -732,11 +732,7 @@ impl Scene {
 /// side: a particle that gets out of it has been thrown out by an unstable simulation (or fell off
 /// the set-up), and running on would waste the time of a study.
 fn default_domain(particles: &Particles, geometries: &[Geometry]) -> (DVec3, DVec3) {
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for (x, r) in particles.position.iter().zip(&particles.radius) {
-        lo = lo.min(*x - DVec3::splat(*r));
-        hi = hi.max(*x + DVec3::splat(*r));
-    }
+    let (mut lo, mut hi) = particles.bounds(true);
     for e in geometries.iter().flat_map(|g| &g.elements) {
         let (a, b) = e.bounds();
         if a.is_finite() && b.is_finite() {

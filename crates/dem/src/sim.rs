@@ -464,12 +464,7 @@ impl Simulation {
             .iter()
             .map(|g| (g.rotation, g.translation))
             .collect();
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for (x, r) in self.particles.position.iter().zip(&self.particles.radius) {
-            lo = lo.min(*x - DVec3::splat(*r));
-            hi = hi.max(*x + DVec3::splat(*r));
-        }
-        self.bounds_at_build = (lo, hi);
+        self.bounds_at_build = self.particles.bounds(true);
     }
 
     /// Phase 1: each candidate pair computes its contact once, into its own output slot.

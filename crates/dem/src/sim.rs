@@ -636,6 +636,10 @@ impl Simulation {
                 l.torque += o.torque;
             }
         }
+        for g in &mut self.geometries {
+            let p = g.to_world(g.torque_point);
+            g.load.torque -= p.cross(g.load.force);
+        }
     }
 }
 
@@ -790,8 +794,9 @@ fn wall_contacts(
             *t += torque;
             outs[k] = WallOutput {
                 force: -force,
-                torque: (contact_point - g.to_world(g.torque_point)).cross(-force)
-                    + reaction_rolling,
+                // About the world origin; `geometry_loads` moves it to the torque point once per
+                // geometry instead of once per contact.
+                torque: contact_point.cross(-force) + reaction_rolling,
             };
         }
     }

@@ -295,3 +295,27 @@ fn results_are_identical_run_to_run_and_across_thread_counts() {
     // The particles really did fall and collide.
     assert!(a.iter().any(|x| x.z < 0.01));
 }
+
+#[test]
+fn geometry_torque_is_reported_about_its_torque_point() {
+    // A sphere resting 30 mm from the torque point along x presses on the floor with its weight:
+    // torque = r x F = (0.03, 0, -z0) x (0, 0, -m g) = (0, 0.03 m g, 0).
+    let (r, rho) = (0.005, 2500.0);
+    let m = material("m", 1e8, 0.3, rho);
+    let t = table(m.clone(), m, interaction(0.3, 0.5, 0.0));
+    let mut p = Particles::default();
+    p.push(DVec3::new(0.03, 0.0, r * 0.999), DVec3::ZERO, r, rho, 0);
+    let weight = p.mass[0] * 9.81;
+    let mut plate = floor(1);
+    plate.torque_point = DVec3::new(0.0, 0.0, -0.01);
+    let mut sim = simulation(p, t, vec![plate], 1e-5, DVec3::new(0.0, 0.0, -9.81), CDT);
+    sim.run(30_000).unwrap();
+    let load = sim.geometries[0].load;
+    assert!(rel_err(-load.force.z, weight) < 1e-3, "{:?}", load.force);
+    assert!(
+        rel_err(load.torque.y, 0.03 * weight) < 1e-3,
+        "{:?}",
+        load.torque
+    );
+    assert!(load.torque.x.abs() < 1e-6 * weight && load.torque.z.abs() < 1e-6 * weight);
+}

@@ -49,6 +49,41 @@ impl Factor {
         }
     }
 
+    /// The variable the coded level is linear in: the actual value, or its log10.
+    pub fn transformed(&self, actual: f64) -> f64 {
+        match self.scale {
+            Scale::Linear => actual,
+            Scale::Log => actual.log10(),
+        }
+    }
+
+    /// `(a, b)` with coded = a * u + b, u being [`Factor::transformed`] of the actual value; used
+    /// to write fitted equations in actual units.
+    pub fn coded_affine(&self) -> (f64, f64) {
+        let (lo, hi) = (self.transformed(self.low), self.transformed(self.high));
+        let half = 0.5 * (hi - lo);
+        (1.0 / half, -0.5 * (lo + hi) / half)
+    }
+
+    /// Reads `name:low:high` or `name:low:high:log`.
+    pub fn parse(spec: &str) -> Result<Factor, String> {
+        let parts: Vec<&str> = spec.split(':').map(str::trim).collect();
+        let bad = || {
+            format!("factor '{spec}': expected name:low:high or name:low:high:log")
+        };
+        if !(3..=4).contains(&parts.len()) || parts[0].is_empty() {
+            return Err(bad());
+        }
+        let low: f64 = parts[1].parse().map_err(|_| bad())?;
+        let high: f64 = parts[2].parse().map_err(|_| bad())?;
+        let scale = match parts.get(3) {
+            None | Some(&"linear") => Scale::Linear,
+            Some(&"log") => Scale::Log,
+            Some(_) => return Err(bad()),
+        };
+        Factor::new(parts[0], low, high, scale)
+    }
+
     pub fn to_coded(&self, actual: f64) -> f64 {
         match self.scale {
             Scale::Linear => {

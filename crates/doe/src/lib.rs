@@ -1,13 +1,22 @@
 //! Designed experiments, the Design-Expert part of demcal.
 //!
-//! So far: factors with coded <-> actual mapping (linear or logarithmic) and the design generators
-//! of `shared/spec/calibration.md` (Plackett-Burman, regular two-level factorials with generators and
-//! aliases, central composite, Box-Behnken, Latin hypercube), each returning coded runs that
-//! [`Design::randomised`] can shuffle with a recorded seed. Regression, ANOVA and desirability
-//! optimisation come next (issue 3).
+//! Factors with coded <-> actual mapping (linear or logarithmic); the design generators of
+//! `shared/spec/calibration.md` (Plackett-Burman, regular two-level factorials with generators and
+//! aliases, central composite, Box-Behnken, Latin hypercube, steepest paths), each returning coded
+//! runs that [`Design::run_order`] shuffles with a recorded seed; least-squares response-surface
+//! models with Design-Expert's ANOVA ([`Fit`]); desirability optimisation ([`optimize`]); and SVG
+//! plots of a fit ([`plots`]).
 
+pub mod data;
 pub mod design;
+pub mod experiment;
 pub mod factor;
+pub mod fit;
+pub mod model;
 
+pub use data::DataTable;
 pub use design::Design;
+pub use experiment::{Experiment, FactorColumns};
 pub use factor::{Factor, Scale};
+pub use fit::{Curvature, Fit};
+pub use model::{ModelOrder, Term};

@@ -1,0 +1,130 @@
+//! Reading experiment results from CSV: named numeric columns, with errors that name the file, the
+//! row and the column.
+
+use std::path::Path;
+
+/// A table of columns read from a CSV file (header row required).
+#[derive(Clone, Debug)]
+pub struct DataTable {
+    /// Where it came from, for messages.
+    pub source: String,
+    pub headers: Vec<String>,
+    /// Raw cells, row-major.
+    pub rows: Vec<Vec<String>>,
+}
+
+impl DataTable {
+    pub fn read(path: &Path) -> Result<DataTable, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        DataTable::parse(&path.display().to_string(), &text)
+    }
+
+    pub fn parse(source: &str, text: &str) -> Result<DataTable, String> {
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .comment(Some(b'#'))
+            .from_reader(text.as_bytes());
+        let headers: Vec<String> = reader
+            .headers()
+            .map_err(|e| format!("{source}: cannot read the header row: {e}"))?
+            .iter()
+            .map(String::from)
+            .collect();
+        if headers.is_empty() || headers.iter().all(|h| h.is_empty()) {
+            return Err(format!("{source}: no header row"));
+        }
+        let mut rows = Vec::new();
+        for (i, rec) in reader.records().enumerate() {
+            let rec = rec.map_err(|e| format!("{source}: row {}: {e}", i + 2))?;
+            if rec.iter().all(|c| c.is_empty()) {
+                continue;
+            }
+            rows.push(rec.iter().map(String::from).collect());
+        }
+        if rows.is_empty() {
+            return Err(format!("{source}: no data rows"));
+        }
+        Ok(DataTable {
+            source: source.to_string(),
+            headers,
+            rows,
+        })
+    }
+
+    pub fn has_column(&self, name: &str) -> bool {
+        self.headers.iter().any(|h| h == name)
+    }
+
+    /// A numeric column. Rows are numbered as in a spreadsheet (header = row 1).
+    pub fn column(&self, name: &str) -> Result<Vec<f64>, String> {
+        let j = self.headers.iter().position(|h| h == name).ok_or_else(|| {
+            format!(
+                "{}: column '{name}' not found (columns: {})",
+                self.source,
+                self.headers.join(", ")
+            )
+        })?;
+        self.rows
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let cell = r.get(j).map(String::as_str).unwrap_or("");
+                cell.parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| {
+                        format!(
+                            "{}: row {}, column '{name}': '{cell}' is not a number",
+                            self.source,
+                            i + 2
+                        )
+                    })
+            })
+            .collect()
+    }
+
+    /// Factor columns when none are named: every column except the responses and the bookkeeping
+    /// columns a design file has (run order, standard order, block, point type, `*_actual`).
+    pub fn default_factor_columns(&self, responses: &[String]) -> Vec<String> {
+        const BOOKKEEPING: &[&str] = &[
+            "run",
+            "std",
+            "std_order",
+            "run_order",
+            "order",
+            "block",
+            "type",
+            "point_type",
+        ];
+        self.headers
+            .iter()
+            .filter(|h| {
+                !responses.contains(h)
+                    && !BOOKKEEPING.contains(&h.to_ascii_lowercase().as_str())
+                    && !h.ends_with("_actual")
+            })
+            .cloned()
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_name_row_and_column() {
+        let t = DataTable::parse("d.csv", "run,A,y\n1,1,2\n2,x,3\n").unwrap();
+        assert_eq!(t.column("y").unwrap(), vec![2.0, 3.0]);
+        assert_eq!(
+            t.column("A").unwrap_err(),
+            "d.csv: row 3, column 'A': 'x' is not a number"
+        );
+        assert_eq!(
+            t.column("B").unwrap_err(),
+            "d.csv: column 'B' not found (columns: run, A, y)"
+        );
+        assert_eq!(t.default_factor_columns(&["y".into()]), vec!["A".to_string()]);
+    }
+}

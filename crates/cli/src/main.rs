@@ -32,6 +32,11 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Designed experiments: generate designs, analyse results (ANOVA), optimise fitted models.
+    Doe {
+        #[command(subcommand)]
+        action: DoeCommand,
+    },
     /// Run a peer benchmark and print particle-steps per second.
     Bench {
         #[arg(value_parser = ["settle"])]
@@ -41,6 +46,196 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+}
+
+#[derive(Subcommand)]
+enum DoeCommand {
+    /// Write a design as CSV (run order, point type, coded and actual columns).
+    Design {
+        /// plackett-burman (pb), factorial, fractional, ccd, box-behnken (bbd), lhs, random.
+        kind: String,
+        /// A count (3), names (A,B,C) or ranges (restitution:0.2:0.6,stiffness:1e9:1e11:log).
+        #[arg(long)]
+        factors: String,
+        /// Centre points (defaults: 0 for screening designs, 5 or 6 for CCD, 5 for Box-Behnken).
+        #[arg(long)]
+        centers: Option<usize>,
+        /// CCD axial distance: rotatable, spherical, face, orthogonal, inscribed or a number.
+        #[arg(long)]
+        alpha: Option<String>,
+        /// Runs: Plackett-Burman size (12, 20, 24, ...), or the number of LHS / random runs.
+        #[arg(long)]
+        runs: Option<usize>,
+        /// Fractional factorial: smallest fraction of at least this resolution.
+        #[arg(long)]
+        resolution: Option<usize>,
+        /// Fractional factorial: 2^(k-P).
+        #[arg(long)]
+        fraction: Option<usize>,
+        /// CCD: use (true) or not (false) a half-fraction cube (default: for 5 or more factors).
+        #[arg(long)]
+        half_fraction: Option<bool>,
+        /// Latin hypercube: random, centred or maximin (default).
+        #[arg(long)]
+        lhs: Option<String>,
+        /// Seed of the run order (and of LHS / random points).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Write the CSV here (default: standard output, summary on standard error).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Fit a model and print the ANOVA table, fit statistics and equations.
+    Analyze {
+        data: PathBuf,
+        #[command(flatten)]
+        model: ModelArgs,
+        /// One JSON object per response instead of the tables.
+        #[arg(long)]
+        json: bool,
+        /// Write SVG plots (Pareto, predicted vs actual, residuals, normal plot, contour, 3-D).
+        #[arg(long)]
+        plots: Option<PathBuf>,
+    },
+    /// Fit the responses and search for the settings that best meet the goals (desirability).
+    Optimize {
+        data: PathBuf,
+        #[command(flatten)]
+        model: ModelArgs,
+        /// [NAME:]maximize|minimize|target=V|range[:lower=L][:upper=U][:weight=W][:importance=1-5];
+        /// NAME is a response or a factor (a factor's range limits the search).
+        #[arg(long = "goal", required = true)]
+        goals: Vec<String>,
+        /// How many distinct solutions to print.
+        #[arg(long, default_value_t = 10)]
+        solutions: usize,
+        /// Random starts of the local search.
+        #[arg(long, default_value_t = 100)]
+        starts: usize,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(clap::Args)]
+struct ModelArgs {
+    /// Response column (repeat for several).
+    #[arg(long = "response", required = true)]
+    responses: Vec<String>,
+    /// Factor columns: names of coded columns, or name:low:high[:log] for columns in actual units
+    /// (default: every other column except run/order/type bookkeeping).
+    #[arg(long)]
+    factors: Option<String>,
+    /// linear, 2fi, quadratic, cubic, mean, or a term list such as "A,B,C,AB,A^2" (default:
+    /// linear for two-level data, quadratic otherwise).
+    #[arg(long)]
+    model: Option<String>,
+    /// Backward elimination of non-significant terms.
+    #[arg(long)]
+    reduce: bool,
+    /// Alpha out for --reduce.
+    #[arg(long, default_value_t = 0.10)]
+    alpha_out: f64,
+    /// Let --reduce remove terms that higher-order terms contain.
+    #[arg(long)]
+    no_hierarchy: bool,
+    /// Do not separate curvature for two-level designs with centre points.
+    #[arg(long)]
+    no_curvature: bool,
+}
+
+impl ModelArgs {
+    fn request(self, data: PathBuf) -> doe::commands::ModelRequest {
+        doe::commands::ModelRequest {
+            data,
+            responses: self.responses,
+            factors: self.factors,
+            model: self.model,
+            reduce: self.reduce,
+            alpha_out: self.alpha_out,
+            no_hierarchy: self.no_hierarchy,
+            no_curvature: self.no_curvature,
+        }
+    }
+}
+
+fn doe_command(action: DoeCommand) -> Result<(), String> {
+    use doe::commands;
+    match action {
+        DoeCommand::Design {
+            kind,
+            factors,
+            centers,
+            alpha,
+            runs,
+            resolution,
+            fraction,
+            half_fraction,
+            lhs,
+            seed,
+            out,
+        } => {
+            let req = commands::DesignRequest {
+                kind,
+                factors,
+                center_points: centers,
+                alpha,
+                runs,
+                resolution,
+                fraction,
+                half_fraction,
+                lhs,
+                seed,
+            };
+            let (design, factors) = commands::make_design(&req)?;
+            let csv = commands::design_csv(&design, &factors, seed);
+            let summary = commands::design_summary(&design, &factors, seed);
+            match out {
+                Some(path) => {
+                    std::fs::write(&path, csv).map_err(|e| format!("{}: {e}", path.display()))?;
+                    print!("{summary}");
+                    println!("wrote {}", path.display());
+                }
+                None => {
+                    eprint!("{summary}");
+                    print!("{csv}");
+                }
+            }
+            Ok(())
+        }
+        DoeCommand::Analyze {
+            data,
+            model,
+            json,
+            plots,
+        } => {
+            print!(
+                "{}",
+                commands::analyze(&model.request(data), json, plots.as_deref())?
+            );
+            Ok(())
+        }
+        DoeCommand::Optimize {
+            data,
+            model,
+            goals,
+            solutions,
+            starts,
+            seed,
+            json,
+        } => {
+            let opt = commands::OptimizeRequest {
+                goals,
+                solutions,
+                starts,
+                seed,
+            };
+            print!("{}", commands::optimize(&model.request(data), &opt, json)?);
+            Ok(())
+        }
+    }
 }
 
 fn set_threads(threads: Option<usize>) -> Result<(), String> {
@@ -64,6 +259,7 @@ fn main() -> ExitCode {
             threads,
             out,
         } => set_threads(threads).and_then(|_| simulate(&scene, out.as_deref())),
+        Command::Doe { action } => doe_command(action),
         Command::Bench {
             name: _,
             steps,

@@ -39,7 +39,8 @@ impl Design {
         }
     }
 
-    fn with_center_points(mut self, n: usize) -> Design {
+    /// Appends `n` centre points.
+    pub fn with_center_points(mut self, n: usize) -> Design {
         for _ in 0..n {
             self.runs.push(vec![0.0; self.factors]);
         }

@@ -7,12 +7,15 @@
 //! models with Design-Expert's ANOVA ([`Fit`]); desirability optimisation ([`optimize`]); and SVG
 //! plots of a fit ([`plots`]).
 
+pub mod commands;
 pub mod data;
 pub mod design;
 pub mod experiment;
 pub mod factor;
 pub mod fit;
 pub mod model;
+pub mod optimize;
+pub mod plots;
 
 pub use data::DataTable;
 pub use design::Design;

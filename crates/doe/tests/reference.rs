@@ -157,3 +157,14 @@ fn statistics_follow_their_definitions() {
     let mean_h = f.leverage.iter().sum::<f64>() / n;
     assert!((mean_h - 10.0 / n).abs() < 1e-12);
 }
+
+#[test]
+#[ignore]
+fn write_plots_for_inspection() {
+    let e = experiment(PB);
+    let f = Fit::new(&e, &ModelOrder::Linear.terms(8), Curvature::Auto).unwrap();
+    doe::plots::write_all(&f, std::path::Path::new("/tmp/plots/pb")).unwrap();
+    let e = experiment(CCD);
+    let f = Fit::reduce(&e, &ModelOrder::Quadratic.terms(3), Curvature::Auto, 0.1, true).unwrap();
+    doe::plots::write_all(&f, std::path::Path::new("/tmp/plots/ccd")).unwrap();
+}

@@ -201,3 +201,146 @@ fn bench_settle_prints_the_agreed_line() {
         .unwrap();
     assert!((bed - 0.17).abs() < 0.001, "{bed}");
 }
+
+#[test]
+fn doe_design_then_analyze_and_optimize() {
+    let dir = temp_dir("doe");
+    let design = dir.join("design.csv");
+    let out = demcal()
+        .args([
+            "doe",
+            "design",
+            "bbd",
+            "--factors",
+            "mu:0.2:0.6,e:0.1:0.5,k:1e6:1e8:log",
+        ])
+        .args(["--centers", "3", "--seed", "5", "--out"])
+        .arg(&design)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&design).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "std_order,run_order,point_type,mu,e,k,mu_actual,e_actual,k_actual"
+    );
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert_eq!(rows.len(), 15);
+    let run_order: Vec<usize> = rows.iter().map(|r| r[1].parse().unwrap()).collect();
+    assert_eq!(run_order, (1..=15).collect::<Vec<_>>());
+    // Add a response with known coefficients in coded units and analyse it back.
+    let mut data =
+        String::from("std_order,run_order,point_type,mu,e,k,mu_actual,e_actual,k_actual,angle\n");
+    for r in &rows {
+        let x: Vec<f64> = r[3..6].iter().map(|v| v.parse().unwrap()).collect();
+        let y = 30.0 + 2.0 * x[0] - 1.0 * x[1] + 0.5 * x[2] + 0.75 * x[0] * x[0];
+        data.push_str(&format!("{},{y}\n", r.join(",")));
+    }
+    let data_path = dir.join("data.csv");
+    std::fs::write(&data_path, data).unwrap();
+    let plots = dir.join("plots");
+    let out = demcal()
+        .args(["doe", "analyze"])
+        .arg(&data_path)
+        .args([
+            "--response",
+            "angle",
+            "--model",
+            "mu,e,k,mu^2",
+            "--json",
+            "--plots",
+        ])
+        .arg(&plots)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let last = stdout.lines().last().unwrap();
+    assert!(
+        last.contains(r#""coefficients_coded":{"Intercept":30.0"#)
+            || last.contains(r#""Intercept":30"#),
+        "{last}"
+    );
+    assert!(last.contains(r#""mu^2":0.75"#), "{last}");
+    for f in ["predicted_vs_actual.svg", "contour.svg", "surface.svg"] {
+        assert!(plots.join(f).exists(), "{f}");
+    }
+    let out = demcal()
+        .args(["doe", "optimize"])
+        .arg(&data_path)
+        .args([
+            "--response",
+            "angle",
+            "--model",
+            "quadratic",
+            "--goal",
+            "target=31",
+            "--solutions",
+            "3",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.contains("mu (actual)"), "{stdout}");
+    let first = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("1 "))
+        .unwrap();
+    assert!(
+        first.contains(" 31.00 ") && first.trim_end().ends_with("1.0000"),
+        "{first}"
+    );
+}
+
+#[test]
+fn doe_errors_are_one_line() {
+    let dir = temp_dir("doe-errors");
+    let data = write(&dir, "A,B,y\n-1,-1,1\n1,-1,2\n-1,1,3\n1,1,x\n");
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--response", "y"],
+            "row 5, column 'y': 'x' is not a number",
+        ),
+        (&["--response", "z"], "column 'z' not found"),
+    ];
+    for (args, want) in cases {
+        let out = demcal()
+            .args(["doe", "analyze"])
+            .arg(&data)
+            .args(*args)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(want), "{err}");
+    }
+    let out = demcal()
+        .args(["doe", "design", "ccd", "--factors", "A:1:0"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("expected low < high"), "{err}");
+    let out = demcal()
+        .args(["doe", "design", "taguchi", "--factors", "3"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("unknown design 'taguchi'"), "{err}");
+}

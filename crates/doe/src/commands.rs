@@ -96,7 +96,12 @@ pub fn make_design(req: &DesignRequest) -> Result<(Design, Vec<Factor>), String>
                     || format!("--alpha '{other}': expected rotatable, spherical, face, orthogonal, inscribed or a positive number"),
                 )?),
             };
-            design::central_composite(k, alpha, centres(if k == 2 { 5 } else { 6 }), req.half_fraction)?
+            design::central_composite(
+                k,
+                alpha,
+                centres(if k == 2 { 5 } else { 6 }),
+                req.half_fraction,
+            )?
         }
         "bbd" | "box-behnken" | "box_behnken" => design::box_behnken(k, centres(5))?,
         "lhs" | "latin-hypercube" => {
@@ -110,11 +115,15 @@ pub fn make_design(req: &DesignRequest) -> Result<(Design, Vec<Factor>), String>
                     ))
                 }
             };
-            let n = req.runs.ok_or("lhs: give the number of runs with --runs N")?;
+            let n = req
+                .runs
+                .ok_or("lhs: give the number of runs with --runs N")?;
             design::latin_hypercube(k, n, kind, req.seed)?
         }
         "random" => {
-            let n = req.runs.ok_or("random: give the number of runs with --runs N")?;
+            let n = req
+                .runs
+                .ok_or("random: give the number of runs with --runs N")?;
             design::random_design(k, n, req.seed)
         }
         other => {
@@ -132,7 +141,10 @@ fn point_type(d: &Design, run: &[f64]) -> &'static str {
         "center"
     } else if d.alpha.is_some() && nonzero == 1 {
         "axial"
-    } else if run.iter().all(|v| v.abs() < 1e-12 || (v.abs() - 1.0).abs() < 1e-12) {
+    } else if run
+        .iter()
+        .all(|v| v.abs() < 1e-12 || (v.abs() - 1.0).abs() < 1e-12)
+    {
         if nonzero == run.len() {
             "factorial"
         } else {
@@ -197,7 +209,12 @@ pub fn design_summary(d: &Design, factors: &[Factor], seed: u64) -> String {
     }
     if !d.generators.is_empty() {
         writeln!(s, "generators: {}", d.generators.join(", ")).unwrap();
-        writeln!(s, "defining relation: I = {}", d.defining_relation.join(" = ")).unwrap();
+        writeln!(
+            s,
+            "defining relation: I = {}",
+            d.defining_relation.join(" = ")
+        )
+        .unwrap();
         writeln!(s, "aliases (up to two-factor interactions):").unwrap();
         // Each chain once: "AB = CE = DF" is also listed under CE and DF.
         let mut seen: Vec<Vec<String>> = Vec::new();
@@ -217,7 +234,11 @@ pub fn design_summary(d: &Design, factors: &[Factor], seed: u64) -> String {
             f.name,
             f.low,
             f.high,
-            if f.scale == Scale::Log { "log" } else { "linear" }
+            if f.scale == Scale::Log {
+                "log"
+            } else {
+                "linear"
+            }
         )
         .unwrap();
         // Axial points beyond the range can take a non-negative parameter below zero.
@@ -296,7 +317,14 @@ fn model_terms(spec: Option<&str>, exp: &Experiment) -> Result<Vec<Term>, String
 /// Fits one response as requested.
 pub fn fit_response(req: &ModelRequest, table: &DataTable, response: &str) -> Result<Fit, String> {
     let exp = Experiment::from_table(table, response, &factor_columns(&req.factors)?)?;
-    let terms = model_terms(req.model.as_deref(), &exp)?;
+    let mut terms = model_terms(req.model.as_deref(), &exp)?;
+    // "Cubic where estimable": leave out the cubic terms the design aliases.
+    let mut aliased = Vec::new();
+    if req.model.as_deref().and_then(ModelOrder::parse) == Some(ModelOrder::Cubic) {
+        let (kept, dropped) = crate::fit::drop_aliased(&exp, &terms, 3);
+        terms = kept;
+        aliased = dropped.iter().map(|t| t.name(&exp.factor_names)).collect();
+    }
     let curvature = if req.no_curvature {
         Curvature::Off
     } else {
@@ -307,7 +335,9 @@ pub fn fit_response(req: &ModelRequest, table: &DataTable, response: &str) -> Re
     } else {
         Fit::new(&exp, &terms, curvature)
     };
-    fit.map_err(|e| format!("{}: {e}", table.source))
+    let mut fit = fit.map_err(|e| format!("{}: {e}", table.source))?;
+    fit.aliased = aliased;
+    Ok(fit)
 }
 
 /// `demcal doe analyze`: the report (or JSON) of every response; plots when asked.
@@ -373,14 +403,22 @@ pub fn parse_goal(spec: &str, sole_response: Option<&str>) -> Result<(String, Cr
         (parts[0].to_string(), &parts[1..])
     };
     let Some((goal_part, options)) = rest.split_first() else {
-        return Err(bad("expected a goal: maximize, minimize, target=V or range"));
+        return Err(bad(
+            "expected a goal: maximize, minimize, target=V or range",
+        ));
     };
     let goal = match goal_part.split_once('=') {
-        Some(("target", v)) => Goal::Target(v.parse().map_err(|_| bad("target value is not a number"))?),
+        Some(("target", v)) => {
+            Goal::Target(v.parse().map_err(|_| bad("target value is not a number"))?)
+        }
         None if matches!(*goal_part, "maximize" | "max") => Goal::Maximize,
         None if matches!(*goal_part, "minimize" | "min") => Goal::Minimize,
         None if matches!(*goal_part, "range" | "in_range") => Goal::InRange,
-        _ => return Err(bad("expected a goal: maximize, minimize, target=V or range")),
+        _ => {
+            return Err(bad(
+                "expected a goal: maximize, minimize, target=V or range",
+            ))
+        }
     };
     let mut c = Criterion {
         name: name.clone(),
@@ -537,7 +575,11 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
         )
         .unwrap();
     }
-    let unit = if exp.factors.is_some() { "actual" } else { "coded" };
+    let unit = if exp.factors.is_some() {
+        "actual"
+    } else {
+        "coded"
+    };
     write!(s, "\n{:>3}", "#").unwrap();
     for f in &exp.factor_names {
         write!(s, " {:>12}", format!("{f} ({unit})")).unwrap();

@@ -125,6 +125,9 @@ mod tests {
             t.column("B").unwrap_err(),
             "d.csv: column 'B' not found (columns: run, A, y)"
         );
-        assert_eq!(t.default_factor_columns(&["y".into()]), vec!["A".to_string()]);
+        assert_eq!(
+            t.default_factor_columns(&["y".into()]),
+            vec!["A".to_string()]
+        );
     }
 }

@@ -127,8 +127,7 @@ fn infer_mapping(name: &str, coded: &[f64], actual: &[f64]) -> Option<Factor> {
         let h = (u[imax] - u[imin]) / (coded[imax] - coded[imin]);
         let m = u[imin] - h * coded[imin];
         let span = u.iter().fold(0.0f64, |s, v| s.max(v.abs())).max(1e-300);
-        if u
-            .iter()
+        if u.iter()
             .zip(coded)
             .any(|(&ui, &c)| (ui - (m + h * c)).abs() > 1e-6 * span)
             || h <= 0.0

@@ -68,9 +68,7 @@ impl Factor {
     /// Reads `name:low:high` or `name:low:high:log`.
     pub fn parse(spec: &str) -> Result<Factor, String> {
         let parts: Vec<&str> = spec.split(':').map(str::trim).collect();
-        let bad = || {
-            format!("factor '{spec}': expected name:low:high or name:low:high:log")
-        };
+        let bad = || format!("factor '{spec}': expected name:low:high or name:low:high:log");
         if !(3..=4).contains(&parts.len()) || parts[0].is_empty() {
             return Err(bad());
         }

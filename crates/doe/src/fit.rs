@@ -87,6 +87,8 @@ pub struct Fit {
     pub effects: Vec<Effect>,
     /// Terms removed by backward elimination, with the p value at which each left.
     pub removed: Vec<(String, f64)>,
+    /// Terms of a cubic model left out because the design cannot estimate them.
+    pub aliased: Vec<String>,
 }
 
 fn f_p_value(f: f64, df1: usize, df2: usize) -> Option<f64> {
@@ -128,12 +130,44 @@ fn key(x: &[f64]) -> Vec<i64> {
 }
 
 fn is_two_level_with_centres(coded: &[Vec<f64>]) -> (bool, Vec<bool>) {
-    let centre: Vec<bool> = coded.iter().map(|r| r.iter().all(|v| v.abs() < 1e-9)).collect();
+    let centre: Vec<bool> = coded
+        .iter()
+        .map(|r| r.iter().all(|v| v.abs() < 1e-9))
+        .collect();
     let two_level = coded
         .iter()
         .zip(&centre)
         .all(|(r, &c)| c || r.iter().all(|v| (v.abs() - 1.0).abs() < 1e-9));
     (two_level && centre.iter().any(|&c| !c), centre)
+}
+
+/// Splits `terms` into those the runs can estimate and those of order `min_order` or more that are
+/// combinations of earlier terms (aliased), as Design-Expert does for a cubic model on a CCD.
+/// Aliased lower-order terms are kept, so fitting still reports them as an error.
+pub fn drop_aliased(exp: &Experiment, terms: &[Term], min_order: u32) -> (Vec<Term>, Vec<Term>) {
+    let mut basis: Vec<DVector<f64>> = Vec::new();
+    let (mut kept, mut dropped) = (Vec::new(), Vec::new());
+    for t in terms {
+        let col = DVector::from_iterator(exp.runs(), exp.coded.iter().map(|x| t.value(x)));
+        let norm = col.norm();
+        let mut v = col;
+        for _ in 0..2 {
+            for q in &basis {
+                let d = q.dot(&v);
+                v -= q * d;
+            }
+        }
+        if v.norm() <= 1e-9 * norm.max(1e-300) && t.order() >= min_order {
+            dropped.push(t.clone());
+            continue;
+        }
+        if v.norm() > 1e-9 * norm.max(1e-300) {
+            let vn = v.norm();
+            basis.push(v / vn);
+        }
+        kept.push(t.clone());
+    }
+    (kept, dropped)
 }
 
 /// Explains a singular design matrix by naming the term that is a combination of earlier ones.
@@ -193,12 +227,19 @@ fn aliasing_message(x: &DMatrix<f64>, names: &[String]) -> Option<String> {
 
 impl Fit {
     /// Fits `terms` (the intercept must be the first) by least squares on the coded factors.
-    pub fn new(experiment: &Experiment, terms: &[Term], curvature: Curvature) -> Result<Fit, String> {
+    pub fn new(
+        experiment: &Experiment,
+        terms: &[Term],
+        curvature: Curvature,
+    ) -> Result<Fit, String> {
         let exp = experiment;
         let n = exp.runs();
         let y = &exp.response;
         let names: Vec<String> = terms.iter().map(|t| t.name(&exp.factor_names)).collect();
-        assert!(terms.first().is_some_and(Term::is_intercept), "intercept first");
+        assert!(
+            terms.first().is_some_and(Term::is_intercept),
+            "intercept first"
+        );
         let mean = y.iter().sum::<f64>() / n as f64;
         let total_sum_sq: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
         let spread = y.iter().fold(0.0f64, |m, v| m.max((v - mean).abs()));
@@ -424,6 +465,7 @@ impl Fit {
             studentized,
             effects,
             removed: Vec::new(),
+            aliased: Vec::new(),
         })
     }
 
@@ -577,6 +619,7 @@ impl Fit {
             "coefficients": self.coefficients,
             "coefficients_actual": actual,
             "effects": self.effects,
+            "aliased_terms": self.aliased,
             "removed_terms": self.removed.iter().map(|(n, p)| serde_json::json!({"name": n, "p": p})).collect::<Vec<_>>(),
         })
     }
@@ -585,7 +628,11 @@ impl Fit {
     pub fn report(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();
-        let title = model_title(&self.terms);
+        let title = if self.aliased.is_empty() {
+            model_title(&self.terms)
+        } else {
+            "cubic (aliased terms left out)".into()
+        };
         writeln!(
             s,
             "ANOVA for {title} model, response {} ({} runs)",
@@ -593,6 +640,9 @@ impl Fit {
             self.experiment.runs()
         )
         .unwrap();
+        if !self.aliased.is_empty() {
+            writeln!(s, "Aliased terms left out: {}", self.aliased.join(", ")).unwrap();
+        }
         if !self.removed.is_empty() {
             let list: Vec<String> = self
                 .removed
@@ -617,7 +667,11 @@ impl Fit {
                 r.name,
                 fmt_sig(r.sum_sq),
                 r.df,
-                if r.df > 0 { fmt_sig(r.mean_sq) } else { String::new() },
+                if r.df > 0 {
+                    fmt_sig(r.mean_sq)
+                } else {
+                    String::new()
+                },
                 f,
                 p
             )
@@ -652,9 +706,27 @@ impl Fit {
         .unwrap();
         let na = |v: Option<f64>| v.map_or("N/A".to_string(), |v| format!("{v:.4}"));
         writeln!(s).unwrap();
-        writeln!(s, "Std. Dev.  {:>10}    R²             {:.4}", fmt_sig(self.std_dev), self.r2).unwrap();
-        writeln!(s, "Mean       {:>10}    Adjusted R²    {:.4}", fmt_sig(self.mean), self.adj_r2).unwrap();
-        writeln!(s, "C.V. %     {:>10.2}    Predicted R²   {}", self.cv_percent, na(self.pred_r2)).unwrap();
+        writeln!(
+            s,
+            "Std. Dev.  {:>10}    R²             {:.4}",
+            fmt_sig(self.std_dev),
+            self.r2
+        )
+        .unwrap();
+        writeln!(
+            s,
+            "Mean       {:>10}    Adjusted R²    {:.4}",
+            fmt_sig(self.mean),
+            self.adj_r2
+        )
+        .unwrap();
+        writeln!(
+            s,
+            "C.V. %     {:>10.2}    Predicted R²   {}",
+            self.cv_percent,
+            na(self.pred_r2)
+        )
+        .unwrap();
         writeln!(
             s,
             "PRESS      {:>10}    Adeq Precision {}",
@@ -689,7 +761,12 @@ impl Fit {
             s,
             "{} = {}",
             self.experiment.response_name,
-            equation(self.coefficients.iter().map(|c| c.estimate).zip(names.iter().cloned()))
+            equation(
+                self.coefficients
+                    .iter()
+                    .map(|c| c.estimate)
+                    .zip(names.iter().cloned())
+            )
         )
         .unwrap();
         if let Some(eq) = self.actual_equation() {
@@ -707,7 +784,14 @@ impl Fit {
             writeln!(s, "\nEffects (two-level runs)").unwrap();
             writeln!(s, "{:<14} {:>12} {:>10}", "Term", "Effect", "t-value").unwrap();
             for e in &self.effects {
-                writeln!(s, "{:<14} {:>12} {:>10}", e.name, fmt_sig(e.effect), fmt_sig(e.t)).unwrap();
+                writeln!(
+                    s,
+                    "{:<14} {:>12} {:>10}",
+                    e.name,
+                    fmt_sig(e.effect),
+                    fmt_sig(e.t)
+                )
+                .unwrap();
             }
             if let Some((t, bonf)) = self.pareto_limits(0.05) {
                 writeln!(s, "t limit {t:.4}, Bonferroni limit {bonf:.4} (alpha 0.05)").unwrap();

@@ -10,9 +10,7 @@ pub struct Term {
 
 impl Term {
     pub fn intercept(k: usize) -> Term {
-        Term {
-            powers: vec![0; k],
-        }
+        Term { powers: vec![0; k] }
     }
 
     pub fn main(k: usize, factor: usize) -> Term {
@@ -233,7 +231,7 @@ pub fn make_hierarchical(terms: &mut Vec<Term>) {
         }
         i += 1;
     }
-    terms.sort_by(|a, b| design_expert_order(a, b));
+    terms.sort_by(design_expert_order);
 }
 
 /// Order used in tables: intercept, main effects, interactions, squares, higher terms.
@@ -271,10 +269,24 @@ mod tests {
             .collect();
         assert_eq!(
             q,
-            ["Intercept", "A", "B", "C", "AB", "AC", "BC", "A^2", "B^2", "C^2"]
+            [
+                "Intercept",
+                "A",
+                "B",
+                "C",
+                "AB",
+                "AC",
+                "BC",
+                "A^2",
+                "B^2",
+                "C^2"
+            ]
         );
         let long = names("temp,speed");
-        assert_eq!(ModelOrder::TwoFactorInteraction.terms(2)[3].name(&long), "temp*speed");
+        assert_eq!(
+            ModelOrder::TwoFactorInteraction.terms(2)[3].name(&long),
+            "temp*speed"
+        );
     }
 
     #[test]
@@ -285,7 +297,9 @@ mod tests {
         make_hierarchical(&mut t);
         let got: Vec<String> = t.iter().map(|t| t.name(&n)).collect();
         assert_eq!(got, ["Intercept", "A", "B", "C", "AB", "A^2", "A^2B"]);
-        assert!(parse_terms("AX", &n).unwrap_err().contains("'X' is not a factor"));
+        assert!(parse_terms("AX", &n)
+            .unwrap_err()
+            .contains("'X' is not a factor"));
         let long = names("temp,speed");
         let t = parse_terms("temp, temp*speed, speed^2", &long).unwrap();
         assert_eq!(t[2].powers, vec![1, 1]);

@@ -246,7 +246,12 @@ impl Problem<'_> {
     /// it, each refined by Nelder-Mead; returns up to `max_solutions` solutions that differ by more
     /// than 0.05 coded units in some factor, best first. Ties in desirability (a target met on a
     /// whole curve) go to the solution nearest the centre of the box.
-    pub fn solve(&self, starts: usize, seed: u64, max_solutions: usize) -> Result<Vec<Solution>, String> {
+    pub fn solve(
+        &self,
+        starts: usize,
+        seed: u64,
+        max_solutions: usize,
+    ) -> Result<Vec<Solution>, String> {
         if self.fits.is_empty() {
             return Err("optimise: no fitted response".into());
         }
@@ -258,14 +263,24 @@ impl Problem<'_> {
             .experiment
             .coded
             .iter()
-            .filter(|x| x.iter().zip(&self.bounds).all(|(v, (lo, hi))| v >= lo && v <= hi))
+            .filter(|x| {
+                x.iter()
+                    .zip(&self.bounds)
+                    .all(|(v, (lo, hi))| v >= lo && v <= hi)
+            })
             .cloned()
             .collect();
         for _ in 0..starts {
             points.push(
                 self.bounds
                     .iter()
-                    .map(|(lo, hi)| if hi > lo { rng.gen_range(*lo..=*hi) } else { *lo })
+                    .map(|(lo, hi)| {
+                        if hi > lo {
+                            rng.gen_range(*lo..=*hi)
+                        } else {
+                            *lo
+                        }
+                    })
                     .collect(),
             );
         }
@@ -310,7 +325,12 @@ impl Problem<'_> {
 }
 
 /// Nelder-Mead minimisation from `start` with initial steps `scale`.
-pub fn nelder_mead(f: impl Fn(&[f64]) -> f64, start: &[f64], scale: &[f64], max_iter: usize) -> Vec<f64> {
+pub fn nelder_mead(
+    f: impl Fn(&[f64]) -> f64,
+    start: &[f64],
+    scale: &[f64],
+    max_iter: usize,
+) -> Vec<f64> {
     let n = start.len();
     let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(n + 1);
     simplex.push((start.to_vec(), f(start)));
@@ -366,7 +386,11 @@ pub fn nelder_mead(f: impl Fn(&[f64]) -> f64, start: &[f64], scale: &[f64], max_
             } else {
                 let best = simplex[0].0.clone();
                 for s in simplex.iter_mut().skip(1) {
-                    s.0 = s.0.iter().zip(&best).map(|(a, b)| b + 0.5 * (a - b)).collect();
+                    s.0 =
+                        s.0.iter()
+                            .zip(&best)
+                            .map(|(a, b)| b + 0.5 * (a - b))
+                            .collect();
                     s.1 = f(&s.0);
                 }
             }
@@ -417,6 +441,9 @@ mod tests {
             &[0.5, 0.5],
             5000,
         );
-        assert!((x[0] - 1.0).abs() < 1e-4 && (x[1] - 1.0).abs() < 1e-4, "{x:?}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-4 && (x[1] - 1.0).abs() < 1e-4,
+            "{x:?}"
+        );
     }
 }

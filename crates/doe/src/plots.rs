@@ -31,8 +31,19 @@ fn render(
     Ok(svg)
 }
 
+/// The axis range for data spanning lo..hi, widened a little; a sane range when the data are
+/// empty (lo > hi), a single value, or spread less than rounding (an exact fit's residuals),
+/// because plotters' tick search does not end on a degenerate range.
 fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
-    let pad = if hi > lo { 0.06 * (hi - lo) } else { 1.0 };
+    if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+        return -1.0..1.0;
+    }
+    let scale = lo.abs().max(hi.abs()).max(1e-12);
+    let pad = if hi - lo > 1e-9 * scale {
+        0.06 * (hi - lo)
+    } else {
+        0.5 * scale.max(1.0) * if scale < 1e-6 { 1.0 } else { 0.01 }
+    };
     (lo - pad)..(hi + pad)
 }
 
@@ -57,6 +68,10 @@ pub fn pareto_chart(fit: &Fit) -> Result<String, String> {
         .filter(|v| v.is_finite())
         .fold(0.0f64, f64::max)
         * 1.1;
+    if fit.effects.iter().any(|e| !e.t.is_finite()) {
+        return Err("plot: no residual error (exact fit), so the effects have no t values".into());
+    }
+    let top = if top > 0.0 { top } else { 1.0 };
     let m = effects.len();
     render(|root| {
         let mut chart = ChartBuilder::on(root)
@@ -67,7 +82,7 @@ pub fn pareto_chart(fit: &Fit) -> Result<String, String> {
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(56)
-            .build_cartesian_2d(0.0..m as f64, 0.0..top.max(1e-9))
+            .build_cartesian_2d(0.0..m as f64, 0.0..top)
             .map_err(err)?;
         chart
             .configure_mesh()
@@ -90,10 +105,12 @@ pub fn pareto_chart(fit: &Fit) -> Result<String, String> {
                 Text::new(
                     e.name.clone(),
                     (i as f64 + 0.5, 0.0),
-                    (FONT, 15).into_font().color(&BLACK).pos(plotters::style::text_anchor::Pos::new(
-                        plotters::style::text_anchor::HPos::Center,
-                        plotters::style::text_anchor::VPos::Bottom,
-                    )),
+                    (FONT, 15).into_font().color(&BLACK).pos(
+                        plotters::style::text_anchor::Pos::new(
+                            plotters::style::text_anchor::HPos::Center,
+                            plotters::style::text_anchor::VPos::Bottom,
+                        ),
+                    ),
                 )
             }))
             .map_err(err)?;
@@ -110,10 +127,12 @@ pub fn pareto_chart(fit: &Fit) -> Result<String, String> {
                         .draw_series([Text::new(
                             format!("{label} {value:.3}"),
                             (m as f64 * 0.98, value),
-                            (FONT, 13).into_font().color(&BLACK).pos(plotters::style::text_anchor::Pos::new(
-                                plotters::style::text_anchor::HPos::Right,
-                                plotters::style::text_anchor::VPos::Bottom,
-                            )),
+                            (FONT, 13).into_font().color(&BLACK).pos(
+                                plotters::style::text_anchor::Pos::new(
+                                    plotters::style::text_anchor::HPos::Right,
+                                    plotters::style::text_anchor::VPos::Bottom,
+                                ),
+                            ),
                         )])
                         .map_err(err)?;
                 }
@@ -320,14 +339,22 @@ fn colour_map(t: f64) -> RGBColor {
     let (a, b) = (stops[i], stops[i + 1]);
     let u = (t - a.0) / (b.0 - a.0);
     let mix = |p: f64, q: f64| (p + u * (q - p)).round() as u8;
-    RGBColor(mix(a.1 .0, b.1 .0), mix(a.1 .1, b.1 .1), mix(a.1 .2, b.1 .2))
+    RGBColor(
+        mix(a.1 .0, b.1 .0),
+        mix(a.1 .1, b.1 .1),
+        mix(a.1 .2, b.1 .2),
+    )
 }
 
 /// Contour line segments of `g` at `level` by marching squares, in grid (coded) coordinates.
 pub fn contour_segments(g: &Grid, level: f64) -> Vec<[(f64, f64); 2]> {
     let mut segs = Vec::new();
     let interp = |p: (f64, f64), q: (f64, f64), vp: f64, vq: f64| {
-        let t = if vq != vp { (level - vp) / (vq - vp) } else { 0.5 };
+        let t = if vq != vp {
+            (level - vp) / (vq - vp)
+        } else {
+            0.5
+        };
         (p.0 + t * (q.0 - p.0), p.1 + t * (q.1 - p.1))
     };
     for i in 0..g.x.len() - 1 {
@@ -418,14 +445,8 @@ pub fn contour_plot(
                 let g = &g;
                 (0..N).map(move |j| {
                     let (cx, cy) = (g.x[i], g.y[j]);
-                    let a = (
-                        ax((cx - half).max(range.0)),
-                        ay((cy - half).max(range.0)),
-                    );
-                    let b = (
-                        ax((cx + half).min(range.1)),
-                        ay((cy + half).min(range.1)),
-                    );
+                    let a = (ax((cx - half).max(range.0)), ay((cy - half).max(range.0)));
+                    let b = (ax((cx + half).min(range.1)), ay((cy + half).min(range.1)));
                     Rectangle::new([a, b], colour_map((g.values[i][j] - lo) / span).filled())
                 })
             }))
@@ -510,11 +531,7 @@ pub fn surface_plot(
                 (FONT, 22),
             )
             .margin(20)
-            .build_cartesian_3d(
-                xs[0]..xs[N - 1],
-                padded(lo, hi),
-                ys[0]..ys[N - 1],
-            )
+            .build_cartesian_3d(xs[0]..xs[N - 1], padded(lo, hi), ys[0]..ys[N - 1])
             .map_err(err)?;
         chart.with_projection(|mut p| {
             p.pitch = 0.45;
@@ -555,19 +572,25 @@ pub fn surface_plot(
 pub fn write_all(fit: &Fit, dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut plots: Vec<(&str, String)> = Vec::new();
-    if !fit.effects.is_empty() {
+    if !fit.effects.is_empty() && fit.effects.iter().all(|e| e.t.is_finite()) {
         plots.push(("pareto.svg", pareto_chart(fit)?));
     }
     plots.push(("predicted_vs_actual.svg", predicted_vs_actual(fit)?));
-    if fit.residual.df >= 2 {
+    if fit.studentized.iter().any(|r| r.is_finite()) {
         plots.push(("residuals_vs_predicted.svg", residuals_vs_predicted(fit)?));
         plots.push(("normal_plot.svg", normal_plot(fit)?));
     }
     if let Some((fx, fy)) = two_main_factors(fit) {
         let k = fit.experiment.factor_names.len();
         let held = vec![0.0; k];
-        plots.push(("contour.svg", contour_plot(fit, fx, fy, &held, (-1.0, 1.0))?));
-        plots.push(("surface.svg", surface_plot(fit, fx, fy, &held, (-1.0, 1.0))?));
+        plots.push((
+            "contour.svg",
+            contour_plot(fit, fx, fy, &held, (-1.0, 1.0))?,
+        ));
+        plots.push((
+            "surface.svg",
+            surface_plot(fit, fx, fy, &held, (-1.0, 1.0))?,
+        ));
     }
     let mut written = Vec::new();
     for (name, svg) in plots {

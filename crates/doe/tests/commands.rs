@@ -19,7 +19,12 @@ fn design(kind: &str, factors: &str, centres: Option<usize>) -> String {
 /// Appends a response column computed from the actual columns.
 fn with_response(csv: &str, name: &str, f: impl Fn(&[f64]) -> f64) -> String {
     let t = DataTable::parse("design.csv", csv).unwrap();
-    let actual: Vec<String> = t.headers.iter().filter(|h| h.ends_with("_actual")).cloned().collect();
+    let actual: Vec<String> = t
+        .headers
+        .iter()
+        .filter(|h| h.ends_with("_actual"))
+        .cloned()
+        .collect();
     let cols: Vec<Vec<f64>> = actual.iter().map(|c| t.column(c).unwrap()).collect();
     let mut out = format!("{},{name}\n", t.headers.join(","));
     for (i, row) in t.rows.iter().enumerate() {
@@ -41,11 +46,7 @@ fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
 fn design_csv_round_trips_into_an_actual_unit_equation() {
     // A quadratic in actual units, one factor logarithmic: y = 3 + 20 mu - 15 mu^2 + 2 e
     // + 4 mu e + 0.5 log10(k) - 0.25 log10(k)^2.
-    let csv = design(
-        "ccd",
-        "mu:0.2:0.6,e:0.1:0.5,k:1e6:1e8:log",
-        Some(4),
-    );
+    let csv = design("ccd", "mu:0.2:0.6,e:0.1:0.5,k:1e6:1e8:log", Some(4));
     let truth = |x: &[f64]| {
         let (mu, e, lk) = (x[0], x[1], x[2].log10());
         3.0 + 20.0 * mu - 15.0 * mu * mu + 2.0 * e + 4.0 * mu * e + 0.5 * lk - 0.25 * lk * lk
@@ -54,7 +55,10 @@ fn design_csv_round_trips_into_an_actual_unit_equation() {
     let t = DataTable::parse("d.csv", &data).unwrap();
     let exp = Experiment::from_table(&t, "y", &FactorColumns::Default).unwrap();
     assert_eq!(exp.factor_names, ["mu", "e", "k"]);
-    let f = exp.factors.as_ref().expect("ranges recovered from the _actual columns");
+    let f = exp
+        .factors
+        .as_ref()
+        .expect("ranges recovered from the _actual columns");
     assert_eq!(f[2].scale, doe::Scale::Log);
     assert!((f[2].low / 1e6 - 1.0).abs() < 1e-9 && (f[0].high - 0.6).abs() < 1e-9);
     let fit = Fit::new(&exp, &ModelOrder::Quadratic.terms(3), doe::Curvature::Auto).unwrap();
@@ -77,7 +81,11 @@ fn design_csv_round_trips_into_an_actual_unit_equation() {
         ("e^2", 0.0),
         ("e*log10(k)", 0.0),
     ] {
-        assert!((coef(name) - want).abs() < 1e-6, "{name}: {} vs {want}", coef(name));
+        assert!(
+            (coef(name) - want).abs() < 1e-6,
+            "{name}: {} vs {want}",
+            coef(name)
+        );
     }
     // Predictions in actual units agree with the truth anywhere in the box.
     let x = [0.33, 0.27, 3.3e6];
@@ -100,8 +108,20 @@ fn analyze_json_has_the_documented_keys() {
     let out = commands::analyze(&req, true, None).unwrap();
     let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
     for key in [
-        "terms", "model", "residual", "lack_of_fit", "pure_error", "curvature", "total", "r2",
-        "adj_r2", "pred_r2", "adeq_precision", "std_dev", "cv_percent", "coefficients_coded",
+        "terms",
+        "model",
+        "residual",
+        "lack_of_fit",
+        "pure_error",
+        "curvature",
+        "total",
+        "r2",
+        "adj_r2",
+        "pred_r2",
+        "adeq_precision",
+        "std_dev",
+        "cv_percent",
+        "coefficients_coded",
     ] {
         assert!(v.get(key).is_some(), "key {key}");
     }
@@ -130,7 +150,10 @@ fn optimize_hits_a_target_and_ranks_solutions() {
         ..Default::default()
     };
     let opt = OptimizeRequest {
-        goals: vec!["angle_deg:target=38.65".into(), "D:range:lower=-0.5:upper=0.5".into()],
+        goals: vec![
+            "angle_deg:target=38.65".into(),
+            "D:range:lower=-0.5:upper=0.5".into(),
+        ],
         solutions: 5,
         starts: 40,
         seed: 1,
@@ -157,20 +180,31 @@ fn optimize_hits_a_target_and_ranks_solutions() {
     let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
     let best = &v["solutions"][0];
     for j in 0..3 {
-        assert!((best["coded"][j].as_f64().unwrap() - 1.0).abs() < 1e-6, "{best}");
+        assert!(
+            (best["coded"][j].as_f64().unwrap() - 1.0).abs() < 1e-6,
+            "{best}"
+        );
     }
 }
 
 #[test]
 fn goals_parse_with_their_options() {
-    let (n, c) = commands::parse_goal("angle:target=38.65:lower=35:upper=42:importance=5", None).unwrap();
+    let (n, c) =
+        commands::parse_goal("angle:target=38.65:lower=35:upper=42:importance=5", None).unwrap();
     assert_eq!(n, "angle");
     assert_eq!(c.goal, doe::optimize::Goal::Target(38.65));
     assert_eq!((c.lower, c.upper, c.importance), (35.0, 42.0, 5));
     let (n, c) = commands::parse_goal("max:weight=2", Some("y")).unwrap();
-    assert_eq!((n.as_str(), c.weight_lower, c.weight_upper), ("y", 2.0, 2.0));
-    assert!(commands::parse_goal("y:best", None).unwrap_err().contains("expected a goal"));
-    assert!(commands::parse_goal("y:max:importance=9", None).unwrap_err().contains("1 to 5"));
+    assert_eq!(
+        (n.as_str(), c.weight_lower, c.weight_upper),
+        ("y", 2.0, 2.0)
+    );
+    assert!(commands::parse_goal("y:best", None)
+        .unwrap_err()
+        .contains("expected a goal"));
+    assert!(commands::parse_goal("y:max:importance=9", None)
+        .unwrap_err()
+        .contains("1 to 5"));
 }
 
 fn analyze_error(csv: &str, response: &str, model: Option<&str>) -> String {
@@ -188,13 +222,25 @@ fn analyze_error(csv: &str, response: &str, model: Option<&str>) -> String {
 #[test]
 fn errors_say_what_is_wrong() {
     let e = analyze_error("A,B,y\n-1,-1,1\n1,-1,2\n-1,1,3\n1,1,5\n", "angle", None);
-    assert!(e.contains("column 'angle' not found (columns: A, B, y)"), "{e}");
+    assert!(
+        e.contains("column 'angle' not found (columns: A, B, y)"),
+        "{e}"
+    );
     let e = analyze_error("A,B,y\n-1,-1,1\n1,-1,2\n-1,oops,3\n1,1,5\n", "y", None);
-    assert!(e.ends_with("row 4, column 'B': 'oops' is not a number"), "{e}");
+    assert!(
+        e.ends_with("row 4, column 'B': 'oops' is not a number"),
+        "{e}"
+    );
     let e = analyze_error("A,B,y\n-1,-1,1\n1,-1,2\n-1,1,3\n1,1,5\n", "y", Some("2fi"));
-    assert!(e.contains("too few runs for the model: it has 4 coefficients"), "{e}");
+    assert!(
+        e.contains("too few runs for the model: it has 4 coefficients"),
+        "{e}"
+    );
     let e = analyze_error("A,B,y\n-1,-1,4\n1,-1,4\n-1,1,4\n1,1,4\n0,0,4\n", "y", None);
-    assert!(e.contains("response 'y' is constant (4.000) in all 5 runs"), "{e}");
+    assert!(
+        e.contains("response 'y' is constant (4.000) in all 5 runs"),
+        "{e}"
+    );
     // A half fraction with D = ABC: the 2FI model aliases CD with AB.
     let mut csv = String::from("A,B,C,D,y\n");
     for i in 0..8 {

@@ -98,3 +98,28 @@ fn contour_lines_sit_on_their_level() {
         }
     }
 }
+
+#[test]
+fn an_exact_fit_still_plots() {
+    // No residual error: residual plots are skipped, the others render (plotters' tick search
+    // would not end on a zero-width axis, so ranges are guarded).
+    let mut csv = String::from("A,B,y\n");
+    for (a, b) in [(-1, -1), (1, -1), (-1, 1), (1, 1), (0, 0), (0, 0)] {
+        csv.push_str(&format!("{a},{b},{}\n", 5 + 2 * a - b));
+    }
+    let t = DataTable::parse("exact.csv", &csv).unwrap();
+    let e = Experiment::from_table(&t, "y", &FactorColumns::Default).unwrap();
+    let f = Fit::new(&e, &ModelOrder::Linear.terms(2), Curvature::Off).unwrap();
+    assert!(f.residual.sum_sq < 1e-20);
+    let dir = std::env::temp_dir().join(format!("demcal-exact-{}", std::process::id()));
+    let files = plots::write_all(&f, &dir).unwrap();
+    let names: Vec<String> = files
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names,
+        ["predicted_vs_actual.svg", "contour.svg", "surface.svg"]
+    );
+    assert!(plots::residuals_vs_predicted(&f).is_ok());
+}

@@ -107,7 +107,14 @@ fn central_composite_full_quadratic() {
 #[test]
 fn central_composite_reduced_by_backward_elimination() {
     let e = experiment(CCD);
-    let f = Fit::reduce(&e, &ModelOrder::Quadratic.terms(3), Curvature::Auto, 0.10, true).unwrap();
+    let f = Fit::reduce(
+        &e,
+        &ModelOrder::Quadratic.terms(3),
+        Curvature::Auto,
+        0.10,
+        true,
+    )
+    .unwrap();
     assert_eq!(f.term_names(), ["Intercept", "D", "E", "G", "D^2", "G^2"]);
     printed(f.model.sum_sq, "571.76", "model SS");
     printed(f.residual.sum_sq, "57.57", "residual SS");
@@ -128,7 +135,14 @@ fn central_composite_reduced_by_backward_elimination() {
     let g = Fit::new(&e, &terms, Curvature::Auto).unwrap();
     assert!((g.model.sum_sq - f.model.sum_sq).abs() < 1e-9);
     // Without hierarchy the same terms go (none of D, E, G is removable here).
-    let h = Fit::reduce(&e, &ModelOrder::Quadratic.terms(3), Curvature::Auto, 0.10, false).unwrap();
+    let h = Fit::reduce(
+        &e,
+        &ModelOrder::Quadratic.terms(3),
+        Curvature::Auto,
+        0.10,
+        false,
+    )
+    .unwrap();
     assert_eq!(h.term_names(), f.term_names());
 }
 
@@ -165,6 +179,13 @@ fn write_plots_for_inspection() {
     let f = Fit::new(&e, &ModelOrder::Linear.terms(8), Curvature::Auto).unwrap();
     doe::plots::write_all(&f, std::path::Path::new("/tmp/plots/pb")).unwrap();
     let e = experiment(CCD);
-    let f = Fit::reduce(&e, &ModelOrder::Quadratic.terms(3), Curvature::Auto, 0.1, true).unwrap();
+    let f = Fit::reduce(
+        &e,
+        &ModelOrder::Quadratic.terms(3),
+        Curvature::Auto,
+        0.1,
+        true,
+    )
+    .unwrap();
     doe::plots::write_all(&f, std::path::Path::new("/tmp/plots/ccd")).unwrap();
 }

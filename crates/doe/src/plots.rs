@@ -534,9 +534,10 @@ pub fn surface_plot(
             .build_cartesian_3d(xs[0]..xs[N - 1], padded(lo, hi), ys[0]..ys[N - 1])
             .map_err(err)?;
         chart.with_projection(|mut p| {
-            p.pitch = 0.45;
-            p.yaw = 0.7;
-            p.scale = 0.8;
+            // A low view: the height reads off the surface instead of being folded into depth.
+            p.pitch = 0.2;
+            p.yaw = 0.6;
+            p.scale = 0.85;
             p.into_matrix()
         });
         chart

@@ -94,10 +94,7 @@ fn design_csv_round_trips_into_an_actual_unit_equation() {
 
 #[test]
 fn analyze_json_has_the_documented_keys() {
-    let p = temp_file(
-        "ccd.csv",
-        include_str!("../../../../shared/data/silage-repose-ccd.csv"),
-    );
+    let p = temp_file("ccd.csv", include_str!("data/silage-repose-ccd.csv"));
     let req = ModelRequest {
         data: p,
         responses: vec!["angle_deg".into()],
@@ -137,10 +134,7 @@ fn analyze_json_has_the_documented_keys() {
 
 #[test]
 fn optimize_hits_a_target_and_ranks_solutions() {
-    let p = temp_file(
-        "ccd-opt.csv",
-        include_str!("../../../../shared/data/silage-repose-ccd.csv"),
-    );
+    let p = temp_file("ccd-opt.csv", include_str!("data/silage-repose-ccd.csv"));
     let req = ModelRequest {
         data: p,
         responses: vec!["angle_deg".into()],

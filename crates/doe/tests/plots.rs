@@ -2,8 +2,8 @@
 
 use doe::{plots, Curvature, DataTable, Experiment, FactorColumns, Fit, ModelOrder};
 
-const PB: &str = include_str!("../../../../shared/data/silage-repose-pb.csv");
-const CCD: &str = include_str!("../../../../shared/data/silage-repose-ccd.csv");
+const PB: &str = include_str!("data/silage-repose-pb.csv");
+const CCD: &str = include_str!("data/silage-repose-ccd.csv");
 
 fn fit(text: &str, order: ModelOrder, k: usize) -> Fit {
     let t = DataTable::parse("data.csv", text).unwrap();

@@ -1,11 +1,12 @@
-//! The two reference analyses of shared/spec/calibration.md, to the printed precision: each
-//! value must round to the printed digits, so the tolerance is half a unit in the last place.
+//! The two reference analyses of shared/spec/calibration.md (data copied into tests/data), to the
+//! printed precision: each value must round to the printed digits, so the tolerance is half a unit
+//! in the last place.
 
 use doe::model::parse_terms;
 use doe::{Curvature, DataTable, Experiment, FactorColumns, Fit, ModelOrder};
 
-const PB: &str = include_str!("../../../../shared/data/silage-repose-pb.csv");
-const CCD: &str = include_str!("../../../../shared/data/silage-repose-ccd.csv");
+const PB: &str = include_str!("data/silage-repose-pb.csv");
+const CCD: &str = include_str!("data/silage-repose-ccd.csv");
 
 fn experiment(text: &str) -> Experiment {
     let t = DataTable::parse("data.csv", text).unwrap();
@@ -170,22 +171,4 @@ fn statistics_follow_their_definitions() {
     // Mean leverage is p / n.
     let mean_h = f.leverage.iter().sum::<f64>() / n;
     assert!((mean_h - 10.0 / n).abs() < 1e-12);
-}
-
-#[test]
-#[ignore]
-fn write_plots_for_inspection() {
-    let e = experiment(PB);
-    let f = Fit::new(&e, &ModelOrder::Linear.terms(8), Curvature::Auto).unwrap();
-    doe::plots::write_all(&f, std::path::Path::new("/tmp/plots/pb")).unwrap();
-    let e = experiment(CCD);
-    let f = Fit::reduce(
-        &e,
-        &ModelOrder::Quadratic.terms(3),
-        Curvature::Auto,
-        0.1,
-        true,
-    )
-    .unwrap();
-    doe::plots::write_all(&f, std::path::Path::new("/tmp/plots/ccd")).unwrap();
 }

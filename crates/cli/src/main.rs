@@ -52,7 +52,7 @@ enum Command {
 enum DoeCommand {
     /// Write a design as CSV (run order, point type, coded and actual columns).
     Design {
-        /// plackett-burman (pb), factorial, fractional, ccd, box-behnken (bbd), lhs, random.
+        /// plackett-burman (pb), factorial, fractional, ccd, box-behnken (bbd), lhs, random, steepest.
         kind: String,
         /// A count (3), names (A,B,C) or ranges (restitution:0.2:0.6,stiffness:1e9:1e11:log).
         #[arg(long)]
@@ -63,7 +63,7 @@ enum DoeCommand {
         /// CCD axial distance: rotatable, spherical, face, orthogonal, inscribed or a number.
         #[arg(long)]
         alpha: Option<String>,
-        /// Runs: Plackett-Burman size (12, 20, 24, ...), or the number of LHS / random runs.
+        /// Runs: Plackett-Burman size (12, 20, 24, ...), LHS / random runs, or steepest steps.
         #[arg(long)]
         runs: Option<usize>,
         /// Fractional factorial: smallest fraction of at least this resolution.
@@ -78,6 +78,12 @@ enum DoeCommand {
         /// Latin hypercube: random, centred or maximin (default).
         #[arg(long)]
         lhs: Option<String>,
+        /// Steepest path: coefficients or effect signs, one per factor (0 keeps it at the centre).
+        #[arg(long, allow_hyphen_values = true)]
+        direction: Option<String>,
+        /// Steepest path: coded step along the largest coefficient (default 0.5; --runs steps, default 6).
+        #[arg(long)]
+        step: Option<f64>,
         /// Seed of the run order (and of LHS / random points).
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -174,6 +180,8 @@ fn doe_command(action: DoeCommand) -> Result<(), String> {
             fraction,
             half_fraction,
             lhs,
+            direction,
+            step,
             seed,
             out,
         } => {
@@ -187,6 +195,8 @@ fn doe_command(action: DoeCommand) -> Result<(), String> {
                 fraction,
                 half_fraction,
                 lhs,
+                direction,
+                step,
                 seed,
             };
             let (design, factors) = commands::make_design(&req)?;

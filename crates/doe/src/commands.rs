@@ -54,11 +54,15 @@ pub struct DesignRequest {
     pub fraction: Option<usize>,
     pub half_fraction: Option<bool>,
     pub lhs: Option<String>,
+    /// Steepest path: one coefficient (or effect sign) per factor; zero keeps a factor at its centre.
+    pub direction: Option<String>,
+    /// Steepest path: coded distance of one step along the largest coefficient.
+    pub step: Option<f64>,
     pub seed: u64,
 }
 
 pub const DESIGN_KINDS: &str =
-    "plackett-burman (pb), factorial, fractional, ccd, box-behnken (bbd), lhs, random";
+    "plackett-burman (pb), factorial, fractional, ccd, box-behnken (bbd), lhs, random, steepest";
 
 /// Builds the requested design; returns it with its factors.
 pub fn make_design(req: &DesignRequest) -> Result<(Design, Vec<Factor>), String> {
@@ -126,6 +130,29 @@ pub fn make_design(req: &DesignRequest) -> Result<(Design, Vec<Factor>), String>
                 .ok_or("random: give the number of runs with --runs N")?;
             design::random_design(k, n, req.seed)
         }
+        "steepest" | "steepest-ascent" | "steepest-descent" => {
+            let dir = req.direction.as_deref().ok_or(
+                "steepest: give one coefficient per factor with --direction, e.g. 1,-0.5,0 (negate to descend)",
+            )?;
+            let coef: Vec<f64> = dir
+                .split(',')
+                .map(|v| v.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| {
+                    format!("--direction '{dir}': expected numbers separated by commas")
+                })?;
+            if coef.len() != k {
+                return Err(format!(
+                    "--direction '{dir}': {} numbers for {k} factors",
+                    coef.len()
+                ));
+            }
+            let step = req.step.unwrap_or(0.5);
+            if step.is_nan() || step <= 0.0 {
+                return Err(format!("--step {step}: expected a positive coded distance"));
+            }
+            design::steepest_path(&coef, step, req.runs.unwrap_or(6))?
+        }
         other => {
             return Err(format!(
                 "unknown design '{other}'; expected one of: {DESIGN_KINDS}"
@@ -139,6 +166,8 @@ fn point_type(d: &Design, run: &[f64]) -> &'static str {
     let nonzero = run.iter().filter(|v| v.abs() > 1e-12).count();
     if nonzero == 0 {
         "center"
+    } else if d.kind.starts_with("steepest") {
+        "path"
     } else if d.alpha.is_some() && nonzero == 1 {
         "axial"
     } else if run
@@ -158,7 +187,12 @@ fn point_type(d: &Design, run: &[f64]) -> &'static str {
 /// The design as CSV, rows in run order: `std_order,run_order,point_type`, the coded columns (named
 /// by the factors), then `<name>_actual` columns.
 pub fn design_csv(d: &Design, factors: &[Factor], seed: u64) -> String {
-    let order = d.run_order(seed);
+    // A steepest path is run in order, step after step.
+    let order = if d.kind.starts_with("steepest") {
+        (0..d.runs.len()).collect()
+    } else {
+        d.run_order(seed)
+    };
     let mut s = String::from("std_order,run_order,point_type");
     for f in factors {
         write!(s, ",{}", f.name).unwrap();
@@ -192,7 +226,8 @@ pub fn round_sig(v: f64, digits: i32) -> f64 {
 
 fn round_coded(v: f64) -> f64 {
     // Exact levels stay exact; irrational ones (alpha) keep 10 digits.
-    (v * 1e10).round() / 1e10
+    // + 0.0 turns -0 into 0.
+    (v * 1e10).round() / 1e10 + 0.0
 }
 
 /// A summary of a design for the terminal.

@@ -253,3 +253,28 @@ fn errors_say_what_is_wrong() {
     let e = analyze_error(&csv, "y", Some("A,B,Q"));
     assert!(e.contains("'Q' is not a factor"), "{e}");
 }
+
+#[test]
+fn steepest_path_is_written_in_order() {
+    let req = DesignRequest {
+        kind: "steepest".into(),
+        factors: "D:0.1:0.5,E:0.2:0.8,G:1:3".into(),
+        direction: Some("1,-0.5,0".into()),
+        step: Some(0.5),
+        runs: Some(4),
+        seed: 9,
+        ..Default::default()
+    };
+    let (d, f) = commands::make_design(&req).unwrap();
+    let csv = commands::design_csv(&d, &f, 9);
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[1], "1,1,center,0,0,0,0.3,0.5,2");
+    assert_eq!(lines[5], "5,5,path,2,-1,0,0.7,0.2,2");
+    let bad = DesignRequest {
+        direction: Some("1,2".into()),
+        ..req
+    };
+    assert!(commands::make_design(&bad)
+        .unwrap_err()
+        .contains("2 numbers for 3 factors"));
+}

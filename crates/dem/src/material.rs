@@ -36,6 +36,8 @@ pub struct Interaction {
     pub static_friction: f64,
     /// Also called "dynamic" or "kinetic" friction in many calibration papers.
     pub rolling_friction: f64,
+    /// JKR surface energy gamma (J/m^2); 0 for no cohesion.
+    pub surface_energy: f64,
 }
 
 /// Everything the contact kernel needs for one material pair, precomputed.
@@ -50,6 +52,8 @@ pub struct PairParams {
     pub static_friction: f64,
     pub rolling_friction: f64,
     pub restitution: f64,
+    /// JKR surface energy gamma (J/m^2); 0: plain Hertz-Mindlin.
+    pub surface_energy: f64,
 }
 
 /// Smallest restitution accepted; a zero restitution makes beta = -1 and the damping infinite.
@@ -130,6 +134,16 @@ impl MaterialTable {
         &self.pairs[a * self.materials.len() + b]
     }
 
+    /// How far beyond touching any cohesive (JKR) pair still attracts, for bodies of effective
+    /// radius up to `max_r_eff`: the neighbour search must reach this much further. 0 without JKR.
+    pub fn cohesive_reach(&self, max_r_eff: f64) -> f64 {
+        self.pairs
+            .iter()
+            .filter(|p| p.surface_energy > 0.0)
+            .map(|p| -crate::contact::jkr_cutoff_overlap(p.surface_energy, p.e_star, max_r_eff))
+            .fold(0.0, f64::max)
+    }
+
     fn rebuild(&mut self) {
         let n = self.materials.len();
         self.pairs = vec![PairParams::default(); n * n];
@@ -152,6 +166,7 @@ impl MaterialTable {
                     p.static_friction = i.static_friction;
                     p.rolling_friction = i.rolling_friction;
                     p.restitution = i.restitution;
+                    p.surface_energy = i.surface_energy;
                 }
                 self.pairs[a * n + b] = p;
             }
@@ -179,6 +194,7 @@ mod tests {
                 restitution: 0.5,
                 static_friction: 0.3,
                 rolling_friction: 0.01,
+                surface_energy: 0.0,
             },
         );
         let p = t.pair(g, g);

@@ -104,6 +104,9 @@ struct InteractionEntry {
     static_friction: f64,
     #[serde(alias = "dynamic_friction", alias = "kinetic_friction")]
     rolling_friction: f64,
+    /// JKR cohesion (J/m^2).
+    #[serde(default)]
+    surface_energy: f64,
 }
 
 #[derive(Deserialize, Debug)]
@@ -392,6 +395,7 @@ impl Scene {
             }
             ctx.non_negative(i.static_friction, key("static_friction"))?;
             ctx.non_negative(i.rolling_friction, key("rolling_friction"))?;
+            ctx.non_negative(i.surface_energy, key("surface_energy"))?;
             interactions.push((
                 a,
                 b,
@@ -399,6 +403,7 @@ impl Scene {
                     restitution: i.restitution,
                     static_friction: i.static_friction,
                     rolling_friction: i.rolling_friction,
+                    surface_energy: i.surface_energy,
                 },
             ));
         }

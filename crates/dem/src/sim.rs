@@ -12,7 +12,9 @@
 //! No stage uses atomics or locks and every sum runs in a fixed order, so results are bit-identical
 //! run to run for any thread count.
 
-use crate::contact::{epsd_rolling_torque, hertz_mindlin, ContactPoint, RollingModel};
+use crate::contact::{
+    epsd_rolling_torque, hertz_mindlin, jkr_cutoff_overlap, ContactPoint, RollingModel,
+};
 use crate::geometry::{ElementGrid, Geometry, Load, Region};
 use crate::material::MaterialTable;
 use crate::neighbour::{NeighbourList, PairOutput};
@@ -139,6 +141,8 @@ pub struct Simulation {
     poses_at_build: Vec<(DMat3, DVec3)>,
     bounds_at_build: (DVec3, DVec3),
     forces_ready: bool,
+    /// Extra neighbour-search reach for JKR attraction beyond touching (0 without cohesion).
+    cohesive_reach: f64,
 }
 
 /// Raw pointer that may be shared between rayon tasks that write disjoint slots.
@@ -181,11 +185,14 @@ impl Simulation {
             poses_at_build: Vec::new(),
             bounds_at_build: (DVec3::ZERO, DVec3::ZERO),
             forces_ready: false,
+            cohesive_reach: 0.0,
         };
         let max_r = sim.particles.radius.iter().cloned().fold(0.0, f64::max);
+        // A wall contact has R* = r, the largest any contact of these particles can have.
+        sim.cohesive_reach = sim.materials.cohesive_reach(max_r);
         for g in &mut sim.geometries {
             if g.reference.len() > 16 {
-                g.grid = ElementGrid::build(&g.reference, max_r + skin);
+                g.grid = ElementGrid::build(&g.reference, max_r + skin + sim.cohesive_reach);
             }
         }
         sim
@@ -383,12 +390,14 @@ impl Simulation {
     fn rebuild(&mut self) {
         let old_walls = std::mem::take(&mut self.walls);
         let old_start = std::mem::take(&mut self.wall_start);
-        let reorder = self.neighbours.rebuild(&mut self.particles, 0.0);
+        let reorder = self
+            .neighbours
+            .rebuild(&mut self.particles, self.cohesive_reach);
         let order = reorder.order.to_vec();
 
         let p = &self.particles;
         let n = p.len();
-        let skin = self.params.skin;
+        let skin = self.params.skin + self.cohesive_reach;
         let geometries = &self.geometries;
         let blocks: Vec<(Vec<u32>, Vec<WallCandidate>)> = (0..n.div_ceil(BLOCK))
             .into_par_iter()
@@ -473,6 +482,7 @@ impl Simulation {
         let materials = &self.materials;
         let dt = self.params.time_step;
         let rolling = self.params.rolling_model;
+        let cohesive = self.cohesive_reach > 0.0;
         let nl = &mut self.neighbours;
         nl.pairs
             .par_chunks_mut(BLOCK * 4)
@@ -484,7 +494,16 @@ impl Simulation {
                     let (ri, rj) = (p.radius[i], p.radius[j]);
                     let sum = ri + rj;
                     let dist2 = delta.length_squared();
-                    if dist2 >= sum * sum {
+                    let r_eff = ri * rj / sum;
+                    // A cohesive (JKR) pair attracts until the gap reaches -d_c. Without any
+                    // cohesion in the table, non-touching candidates leave before the lookup.
+                    let reach = if cohesive {
+                        let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
+                        sum - jkr_cutoff_overlap(q.surface_energy, q.e_star, r_eff)
+                    } else {
+                        sum
+                    };
+                    if dist2 >= reach * reach {
                         pair.shear = DVec3::ZERO;
                         pair.rolling = DVec3::ZERO;
                         *out = PairOutput::default();
@@ -495,7 +514,6 @@ impl Simulation {
                     let d = sum - dist;
                     let (ci, cj) = (ri - 0.5 * d, rj - 0.5 * d);
                     let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
-                    let r_eff = ri * rj / sum;
                     let m_eff = 1.0 / (p.inv_mass[i] + p.inv_mass[j]);
                     let params = materials.pair(p.material[i] as usize, p.material[j] as usize);
                     let cp = ContactPoint {
@@ -517,7 +535,7 @@ impl Simulation {
                     };
                     match rolling {
                         RollingModel::ConstantDirectionalTorque => {
-                            let m = params.rolling_friction * f.normal.abs();
+                            let m = params.rolling_friction * f.load.abs();
                             o.rolling_i = m * ci;
                             o.rolling_j = m * cj;
                         }
@@ -694,7 +712,9 @@ fn wall_contacts(
             let geometry = cands[k].geometry;
             let g = &geometries[geometry as usize];
             let el = &g.elements[cands[k].element as usize];
-            let Some(cl) = el.closest(body.x, body.r) else {
+            let params = materials.pair(body.material, g.material);
+            let cutoff = jkr_cutoff_overlap(params.surface_energy, params.e_star, body.r);
+            let Some(cl) = el.closest(body.x, body.r - cutoff) else {
                 if pass == Region::Face {
                     cands[k].shear = DVec3::ZERO;
                     cands[k].rolling = DVec3::ZERO;
@@ -706,7 +726,7 @@ fn wall_contacts(
                 continue;
             }
             let d = body.r - cl.distance;
-            if d <= 0.0 {
+            if d <= cutoff {
                 cands[k].shear = DVec3::ZERO;
                 cands[k].rolling = DVec3::ZERO;
                 outs[k] = WallOutput::default();
@@ -751,7 +771,6 @@ fn wall_contacts(
             let n = cl.normal;
             let ci = body.r - 0.5 * d;
             let contact_point = body.x - ci * n;
-            let params = materials.pair(body.material, g.material);
             let cp = ContactPoint {
                 normal: n,
                 overlap: d,
@@ -766,7 +785,7 @@ fn wall_contacts(
             let mut reaction_rolling = DVec3::ZERO;
             match rolling {
                 RollingModel::ConstantDirectionalTorque => {
-                    let m = params.rolling_friction * cf.normal.abs() * ci;
+                    let m = params.rolling_friction * cf.load.abs() * ci;
                     *lim += m;
                     let s = body.w.length();
                     if s > 0.0 {

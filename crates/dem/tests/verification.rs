@@ -272,3 +272,115 @@ fn epsd_holds_a_sphere_on_an_incline_below_the_rolling_limit() {
     eprintln!("epsd held: drift over the last 0.5 s {:.3e} R", drift / r);
     assert!(drift < 1e-3 * r, "drift {drift}");
 }
+
+/// V6: two spheres pulled apart quasi-statically (displacement control: their velocities are
+/// reset to +-v/2 before every step) feel at most 3 pi gamma R* of attraction, within 1 %; the
+/// attraction ends at the cut-off overlap d_c.
+#[test]
+fn v6_jkr_pull_off_force_is_three_pi_gamma_r() {
+    // Dense spheres, so a half kick of the contact force is negligible against the imposed speed.
+    let (r, e, nu, rho, gamma) = (0.005, 1e7, 0.3, 1e7, 0.5);
+    let mut inter = interaction(1.0, 0.5, 0.0);
+    inter.surface_energy = gamma;
+    let t = table(
+        material("soft", e, nu, rho),
+        material("wall", e, nu, rho),
+        inter,
+    );
+    let e_star = t.pair(0, 0).e_star;
+    let r_eff = 0.5 * r;
+    let d_c = dem::contact::jkr_cutoff_overlap(gamma, e_star, r_eff);
+    assert!(d_c < 0.0);
+    let mut p = Particles::default();
+    let start_overlap = 2e-6;
+    let x0 = r - 0.5 * start_overlap;
+    p.push(DVec3::new(-x0, 0.0, 0.0), DVec3::ZERO, r, rho, 0);
+    p.push(DVec3::new(x0, 0.0, 0.0), DVec3::ZERO, r, rho, 0);
+    let dt = 1e-5;
+    let mut sim = simulation(
+        p,
+        t,
+        vec![],
+        dt,
+        DVec3::ZERO,
+        RollingModel::ConstantDirectionalTorque,
+    );
+    let v = 1e-4;
+    let (mut most_attractive, mut last_overlap_with_force) = (0.0f64, f64::NAN);
+    for _ in 0..20_000 {
+        for k in 0..2 {
+            let sign = if sim.particles.id[k] == 0 { -1.0 } else { 1.0 };
+            sim.particles.velocity[k] = DVec3::new(sign * 0.5 * v, 0.0, 0.0);
+        }
+        sim.step().unwrap();
+        let k0 = sim.particles.id.iter().position(|&id| id == 0).unwrap();
+        let k1 = 1 - k0;
+        let overlap = 2.0 * r - (sim.particles.position[k1] - sim.particles.position[k0]).length();
+        // Force on sphere 0 along +x (towards sphere 1) is attraction.
+        let pull = sim.particles.force[k0].x;
+        most_attractive = most_attractive.max(pull);
+        if pull != 0.0 {
+            last_overlap_with_force = overlap;
+        }
+    }
+    let want = 3.0 * std::f64::consts::PI * gamma * r_eff;
+    eprintln!(
+        "V6: most attractive force {most_attractive:.6e} N, 3 pi gamma R* = {want:.6e} N; last overlap with force {last_overlap_with_force:.4e}, d_c = {d_c:.4e}"
+    );
+    assert!(rel_err(most_attractive, want) < 0.01);
+    // The attraction lasts until the cut-off, to within one step of separation.
+    assert!((last_overlap_with_force - d_c).abs() <= 2.0 * v * dt + 1e-12);
+}
+
+/// JKR against a wall: a pull slightly below the pull-off force leaves the sphere stuck, slightly
+/// above it tears the sphere off.
+#[test]
+fn v6_jkr_sphere_hangs_on_a_wall_until_the_pull_exceeds_pull_off() {
+    let (r, e, nu, rho, gamma) = (0.005, 1e7, 0.3, 1000.0, 0.5);
+    let run = |fraction: f64| -> (f64, f64, f64) {
+        let mut inter = interaction(0.1, 0.5, 0.0);
+        inter.surface_energy = gamma;
+        // A wall 1e6 times stiffer: R* = R, E* = E / (1 - nu^2).
+        let t = table(
+            material("soft", e, nu, rho),
+            material("wall", 1e6 * e, nu, rho),
+            inter,
+        );
+        let mut p = Particles::default();
+        p.push(DVec3::new(0.0, 0.0, r), DVec3::ZERO, r, rho, 0);
+        let mass = p.mass[0];
+        let pull_off = 3.0 * std::f64::consts::PI * gamma * r;
+        // Gravity pointing away from the floor, ramped in so the load is quasi-static.
+        let mut sim = simulation(
+            p,
+            t,
+            vec![floor(1)],
+            2e-5,
+            DVec3::ZERO,
+            RollingModel::ConstantDirectionalTorque,
+        );
+        for i in 0..40_000 {
+            let ramp = (i as f64 / 20_000.0).min(1.0);
+            sim.params.gravity = DVec3::new(0.0, 0.0, ramp * fraction * pull_off / mass);
+            sim.step().unwrap();
+        }
+        let e_star = sim.materials.pair(0, 1).e_star;
+        let d_c = dem::contact::jkr_cutoff_overlap(gamma, e_star, r);
+        (
+            sim.particles.position[0].z - r,
+            sim.particles.velocity[0].length(),
+            d_c,
+        )
+    };
+    let (held, speed, d_c) = run(0.97);
+    let (torn, _, _) = run(1.03);
+    eprintln!(
+        "V6 wall: gap at 0.97 pull-off {held:.3e} m (speed {speed:.1e} m/s), at 1.03 pull-off {torn:.3e} m; cut-off gap {:.3e} m",
+        -d_c
+    );
+    assert!(
+        held < -d_c && speed < 1e-6,
+        "held gap {held}, speed {speed}"
+    );
+    assert!(torn > r, "torn gap {torn}");
+}

@@ -33,6 +33,7 @@ pub fn interaction(restitution: f64, static_friction: f64, rolling_friction: f64
         restitution,
         static_friction,
         rolling_friction,
+        surface_energy: 0.0,
     }
 }
 

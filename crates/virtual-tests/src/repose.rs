@@ -1,0 +1,263 @@
+//! Angle-of-repose measurement on a particle heap, done the way labs do it on a photo
+//! (lab-tests.md, section 1): in several vertical planes through the heap axis, take the surface
+//! profile (the highest particle surface per radial bin), fit a straight line to each flank between
+//! the toe and the rounded apex, and report the mean angle and its spread over flanks and planes.
+
+use glam::DVec3;
+
+/// How to measure.
+#[derive(Clone, Debug)]
+pub struct ReposeMeasurement {
+    /// Heap axis (vertical line through this x, y).
+    pub axis: (f64, f64),
+    /// Height of the base plate surface.
+    pub base_z: f64,
+    /// Number of vertical planes through the axis, evenly spaced in angle (each gives two flanks).
+    pub planes: usize,
+    /// Radial bin width of the profile (default: the mean particle diameter).
+    pub bin_width: Option<f64>,
+    /// Flank points used in the fit: heights between these fractions of the heap height, which
+    /// leaves out the toe (the thin spread edge) and the rounded apex.
+    pub fit_band: (f64, f64),
+}
+
+impl Default for ReposeMeasurement {
+    fn default() -> Self {
+        ReposeMeasurement {
+            axis: (0.0, 0.0),
+            base_z: 0.0,
+            planes: 4,
+            bin_width: None,
+            fit_band: (0.15, 0.85),
+        }
+    }
+}
+
+/// One flank's profile points and fitted line z = intercept + slope * s (s the distance from the
+/// axis along the flank).
+#[derive(Clone, Debug)]
+pub struct Flank {
+    /// Plane angle (rad) and side (+1 or -1).
+    pub plane_angle: f64,
+    pub side: f64,
+    /// (distance from the axis, surface height above the base) per bin.
+    pub profile: Vec<(f64, f64)>,
+    /// Points used in the fit.
+    pub fitted: Vec<(f64, f64)>,
+    pub slope: f64,
+    pub intercept: f64,
+    pub angle_deg: f64,
+}
+
+/// The result of a measurement.
+#[derive(Clone, Debug)]
+pub struct ReposeResult {
+    pub angle_deg: f64,
+    /// Sample standard deviation over the flanks.
+    pub angle_std_deg: f64,
+    /// Highest particle surface above the base.
+    pub heap_height: f64,
+    /// Mean distance from the axis at which the fitted flank lines meet the base.
+    pub heap_radius: f64,
+    pub flanks: Vec<Flank>,
+}
+
+/// Measures the heap formed by spheres at `positions` with `radii`.
+pub fn measure(
+    positions: &[DVec3],
+    radii: &[f64],
+    m: &ReposeMeasurement,
+) -> Result<ReposeResult, String> {
+    if positions.is_empty() {
+        return Err("repose measurement: no particles".into());
+    }
+    if m.planes == 0 {
+        return Err("repose measurement: planes must be at least 1".into());
+    }
+    let mean_d = 2.0 * radii.iter().sum::<f64>() / radii.len() as f64;
+    let bin = m.bin_width.unwrap_or(mean_d);
+    let heap_height = positions
+        .iter()
+        .zip(radii)
+        .map(|(p, r)| p.z + r - m.base_z)
+        .fold(f64::MIN, f64::max);
+    if heap_height <= 2.0 * mean_d {
+        return Err(format!(
+            "repose measurement: the heap is only {heap_height:.4} m high (about {:.1} particle diameters); there is no slope to measure",
+            heap_height / mean_d
+        ));
+    }
+    let mut flanks = Vec::new();
+    for k in 0..m.planes {
+        let phi = std::f64::consts::PI * k as f64 / m.planes as f64;
+        let (dir_x, dir_y) = (phi.cos(), phi.sin());
+        // Highest sphere surface in the plane, per signed radial bin.
+        let mut bins: std::collections::BTreeMap<i64, f64> = std::collections::BTreeMap::new();
+        for (p, &r) in positions.iter().zip(radii) {
+            let (dx, dy) = (p.x - m.axis.0, p.y - m.axis.1);
+            let along = dx * dir_x + dy * dir_y;
+            let across = -dx * dir_y + dy * dir_x;
+            if across.abs() >= r {
+                continue;
+            }
+            // Where the plane cuts the sphere, its top is this high.
+            let top = p.z + (r * r - across * across).sqrt() - m.base_z;
+            let b = (along / bin).floor() as i64;
+            let e = bins.entry(b).or_insert(f64::MIN);
+            if top > *e {
+                *e = top;
+            }
+        }
+        for side in [1.0, -1.0] {
+            let mut profile: Vec<(f64, f64)> = bins
+                .iter()
+                .map(|(&b, &z)| ((b as f64 + 0.5) * bin * side, z))
+                .filter(|(s, _)| *s > 0.0)
+                .collect();
+            profile.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (lo, hi) = (m.fit_band.0 * heap_height, m.fit_band.1 * heap_height);
+            let fitted: Vec<(f64, f64)> = profile
+                .iter()
+                .copied()
+                .filter(|(_, z)| *z >= lo && *z <= hi)
+                .collect();
+            if fitted.len() < 3 {
+                return Err(format!(
+                    "repose measurement: plane {:.0} deg, side {side}: only {} profile points between {:.0} % and {:.0} % of the heap height",
+                    phi.to_degrees(),
+                    fitted.len(),
+                    100.0 * m.fit_band.0,
+                    100.0 * m.fit_band.1
+                ));
+            }
+            let (slope, intercept) = line_fit(&fitted);
+            flanks.push(Flank {
+                plane_angle: phi,
+                side,
+                profile,
+                fitted,
+                slope,
+                intercept,
+                angle_deg: (-slope).atan().to_degrees(),
+            });
+        }
+    }
+    let n = flanks.len() as f64;
+    let angle_deg = flanks.iter().map(|f| f.angle_deg).sum::<f64>() / n;
+    let angle_std_deg = if flanks.len() > 1 {
+        (flanks
+            .iter()
+            .map(|f| (f.angle_deg - angle_deg).powi(2))
+            .sum::<f64>()
+            / (n - 1.0))
+            .sqrt()
+    } else {
+        0.0
+    };
+    let heap_radius = flanks
+        .iter()
+        .map(|f| {
+            if f.slope < 0.0 {
+                -f.intercept / f.slope
+            } else {
+                f64::NAN
+            }
+        })
+        .sum::<f64>()
+        / n;
+    Ok(ReposeResult {
+        angle_deg,
+        angle_std_deg,
+        heap_height,
+        heap_radius,
+        flanks,
+    })
+}
+
+/// Least-squares line z = a + b s through the points; returns (b, a).
+fn line_fit(pts: &[(f64, f64)]) -> (f64, f64) {
+    let n = pts.len() as f64;
+    let (ms, mz) = (
+        pts.iter().map(|p| p.0).sum::<f64>() / n,
+        pts.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = pts.iter().map(|p| (p.0 - ms).powi(2)).sum();
+    let sxz: f64 = pts.iter().map(|p| (p.0 - ms) * (p.1 - mz)).sum();
+    let b = if sxx > 0.0 { sxz / sxx } else { 0.0 };
+    (b, mz - b * ms)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cone heap of equal spheres: columns on a jittered square grid, stacked at 2r from the
+    /// base, each topped by one sphere whose top lies on the cone surface z = H - tan(angle) rho
+    /// (so the surface is not a lattice staircase).
+    fn cone(angle_deg: f64, radius: f64, r: f64, seed: u64) -> (Vec<DVec3>, Vec<f64>) {
+        let t = angle_deg.to_radians().tan();
+        let height = radius * t;
+        let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+        let mut jitter = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.4 * r
+        };
+        let (mut pos, mut rad) = (Vec::new(), Vec::new());
+        let n = (radius / (2.0 * r)).ceil() as i64;
+        for ix in -n..=n {
+            for iy in -n..=n {
+                let (x, y) = (
+                    2.0 * r * ix as f64 + jitter(),
+                    2.0 * r * iy as f64 + jitter(),
+                );
+                let top = height - t * (x * x + y * y).sqrt();
+                if top < 2.0 * r {
+                    continue;
+                }
+                let mut z = r;
+                while z + r < top - r {
+                    pos.push(DVec3::new(x, y, z));
+                    rad.push(r);
+                    z += 2.0 * r;
+                }
+                pos.push(DVec3::new(x, y, top - r));
+                rad.push(r);
+            }
+        }
+        (pos, rad)
+    }
+
+    #[test]
+    fn synthetic_cones_come_back_within_half_a_degree() {
+        for angle in [25.0, 35.0, 45.0] {
+            let (p, r) = cone(angle, 0.06, 0.001, 7);
+            let res = measure(&p, &r, &ReposeMeasurement::default()).unwrap();
+            eprintln!(
+                "cone {angle} deg ({} spheres): measured {:.3} +- {:.3} deg, height {:.4} m, radius {:.4} m",
+                p.len(),
+                res.angle_deg,
+                res.angle_std_deg,
+                res.heap_height,
+                res.heap_radius
+            );
+            assert!(
+                (res.angle_deg - angle).abs() < 0.5,
+                "{angle}: {}",
+                res.angle_deg
+            );
+            assert_eq!(res.flanks.len(), 8);
+        }
+    }
+
+    #[test]
+    fn a_flat_layer_is_refused() {
+        let p: Vec<DVec3> = (0..100)
+            .map(|i| DVec3::new(0.002 * (i % 10) as f64, 0.002 * (i / 10) as f64, 0.001))
+            .collect();
+        let r = vec![0.001; 100];
+        let e = measure(&p, &r, &ReposeMeasurement::default()).unwrap_err();
+        assert!(e.contains("no slope to measure"), "{e}");
+    }
+}

@@ -32,6 +32,22 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Run a virtual lab test (angle_of_repose) and print what it measures.
+    Test {
+        test: PathBuf,
+        /// Seed of the particle generation (overrides the file's `seed`).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// End with one JSON object with the results.
+        #[arg(long)]
+        json: bool,
+        /// Write pictures (profiles.svg, heap.png) and result.json here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// Designed experiments: generate designs, analyse results (ANOVA), optimise fitted models.
     Doe {
         #[command(subcommand)]
@@ -248,6 +264,33 @@ fn doe_command(action: DoeCommand) -> Result<(), String> {
     }
 }
 
+fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> Result<(), String> {
+    let file = virtual_tests::TestFile::load(path)?;
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}")
+            .map_err(|e| e.to_string())?,
+    );
+    let mut progress = |phase: &str, t: f64| {
+        bar.set_message(format!("{phase}: t = {t:.2} s"));
+        bar.tick();
+    };
+    let result = virtual_tests::run_file(&file, seed, out, &mut progress);
+    bar.finish_and_clear();
+    let (value, summary) = result?;
+    println!("{summary}");
+    if let Some(dir) = out {
+        println!(
+            "wrote profiles.svg, heap.png and result.json to {}",
+            dir.display()
+        );
+    }
+    if json {
+        println!("{value}");
+    }
+    Ok(())
+}
+
 fn set_threads(threads: Option<usize>) -> Result<(), String> {
     if let Some(t) = threads {
         if t == 0 {
@@ -270,6 +313,13 @@ fn main() -> ExitCode {
             out,
         } => set_threads(threads).and_then(|_| simulate(&scene, out.as_deref())),
         Command::Doe { action } => doe_command(action),
+        Command::Test {
+            test,
+            seed,
+            json,
+            out,
+            threads,
+        } => set_threads(threads).and_then(|_| run_test(&test, seed, json, out.as_deref())),
         Command::Bench {
             name: _,
             steps,

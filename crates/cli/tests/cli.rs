@@ -344,3 +344,47 @@ fn doe_errors_are_one_line() {
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("unknown design 'taguchi'"), "{err}");
 }
+
+#[test]
+fn test_command_prints_json_last() {
+    let dir = temp_dir("test-cmd");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/tests/spheres_repose.toml"),
+    )
+    .unwrap()
+    .replace("count = 1500", "count = 300")
+    .replace("cylinder_height = 0.1", "cylinder_height = 0.04");
+    let path = dir.join("repose.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = demcal()
+        .arg("test")
+        .arg(&path)
+        .args(["--json", "--seed", "2"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let last = stdout.lines().last().unwrap();
+    assert!(last.starts_with('{') && last.ends_with('}'), "{last}");
+    for key in [
+        "\"angle_of_repose_deg\":",
+        "\"angle_std_deg\":",
+        "\"heap_height_m\":",
+        "\"particles\":300",
+        "\"wall_s\":",
+        "\"seed\":2",
+    ] {
+        assert!(last.contains(key), "{key} in {last}");
+    }
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "test = \"angle_of_repose\"\n[angle_of_repose]\n").unwrap();
+    let out = demcal().arg("test").arg(&bad).output().unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(!out.status.success());
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("material: missing [[material]]"), "{err}");
+}

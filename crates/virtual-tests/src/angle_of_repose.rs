@@ -1,0 +1,324 @@
+//! The lifted-cylinder angle-of-repose test (lab-tests.md, section 1): a cylinder open at both ends
+//! stands on a plate, is filled with particles that settle, is lifted at constant speed, and the
+//! heap left behind is measured once it is still.
+
+use std::time::Instant;
+
+use dem::geometry::Motion;
+use dem::scene::Scene;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::file::TestFile;
+use crate::repose::{measure, ReposeMeasurement, ReposeResult};
+
+/// `[angle_of_repose]` settings.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    /// Material of the particles and of the cylinder and plate (names from `[[material]]`).
+    pub particle_material: String,
+    pub wall_material: String,
+    /// Inner diameter and height of the cylinder (m).
+    pub cylinder_diameter: f64,
+    pub cylinder_height: f64,
+    /// Side of the square base plate (m; default 6 cylinder diameters).
+    pub plate_size: Option<f64>,
+    /// Particle size distribution, as in a scene's `[[particles]] size`.
+    pub size: toml::Value,
+    /// `{ count = N }` or `{ mass = kg }`: generated at random inside the cylinder.
+    pub fill: Fill,
+    /// Height of the region filled inside the cylinder (m; default the cylinder height).
+    pub fill_height: Option<f64>,
+    #[serde(default = "default_time_step_percent")]
+    pub time_step_percent: f64,
+    /// Settled when the rms particle speed falls below this (m/s).
+    #[serde(default = "default_settle_speed")]
+    pub settle_speed: f64,
+    /// Longest settling before the lift (s of simulated time).
+    #[serde(default = "default_settle_max_time")]
+    pub settle_max_time: f64,
+    /// Lift speed (m/s) and distance (m; default the cylinder height).
+    pub lift_speed: f64,
+    pub lift_distance: Option<f64>,
+    /// Longest settling after the lift (s).
+    #[serde(default = "default_final_max_time")]
+    pub final_max_time: f64,
+    /// Measurement: vertical planes through the axis, and the height band of each flank fitted.
+    #[serde(default = "default_planes")]
+    pub planes: usize,
+    #[serde(default = "default_fit_band")]
+    pub fit_band: [f64; 2],
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fill {
+    pub count: Option<u64>,
+    pub mass: Option<f64>,
+}
+
+fn default_time_step_percent() -> f64 {
+    20.0
+}
+fn default_settle_speed() -> f64 {
+    0.005
+}
+fn default_settle_max_time() -> f64 {
+    2.0
+}
+fn default_final_max_time() -> f64 {
+    5.0
+}
+fn default_planes() -> usize {
+    4
+}
+fn default_fit_band() -> [f64; 2] {
+    [0.15, 0.85]
+}
+
+/// What the test reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct Outcome {
+    pub angle_of_repose_deg: f64,
+    pub angle_std_deg: f64,
+    pub heap_height_m: f64,
+    pub heap_radius_m: f64,
+    pub flank_angles_deg: Vec<f64>,
+    pub particles: usize,
+    pub time_step_s: f64,
+    pub settle_time_s: f64,
+    pub simulated_time_s: f64,
+    pub final_rms_speed_m_s: f64,
+    pub wall_s: f64,
+    pub seed: u64,
+    #[serde(skip)]
+    pub measurement: Option<ReposeResult>,
+    #[serde(skip)]
+    pub positions: Vec<DVec3>,
+    #[serde(skip)]
+    pub radii: Vec<f64>,
+}
+
+fn check(file: &TestFile, s: &Settings) -> Result<(), String> {
+    let err = |key: &str, msg: String| Err(format!("{}: angle_of_repose.{key}: {msg}", file.name));
+    for (key, v) in [
+        ("cylinder_diameter", s.cylinder_diameter),
+        ("cylinder_height", s.cylinder_height),
+        ("lift_speed", s.lift_speed),
+        ("settle_speed", s.settle_speed),
+        ("time_step_percent", s.time_step_percent),
+    ] {
+        if v.is_nan() || v <= 0.0 {
+            return err(key, format!("expected a positive number, got {v}"));
+        }
+    }
+    if let Some(p) = s.plate_size {
+        if p.is_nan() || p <= s.cylinder_diameter {
+            return err(
+                "plate_size",
+                format!(
+                    "expected more than the cylinder diameter {}, got {p}",
+                    s.cylinder_diameter
+                ),
+            );
+        }
+    }
+    match (s.fill.count, s.fill.mass) {
+        (Some(_), None) | (None, Some(_)) => {}
+        _ => return err("fill", "expected exactly one of count or mass".into()),
+    }
+    if !(0.0..1.0).contains(&s.fit_band[0]) || s.fit_band[1] <= s.fit_band[0] || s.fit_band[1] > 1.0
+    {
+        return err(
+            "fit_band",
+            format!("expected 0 <= low < high <= 1, got {:?}", s.fit_band),
+        );
+    }
+    if s.planes == 0 {
+        return err("planes", "expected at least 1".into());
+    }
+    Ok(())
+}
+
+/// The scene of the test, as scene-file TOML.
+pub fn scene_toml(file: &TestFile, s: &Settings, seed: u64) -> Result<String, String> {
+    use toml::Value;
+    let plate = s.plate_size.unwrap_or(6.0 * s.cylinder_diameter);
+    let fill_height = s.fill_height.unwrap_or(s.cylinder_height);
+    let lift = s.lift_distance.unwrap_or(s.cylinder_height);
+    let duration = s.settle_max_time + lift / s.lift_speed + s.final_max_time;
+    let r = 0.5 * s.cylinder_diameter;
+    let arr = |v: [f64; 3]| Value::Array(v.iter().map(|x| Value::Float(*x)).collect());
+    let table = |pairs: Vec<(&str, Value)>| {
+        Value::Table(pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
+    };
+    let half = 0.5 * plate;
+    let mut fill = vec![
+        ("type", Value::String("random".into())),
+        ("seed", Value::Integer(seed as i64)),
+    ];
+    if let Some(c) = s.fill.count {
+        fill.push(("count", Value::Integer(c as i64)));
+    }
+    if let Some(m) = s.fill.mass {
+        fill.push(("mass", Value::Float(m)));
+    }
+    let scene = table(vec![
+        (
+            "simulation",
+            table(vec![
+                ("duration", Value::Float(duration)),
+                ("time_step_percent", Value::Float(s.time_step_percent)),
+                (
+                    "domain",
+                    table(vec![
+                        // A particle that rolls off the plate falls out of this box and stops
+                        // the run with its reason: the plate is too small.
+                        (
+                            "min",
+                            arr([-half * 1.2, -half * 1.2, -0.25 * s.cylinder_height]),
+                        ),
+                        (
+                            "max",
+                            arr([
+                                half * 1.2,
+                                half * 1.2,
+                                fill_height + 2.0 * s.cylinder_height,
+                            ]),
+                        ),
+                    ]),
+                ),
+            ]),
+        ),
+        ("material", file.materials.clone()),
+        ("interaction", file.interactions.clone()),
+        (
+            "geometry",
+            Value::Array(vec![
+                table(vec![
+                    ("name", Value::String("plate".into())),
+                    ("type", Value::String("box".into())),
+                    ("material", Value::String(s.wall_material.clone())),
+                    ("min", arr([-half, -half, -0.01])),
+                    ("max", arr([half, half, 0.0])),
+                    (
+                        "open",
+                        Value::Array(
+                            ["-x", "+x", "-y", "+y", "-z"]
+                                .iter()
+                                .map(|f| Value::String(f.to_string()))
+                                .collect(),
+                        ),
+                    ),
+                ]),
+                table(vec![
+                    ("name", Value::String("cylinder".into())),
+                    ("type", Value::String("cylinder".into())),
+                    ("material", Value::String(s.wall_material.clone())),
+                    ("base", arr([0.0, 0.0, 0.0])),
+                    ("axis", arr([0.0, 0.0, 1.0])),
+                    ("radius", Value::Float(r)),
+                    ("length", Value::Float(s.cylinder_height)),
+                ]),
+            ]),
+        ),
+        (
+            "particles",
+            Value::Array(vec![table(vec![
+                ("material", Value::String(s.particle_material.clone())),
+                ("size", s.size.clone()),
+                (
+                    "region",
+                    table(vec![
+                        ("type", Value::String("cylinder".into())),
+                        ("base", arr([0.0, 0.0, 0.0])),
+                        ("radius", Value::Float(r)),
+                        ("length", Value::Float(fill_height)),
+                    ]),
+                ),
+                ("fill", table(fill)),
+            ])]),
+        ),
+    ]);
+    toml::to_string(&scene).map_err(|e| format!("{}: {e}", file.name))
+}
+
+/// Runs the test. `progress` hears the phase and the simulated time.
+pub fn run(
+    file: &TestFile,
+    seed_override: Option<u64>,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<Outcome, String> {
+    let s: Settings = file.settings()?;
+    check(file, &s)?;
+    let seed = seed_override.or(file.seed).unwrap_or(1);
+    let text = scene_toml(file, &s, seed)?;
+    let scene = Scene::from_toml(&text, &file.name, std::path::Path::new("."))
+        .map_err(|e| e.to_string())?;
+    let wall = Instant::now();
+    let mut sim = scene.simulation;
+    let dt = sim.params.time_step;
+    let total_mass: f64 = sim.particles.mass.iter().sum();
+    let rms = |sim: &dem::Simulation| (2.0 * sim.particles.kinetic_energy() / total_mass).sqrt();
+    let chunk = ((0.01 / dt).ceil() as u64).max(1);
+    let fail = |e: dem::sim::SimError| format!("{}: simulation failed: {e}", file.name);
+
+    // 1. Settle in the cylinder (at least 0.05 s so a fill at rest does not count as settled).
+    while sim.time < s.settle_max_time {
+        sim.run(chunk).map_err(fail)?;
+        progress("settle", sim.time);
+        if sim.time > 0.05 && rms(&sim) < s.settle_speed {
+            break;
+        }
+    }
+    let settle_time = sim.time;
+    // 2. Lift.
+    let lift = s.lift_distance.unwrap_or(s.cylinder_height);
+    let lift_time = lift / s.lift_speed;
+    let start = sim.time;
+    sim.geometries[1].motion.push(Motion::Translation {
+        velocity: DVec3::new(0.0, 0.0, s.lift_speed),
+        start,
+        end: start + lift_time,
+    });
+    while sim.time < start + lift_time {
+        sim.run(chunk).map_err(fail)?;
+        progress("lift", sim.time);
+    }
+    // 3. Let the heap come to rest.
+    let final_start = sim.time;
+    while sim.time < final_start + s.final_max_time {
+        sim.run(chunk).map_err(fail)?;
+        progress("final settle", sim.time);
+        if rms(&sim) < s.settle_speed {
+            break;
+        }
+    }
+    let final_rms = rms(&sim);
+    let positions = sim.particles.position.clone();
+    let radii = sim.particles.radius.clone();
+    let m = ReposeMeasurement {
+        planes: s.planes,
+        fit_band: (s.fit_band[0], s.fit_band[1]),
+        ..Default::default()
+    };
+    let res = measure(&positions, &radii, &m).map_err(|e| format!("{}: {e}", file.name))?;
+    Ok(Outcome {
+        angle_of_repose_deg: res.angle_deg,
+        angle_std_deg: res.angle_std_deg,
+        heap_height_m: res.heap_height,
+        heap_radius_m: res.heap_radius,
+        flank_angles_deg: res.flanks.iter().map(|f| f.angle_deg).collect(),
+        particles: positions.len(),
+        time_step_s: dt,
+        settle_time_s: settle_time,
+        simulated_time_s: sim.time,
+        final_rms_speed_m_s: final_rms,
+        wall_s: wall.elapsed().as_secs_f64(),
+        seed,
+        measurement: Some(res),
+        positions,
+        radii,
+    })
+}

@@ -1,0 +1,147 @@
+//! Pictures of a heap: the measured profiles with their fitted lines (SVG, plotters), and a side
+//! view of the particles (PNG, a small z-buffered sphere rasteriser).
+
+use glam::DVec3;
+use plotters::prelude::*;
+
+use crate::repose::ReposeResult;
+
+const COLOURS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+fn err<E: std::fmt::Debug>(e: E) -> String {
+    format!("plot: {e:?}")
+}
+
+/// Profiles of every plane (points; flank on the left drawn at negative distance) and the line
+/// fitted to each flank over the points it used.
+pub fn profiles_svg(res: &ReposeResult) -> Result<String, String> {
+    let xmax = res
+        .flanks
+        .iter()
+        .flat_map(|f| f.profile.iter().map(|p| p.0))
+        .fold(0.0f64, f64::max)
+        * 1.05;
+    let zmax = res.heap_height * 1.15;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 480)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!(
+                    "Heap profiles: angle {:.2} ± {:.2} deg over {} flanks",
+                    res.angle_deg,
+                    res.angle_std_deg,
+                    res.flanks.len()
+                ),
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d(-xmax..xmax, 0.0..zmax)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("distance from the axis (m)")
+            .y_desc("height (m)")
+            .draw()
+            .map_err(err)?;
+        for (i, f) in res.flanks.iter().enumerate() {
+            let colour = COLOURS[(i / 2) % COLOURS.len()];
+            chart
+                .draw_series(
+                    f.profile
+                        .iter()
+                        .map(|&(s, z)| Circle::new((f.side * s, z), 2, colour.filled())),
+                )
+                .map_err(err)?;
+            let (s0, s1) = f
+                .fitted
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+            let line = [
+                (f.side * s0, f.intercept + f.slope * s0),
+                (f.side * s1, f.intercept + f.slope * s1),
+            ];
+            chart
+                .draw_series(LineSeries::new(line, BLACK.stroke_width(2)))
+                .map_err(err)?;
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// A side view (looking along +y) of spheres, shaded by their normal, `width` pixels wide.
+pub fn side_view_png(
+    positions: &[DVec3],
+    radii: &[f64],
+    width: u32,
+    path: &std::path::Path,
+) -> Result<(), String> {
+    if positions.is_empty() {
+        return Err("side view: no particles".into());
+    }
+    let (mut lo, mut hi) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
+    for (p, &r) in positions.iter().zip(radii) {
+        lo = lo.min(*p - DVec3::splat(r));
+        hi = hi.max(*p + DVec3::splat(r));
+    }
+    let pad = 0.05 * (hi.x - lo.x).max(hi.z - lo.z);
+    let (x0, x1, z0, z1) = (lo.x - pad, hi.x + pad, lo.z.min(0.0) - pad, hi.z + pad);
+    let scale = width as f64 / (x1 - x0);
+    let height = ((z1 - z0) * scale).ceil().max(1.0) as u32;
+    let mut img = image::RgbImage::from_pixel(width, height, image::Rgb([255, 255, 255]));
+    let mut depth = vec![f64::INFINITY; (width * height) as usize];
+    let light = DVec3::new(-0.4, -0.8, 0.45).normalize();
+    for (p, &r) in positions.iter().zip(radii) {
+        let (cx, cz) = ((p.x - x0) * scale, (z1 - p.z) * scale);
+        let pr = r * scale;
+        let (ia, ib) = (
+            (cx - pr).floor().max(0.0) as u32,
+            ((cx + pr).ceil() as u32).min(width - 1),
+        );
+        let (ja, jb) = (
+            (cz - pr).floor().max(0.0) as u32,
+            ((cz + pr).ceil() as u32).min(height - 1),
+        );
+        for j in ja..=jb {
+            for i in ia..=ib {
+                let (dx, dz) = ((i as f64 + 0.5 - cx) / pr, (cz - (j as f64 + 0.5)) / pr);
+                let q = dx * dx + dz * dz;
+                if q > 1.0 {
+                    continue;
+                }
+                let dy = -(1.0 - q).sqrt(); // the surface facing the viewer at -y
+                let d = p.y + dy * r;
+                let k = (j * width + i) as usize;
+                if d < depth[k] {
+                    depth[k] = d;
+                    let normal = DVec3::new(dx, dy, dz);
+                    let shade = 0.25 + 0.75 * normal.dot(light).max(0.0);
+                    let c = |base: f64| (base * shade).clamp(0.0, 255.0) as u8;
+                    img.put_pixel(i, j, image::Rgb([c(214.0), c(170.0), c(70.0)]));
+                }
+            }
+        }
+    }
+    // The base plate as a dark line at z = 0.
+    let jz = ((z1 - 0.0) * scale) as u32;
+    for j in jz..(jz + 3).min(height) {
+        for i in 0..width {
+            if depth[(j * width + i) as usize].is_infinite() {
+                img.put_pixel(i, j, image::Rgb([90, 90, 90]));
+            }
+        }
+    }
+    img.save(path)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}

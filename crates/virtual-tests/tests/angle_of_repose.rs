@@ -1,0 +1,119 @@
+//! The lifted-cylinder test end to end on a small heap, and its file errors.
+
+use virtual_tests::{run_file, TestFile};
+
+fn file(settings_extra: &str, count: u32) -> String {
+    format!(
+        r#"
+test = "angle_of_repose"
+seed = 3
+
+[[material]]
+name = "bead"
+density = 1200
+poisson_ratio = 0.3
+shear_modulus = 5.0e6
+
+[[material]]
+name = "steel"
+density = 7850
+poisson_ratio = 0.3
+shear_modulus = 7.0e10
+
+[[interaction]]
+materials = ["bead", "bead"]
+restitution = 0.4
+static_friction = 0.5
+rolling_friction = 0.1
+
+[[interaction]]
+materials = ["bead", "steel"]
+restitution = 0.5
+static_friction = 0.5
+rolling_friction = 0.1
+
+[angle_of_repose]
+particle_material = "bead"
+wall_material = "steel"
+cylinder_diameter = 0.04
+cylinder_height = 0.06
+plate_size = 0.24
+size = {{ type = "fixed", radius = 0.002 }}
+fill = {{ count = {count} }}
+lift_speed = 0.1
+{settings_extra}
+"#
+    )
+}
+
+#[test]
+fn same_seed_same_angle_and_pictures_are_written() {
+    let f = TestFile::parse("heap.toml", &file("", 500)).unwrap();
+    let out = std::env::temp_dir().join(format!("demcal-heap-{}", std::process::id()));
+    let (a, summary) = run_file(&f, None, Some(&out), &mut |_, _| {}).unwrap();
+    let (b, _) = run_file(&f, None, None, &mut |_, _| {}).unwrap();
+    eprintln!("{summary}");
+    assert_eq!(a["angle_of_repose_deg"], b["angle_of_repose_deg"]);
+    assert_eq!(a["particles"], 500);
+    let angle = a["angle_of_repose_deg"].as_f64().unwrap();
+    assert!(angle > 5.0 && angle < 45.0, "{angle}");
+    // The heap is still and lower than the filled column was.
+    assert!(a["final_rms_speed_m_s"].as_f64().unwrap() < 0.005);
+    assert!(a["heap_height_m"].as_f64().unwrap() < 0.06);
+    for key in [
+        "angle_std_deg",
+        "heap_radius_m",
+        "wall_s",
+        "simulated_time_s",
+    ] {
+        assert!(a.get(key).is_some(), "{key}");
+    }
+    let svg = std::fs::read_to_string(out.join("profiles.svg")).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let lines = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("polyline") && n.attribute("stroke-width") == Some("2"))
+        .count();
+    assert_eq!(lines, 8, "one fitted line per flank (4 planes)");
+    let png = std::fs::read(out.join("heap.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    // Another seed gives another heap.
+    let (c, _) = run_file(&f, Some(4), None, &mut |_, _| {}).unwrap();
+    assert_ne!(a["angle_of_repose_deg"], c["angle_of_repose_deg"]);
+}
+
+#[test]
+fn file_errors_name_the_key() {
+    let cases = [
+        (
+            file("bogus = 1", 10),
+            "heap.toml: angle_of_repose.bogus: unknown field",
+        ),
+        (
+            file("", 10).replace("fill = { count = 10 }", "fill = { count = 10, mass = 1.0 }"),
+            "angle_of_repose.fill: expected exactly one of count or mass",
+        ),
+        (
+            file("", 10).replace("lift_speed = 0.1", "lift_speed = -1"),
+            "angle_of_repose.lift_speed: expected a positive number",
+        ),
+        (
+            file("", 10).replace("test = \"angle_of_repose\"", "test = \"shear\""),
+            "heap.toml: test: unknown test \"shear\"",
+        ),
+        (
+            file("", 10).replace(
+                "particle_material = \"bead\"",
+                "particle_material = \"corn\"",
+            ),
+            "heap.toml",
+        ),
+    ];
+    for (text, want) in cases {
+        let e = TestFile::parse("heap.toml", &text)
+            .and_then(|f| run_file(&f, None, None, &mut |_, _| {}).map(|_| ()))
+            .unwrap_err();
+        assert!(e.contains(want), "{e}\nwanted: {want}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}

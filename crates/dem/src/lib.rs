@@ -6,6 +6,7 @@
 //! scene files. The physics contract is `shared/spec/physics.md`; [`sim`] explains the step pipeline.
 
 pub mod bench;
+pub mod clump;
 pub mod contact;
 pub mod fill;
 pub mod geometry;

@@ -436,7 +436,7 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
         simulation.time,
         wall,
         simulation.particles.len() as f64 * simulation.steps as f64 / wall.max(1e-9),
-        simulation.particles.kinetic_energy(),
+        simulation.kinetic_energy(),
         snapshots,
         dir.display()
     );

@@ -70,7 +70,7 @@ pub fn settle(steps: Option<u64>, mut progress: impl FnMut(u64)) -> Result<Bench
         steps,
         wall_s,
         bed_height_m: bed_height(&sim.particles),
-        kinetic_energy_j: sim.particles.kinetic_energy(),
+        kinetic_energy_j: sim.kinetic_energy(),
         stages: sim.timers.breakdown(),
         neighbour_rebuilds: sim.neighbour_rebuilds(),
     })

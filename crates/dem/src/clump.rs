@@ -300,6 +300,113 @@ impl RigidRotation {
     }
 }
 
+/// Clumps in a simulation: rigid bodies whose member spheres are ordinary particles (flagged by
+/// `Particles::body`), so contact detection and forces need no special case beyond skipping pairs
+/// of one body. Each member carries its body's mass, which is what its contacts should see.
+#[derive(Clone, Debug, Default)]
+pub struct Bodies {
+    pub position: Vec<DVec3>,
+    pub velocity: Vec<DVec3>,
+    pub rotation: Vec<RigidRotation>,
+    pub mass: Vec<f64>,
+    /// Member particles by stable id.
+    pub members: Vec<Vec<u32>>,
+    /// Force and torque (about the centre of mass) from the last force evaluation, and the summed
+    /// constant-directional rolling resistance of the members.
+    pub force: Vec<DVec3>,
+    pub torque: Vec<DVec3>,
+    pub rolling_limit: Vec<f64>,
+}
+
+impl Bodies {
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Adds a clump of `template` (with its `props`) of material density `density`, centre of mass
+    /// at `position`, body axes rotated by `orientation` from the template's principal axes.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add(
+        &mut self,
+        particles: &mut crate::particles::Particles,
+        template: &ClumpTemplate,
+        props: &MassProperties,
+        density: f64,
+        material: usize,
+        position: DVec3,
+        orientation: DQuat,
+        velocity: DVec3,
+    ) -> usize {
+        let b = self.len();
+        let mass = density * props.volume;
+        // Body frame = principal axes, origin at the centroid.
+        let to_body = props.axes.transpose();
+        let mut members = Vec::new();
+        for (c, r) in &template.spheres {
+            let offset = to_body * (*c - props.centroid);
+            let id = particles.len() as u32;
+            particles.push(
+                position + orientation * offset,
+                velocity,
+                *r,
+                density,
+                material,
+            );
+            let k = particles.len() - 1;
+            particles.mass[k] = mass;
+            particles.inv_mass[k] = 1.0 / mass;
+            particles.body[k] = b as u32;
+            particles.body_offset[k] = offset;
+            members.push(id);
+        }
+        self.position.push(position);
+        self.velocity.push(velocity);
+        self.rotation.push(RigidRotation {
+            orientation,
+            angular_momentum: DVec3::ZERO,
+            principal_inertia: props.principal_inertia * density,
+        });
+        self.mass.push(mass);
+        self.members.push(members);
+        self.force.push(DVec3::ZERO);
+        self.torque.push(DVec3::ZERO);
+        self.rolling_limit.push(0.0);
+        b
+    }
+
+    pub fn kinetic_energy(&self) -> f64 {
+        (0..self.len())
+            .map(|b| {
+                0.5 * self.mass[b] * self.velocity[b].length_squared()
+                    + self.rotation[b].kinetic_energy()
+            })
+            .sum()
+    }
+
+    /// Half kick of body `b` with its stored force and torque; the rolling resistance brakes the
+    /// angular momentum along the spin, at most to rest.
+    pub fn kick(&mut self, b: usize, half_dt: f64) {
+        self.velocity[b] += self.force[b] * (half_dt / self.mass[b]);
+        let rot = &mut self.rotation[b];
+        rot.angular_momentum += self.torque[b] * half_dt;
+        let brake = self.rolling_limit[b] * half_dt;
+        if brake > 0.0 {
+            let w = rot.angular_velocity();
+            let s = w.length();
+            if s > 0.0 {
+                let dir = w / s;
+                let along = rot.angular_momentum.dot(dir);
+                let cut = brake.min(along.max(0.0));
+                rot.angular_momentum -= dir * cut;
+            }
+        }
+    }
+}
+
 fn omega(q: DQuat, l: DVec3, inertia: DVec3) -> DVec3 {
     let body = q.inverse() * l;
     q * (body / inertia)

@@ -23,7 +23,14 @@ pub struct Particles {
     pub inv_mass: Vec<f64>,
     pub inv_inertia: Vec<f64>,
     pub material: Vec<u16>,
+    /// The clump a sphere belongs to ([`NO_BODY`] for a free sphere); see [`crate::clump::Bodies`].
+    pub body: Vec<u32>,
+    /// A clump member's centre in its body's frame (relative to the body's centre of mass).
+    pub body_offset: Vec<DVec3>,
 }
+
+/// `body` of a sphere that is not part of a clump.
+pub const NO_BODY: u32 = u32::MAX;
 
 impl Particles {
     pub fn len(&self) -> usize {
@@ -57,6 +64,8 @@ impl Particles {
         self.inv_mass.push(1.0 / mass);
         self.inv_inertia.push(1.0 / inertia);
         self.material.push(material as u16);
+        self.body.push(NO_BODY);
+        self.body_offset.push(DVec3::ZERO);
     }
 
     /// Reorders every array so that new index k holds old particle `order[k]`.
@@ -90,6 +99,8 @@ impl Particles {
         apply(&mut self.inv_mass, order, scratch);
         apply(&mut self.inv_inertia, order, scratch);
         apply(&mut self.material, order, scratch);
+        apply(&mut self.body, order, scratch);
+        apply(&mut self.body_offset, order, scratch);
     }
 
     /// Axis-aligned box around the centres, grown by each radius when `with_radius`.
@@ -105,8 +116,10 @@ impl Particles {
     }
 
     /// Translational plus rotational kinetic energy.
+    /// Kinetic energy of the free spheres (clumps: [`crate::Simulation::kinetic_energy`]).
     pub fn kinetic_energy(&self) -> f64 {
         (0..self.len())
+            .filter(|&k| self.body[k] == NO_BODY)
             .map(|k| {
                 0.5 * self.mass[k] * self.velocity[k].length_squared()
                     + 0.5 * self.angular_velocity[k].length_squared() / self.inv_inertia[k]
@@ -114,7 +127,11 @@ impl Particles {
             .sum()
     }
 
+    /// Mass of the free spheres (a clump member carries its whole body's mass for its contacts).
     pub fn total_mass(&self) -> f64 {
-        self.mass.iter().sum()
+        (0..self.len())
+            .filter(|&k| self.body[k] == NO_BODY)
+            .map(|k| self.mass[k])
+            .sum()
     }
 }

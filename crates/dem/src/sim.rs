@@ -12,6 +12,7 @@
 //! No stage uses atomics or locks and every sum runs in a fixed order, so results are bit-identical
 //! run to run for any thread count.
 
+use crate::clump::Bodies;
 use crate::contact::{
     epsd_rolling_torque, hertz_mindlin, jkr_cutoff_overlap, ContactPoint, RollingModel,
 };
@@ -19,6 +20,7 @@ use crate::geometry::{ElementGrid, Geometry, Load, Region};
 use crate::material::MaterialTable;
 use crate::neighbour::{NeighbourList, PairOutput};
 use crate::particles::Particles;
+use crate::particles::NO_BODY;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use smallvec::SmallVec;
@@ -143,6 +145,10 @@ pub struct Simulation {
     forces_ready: bool,
     /// Extra neighbour-search reach for JKR attraction beyond touching (0 without cohesion).
     cohesive_reach: f64,
+    /// Clumps (rigid multi-sphere bodies); their members are particles flagged with `body`.
+    pub bodies: Bodies,
+    /// Current index of each particle by stable id (particles are reordered at rebuilds).
+    index_of: Vec<u32>,
 }
 
 /// Raw pointer that may be shared between rayon tasks that write disjoint slots.
@@ -186,6 +192,8 @@ impl Simulation {
             bounds_at_build: (DVec3::ZERO, DVec3::ZERO),
             forces_ready: false,
             cohesive_reach: 0.0,
+            bodies: Bodies::default(),
+            index_of: Vec::new(),
         };
         let max_r = sim.particles.radius.iter().cloned().fold(0.0, f64::max);
         // A wall contact has R* = r, the largest any contact of these particles can have.
@@ -272,6 +280,23 @@ impl Simulation {
         Ok(())
     }
 
+    /// Adds clumps whose member spheres are already among the particles (see [`Bodies::add`]).
+    pub fn with_bodies(mut self, bodies: Bodies) -> Self {
+        self.bodies = bodies;
+        self.forces_ready = false;
+        self
+    }
+
+    /// Kinetic energy of free spheres and clumps.
+    pub fn kinetic_energy(&self) -> f64 {
+        self.particles.kinetic_energy() + self.bodies.kinetic_energy()
+    }
+
+    /// Mass of free spheres and clumps.
+    pub fn total_mass(&self) -> f64 {
+        self.particles.total_mass() + self.bodies.mass.iter().sum::<f64>()
+    }
+
     /// One velocity-Verlet step.
     pub fn step(&mut self) -> Result<(), SimError> {
         if !self.forces_ready {
@@ -282,6 +307,9 @@ impl Simulation {
         let dt = self.params.time_step;
 
         let t0 = Instant::now();
+        if !self.bodies.is_empty() {
+            self.bodies_first_half(dt);
+        }
         let max_disp = self.integrate_first_half(dt)?;
         let t1 = Instant::now();
         self.timers.integrate += t1 - t0;
@@ -314,10 +342,73 @@ impl Simulation {
         let t1 = Instant::now();
         self.timers.pair_forces += t1 - t0;
         self.particle_forces(kick);
+        if !self.bodies.is_empty() {
+            self.gather_bodies();
+            if kick {
+                let half = 0.5 * self.params.time_step;
+                for b in 0..self.bodies.len() {
+                    self.bodies.kick(b, half);
+                }
+                self.place_members(false);
+            }
+        }
         let t2 = Instant::now();
         self.timers.particle_forces += t2 - t1;
         self.geometry_loads();
         self.timers.geometry_loads += t2.elapsed();
+    }
+
+    /// Clumps: half kick, drift, orientation update, then their members follow.
+    fn bodies_first_half(&mut self, dt: f64) {
+        let half = 0.5 * dt;
+        let bodies = &mut self.bodies;
+        for b in 0..bodies.len() {
+            bodies.kick(b, half);
+            bodies.position[b] += bodies.velocity[b] * dt;
+            bodies.rotation[b].advance_orientation(dt);
+        }
+        self.place_members(true);
+    }
+
+    /// Sets clump members' velocity and spin (and position when `positions`) from their body.
+    fn place_members(&mut self, positions: bool) {
+        let p = &mut self.particles;
+        let bodies = &self.bodies;
+        for b in 0..bodies.len() {
+            let rot = &bodies.rotation[b];
+            let w = rot.angular_velocity();
+            for &id in &bodies.members[b] {
+                let k = self.index_of[id as usize] as usize;
+                let arm = rot.orientation * p.body_offset[k];
+                if positions {
+                    p.position[k] = bodies.position[b] + arm;
+                }
+                p.velocity[k] = bodies.velocity[b] + w.cross(arm);
+                p.angular_velocity[k] = w;
+            }
+        }
+    }
+
+    /// Sums members' forces and torques onto their bodies. A member's force includes gravity on
+    /// the whole body's mass (it carries that mass for its contacts), so that is taken off and the
+    /// body's weight added once.
+    fn gather_bodies(&mut self) {
+        let p = &self.particles;
+        let g = self.params.gravity;
+        let bodies = &mut self.bodies;
+        for b in 0..bodies.len() {
+            let (mut f, mut t, mut lim) = (g * bodies.mass[b], DVec3::ZERO, 0.0);
+            for &id in &bodies.members[b] {
+                let k = self.index_of[id as usize] as usize;
+                let contact = p.force[k] - g * p.mass[k];
+                f += contact;
+                t += (p.position[k] - bodies.position[b]).cross(contact) + p.torque[k];
+                lim += p.rolling_torque_limit[k];
+            }
+            bodies.force[b] = f;
+            bodies.torque[b] = t;
+            bodies.rolling_limit[b] = lim;
+        }
     }
 
     /// Half kick and drift; returns the largest displacement since the last list build.
@@ -326,12 +417,14 @@ impl Simulation {
         let p = &mut self.particles;
         let built = &self.neighbours.built_at;
         let domain = self.params.domain;
-        let (inv_mass, inv_inertia, force, torque, limit) = (
+        let clumps = !self.bodies.is_empty();
+        let (inv_mass, inv_inertia, force, torque, limit, body) = (
             &p.inv_mass,
             &p.inv_inertia,
             &p.force,
             &p.torque,
             &p.rolling_torque_limit,
+            &p.body,
         );
         let (max_d2, bad) = p
             .position
@@ -345,9 +438,12 @@ impl Simulation {
                 let mut bad: Option<usize> = None;
                 for k in 0..xs.len() {
                     let i = base + k;
-                    vs[k] += force[i] * (inv_mass[i] * half);
-                    ws[k] = kick_spin(ws[k], torque[i], limit[i], inv_inertia[i] * half);
-                    xs[k] += vs[k] * dt;
+                    // Clump members were moved with their bodies.
+                    if !clumps || body[i] == NO_BODY {
+                        vs[k] += force[i] * (inv_mass[i] * half);
+                        ws[k] = kick_spin(ws[k], torque[i], limit[i], inv_inertia[i] * half);
+                        xs[k] += vs[k] * dt;
+                    }
                     let d2 = (xs[k] - built[i]).length_squared();
                     if d2.is_finite() {
                         worst = worst.max(d2);
@@ -394,6 +490,10 @@ impl Simulation {
             .neighbours
             .rebuild(&mut self.particles, self.cohesive_reach);
         let order = reorder.order.to_vec();
+        self.index_of.resize(self.particles.len(), 0);
+        for (k, &id) in self.particles.id.iter().enumerate() {
+            self.index_of[id as usize] = k as u32;
+        }
 
         let p = &self.particles;
         let n = p.len();
@@ -483,6 +583,7 @@ impl Simulation {
         let dt = self.params.time_step;
         let rolling = self.params.rolling_model;
         let cohesive = self.cohesive_reach > 0.0;
+        let clumps = !self.bodies.is_empty();
         let nl = &mut self.neighbours;
         nl.pairs
             .par_chunks_mut(BLOCK * 4)
@@ -490,6 +591,11 @@ impl Simulation {
             .for_each(|(pairs, outs)| {
                 for (pair, out) in pairs.iter_mut().zip(outs.iter_mut()) {
                     let (i, j) = (pair.i as usize, pair.j as usize);
+                    if clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
+                        // Members of one clump overlap by design.
+                        *out = PairOutput::default();
+                        continue;
+                    }
                     let delta = p.position[i] - p.position[j];
                     let (ri, rj) = (p.radius[i], p.radius[j]);
                     let sum = ri + rj;
@@ -569,6 +675,7 @@ impl Simulation {
         let dt = self.params.time_step;
         let gravity = self.params.gravity;
         let rolling = self.params.rolling_model;
+        let clumps = !self.bodies.is_empty();
         let nl = &self.neighbours;
         let materials = &self.materials;
         let geometries = &self.geometries;
@@ -576,13 +683,14 @@ impl Simulation {
         let walls = Shared(self.walls.as_mut_ptr());
         let wall_out = Shared(self.wall_output.as_mut_ptr());
         let p = &mut self.particles;
-        let (position, radius, mass, inv_mass, inv_inertia, material) = (
+        let (position, radius, mass, inv_mass, inv_inertia, material, body) = (
             &p.position,
             &p.radius,
             &p.mass,
             &p.inv_mass,
             &p.inv_inertia,
             &p.material,
+            &p.body,
         );
         p.force
             .par_chunks_mut(BLOCK)
@@ -635,7 +743,7 @@ impl Simulation {
                     fs[k] = f;
                     ts[k] = t;
                     ls[k] = lim;
-                    if kick {
+                    if kick && (!clumps || body[i] == NO_BODY) {
                         vs[k] += f * (inv_mass[i] * half);
                         ws[k] = kick_spin(ws[k], t, lim, inv_inertia[i] * half);
                     }

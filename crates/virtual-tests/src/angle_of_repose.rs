@@ -259,8 +259,8 @@ pub fn run(
     let wall = Instant::now();
     let mut sim = scene.simulation;
     let dt = sim.params.time_step;
-    let total_mass: f64 = sim.particles.mass.iter().sum();
-    let rms = |sim: &dem::Simulation| (2.0 * sim.particles.kinetic_energy() / total_mass).sqrt();
+    let total_mass = sim.total_mass();
+    let rms = |sim: &dem::Simulation| (2.0 * sim.kinetic_energy() / total_mass).sqrt();
     let chunk = ((0.01 / dt).ceil() as u64).max(1);
     let fail = |e: dem::sim::SimError| format!("{}: simulation failed: {e}", file.name);
 

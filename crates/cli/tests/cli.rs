@@ -46,6 +46,17 @@ fn demcal() -> Command {
     Command::new(env!("CARGO_BIN_EXE_demcal"))
 }
 
+/// Runs demcal with `args`, requires success, returns standard output.
+fn run_ok(args: &[&std::ffi::OsStr]) -> String {
+    let out = demcal().args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
 fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("demcal-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -246,57 +257,47 @@ fn doe_design_then_analyze_and_optimize() {
     let data_path = dir.join("data.csv");
     std::fs::write(&data_path, data).unwrap();
     let plots = dir.join("plots");
-    let out = demcal()
-        .args(["doe", "analyze"])
-        .arg(&data_path)
-        .args([
-            "--response",
-            "angle",
-            "--model",
-            "mu,e,k,mu^2",
-            "--json",
-            "--plots",
-        ])
-        .arg(&plots)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let last = stdout.lines().last().unwrap();
-    assert!(
-        last.contains(r#""coefficients_coded":{"Intercept":30.0"#)
-            || last.contains(r#""Intercept":30"#),
-        "{last}"
-    );
-    assert!(last.contains(r#""mu^2":0.75"#), "{last}");
+    let os = |a: &'static str| std::ffi::OsStr::new(a);
+    let stdout = run_ok(&[
+        os("doe"),
+        os("analyze"),
+        data_path.as_os_str(),
+        os("--response"),
+        os("angle"),
+        os("--model"),
+        os("mu,e,k,mu^2"),
+        os("--json"),
+        os("--plots"),
+        plots.as_os_str(),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let coded = &v["coefficients_coded"];
+    for (term, want) in [
+        ("Intercept", 30.0),
+        ("mu", 2.0),
+        ("e", -1.0),
+        ("k", 0.5),
+        ("mu^2", 0.75),
+    ] {
+        let got = coded[term].as_f64().unwrap();
+        assert!((got - want).abs() < 1e-9, "{term}: {got}");
+    }
     for f in ["predicted_vs_actual.svg", "contour.svg", "surface.svg"] {
         assert!(plots.join(f).exists(), "{f}");
     }
-    let out = demcal()
-        .args(["doe", "optimize"])
-        .arg(&data_path)
-        .args([
-            "--response",
-            "angle",
-            "--model",
-            "quadratic",
-            "--goal",
-            "target=31",
-            "--solutions",
-            "3",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).unwrap();
+    let stdout = run_ok(&[
+        os("doe"),
+        os("optimize"),
+        data_path.as_os_str(),
+        os("--response"),
+        os("angle"),
+        os("--model"),
+        os("quadratic"),
+        os("--goal"),
+        os("target=31"),
+        os("--solutions"),
+        os("3"),
+    ]);
     assert!(stdout.contains("mu (actual)"), "{stdout}");
     let first = stdout
         .lines()
@@ -356,18 +357,13 @@ fn test_command_prints_json_last() {
     .replace("cylinder_height = 0.1", "cylinder_height = 0.04");
     let path = dir.join("repose.toml");
     std::fs::write(&path, text).unwrap();
-    let out = demcal()
-        .arg("test")
-        .arg(&path)
-        .args(["--json", "--seed", "2"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).unwrap();
+    let stdout = run_ok(&[
+        std::ffi::OsStr::new("test"),
+        path.as_os_str(),
+        std::ffi::OsStr::new("--json"),
+        std::ffi::OsStr::new("--seed"),
+        std::ffi::OsStr::new("2"),
+    ]);
     let last = stdout.lines().last().unwrap();
     assert!(last.starts_with('{') && last.ends_with('}'), "{last}");
     for key in [

@@ -1,7 +1,8 @@
 //! The demcal DEM engine.
 //!
-//! Spheres with per-particle radius and material, Hertz-Mindlin (no slip) contacts with constant
-//! directional torque or elastic-plastic spring-dashpot rolling friction, analytic walls and STL
+//! Spheres with per-particle radius and material, multi-sphere clumps as rigid bodies ([`clump`]),
+//! Hertz-Mindlin (no slip) contacts with optional JKR cohesion, constant directional torque or
+//! elastic-plastic spring-dashpot rolling friction, analytic walls and STL
 //! meshes with prescribed motion, cell-grid neighbour lists with a skin, velocity Verlet, and TOML
 //! scene files. The physics contract is `shared/spec/physics.md`; [`sim`] explains the step pipeline.
 

@@ -166,7 +166,7 @@ fn point_type(d: &Design, run: &[f64]) -> &'static str {
     let nonzero = run.iter().filter(|v| v.abs() > 1e-12).count();
     if nonzero == 0 {
         "center"
-    } else if d.kind.starts_with("steepest") {
+    } else if d.sequential {
         "path"
     } else if d.alpha.is_some() && nonzero == 1 {
         "axial"
@@ -187,12 +187,7 @@ fn point_type(d: &Design, run: &[f64]) -> &'static str {
 /// The design as CSV, rows in run order: `std_order,run_order,point_type`, the coded columns (named
 /// by the factors), then `<name>_actual` columns.
 pub fn design_csv(d: &Design, factors: &[Factor], seed: u64) -> String {
-    // A steepest path is run in order, step after step.
-    let order = if d.kind.starts_with("steepest") {
-        (0..d.runs.len()).collect()
-    } else {
-        d.run_order(seed)
-    };
+    let order = d.run_order(seed);
     let mut s = String::from("std_order,run_order,point_type");
     for f in factors {
         write!(s, ",{}", f.name).unwrap();
@@ -329,10 +324,7 @@ fn factor_columns(spec: &Option<String>) -> Result<FactorColumns, String> {
 fn model_terms(spec: Option<&str>, exp: &Experiment) -> Result<Vec<Term>, String> {
     let k = exp.factor_names.len();
     let default = || {
-        let two_level = exp.coded.iter().all(|r| {
-            r.iter().all(|v| v.abs() < 1e-9) || r.iter().all(|v| (v.abs() - 1.0).abs() < 1e-9)
-        });
-        if two_level {
+        if crate::fit::two_level_runs(&exp.coded).0 {
             ModelOrder::Linear
         } else {
             ModelOrder::Quadratic

@@ -23,6 +23,8 @@ pub struct Design {
     pub aliases: Vec<String>,
     /// Central composite designs: the axial distance in coded units.
     pub alpha: Option<f64>,
+    /// Runs that must be made in order (a steepest path), not shuffled.
+    pub sequential: bool,
 }
 
 impl Design {
@@ -36,6 +38,7 @@ impl Design {
             defining_relation: Vec::new(),
             aliases: Vec::new(),
             alpha: None,
+            sequential: false,
         }
     }
 
@@ -48,10 +51,13 @@ impl Design {
         self
     }
 
-    /// A seeded random order in which to run the design (indices into `runs`).
+    /// A seeded random order in which to run the design (indices into `runs`); a sequential
+    /// design keeps its own order.
     pub fn run_order(&self, seed: u64) -> Vec<usize> {
         let mut order: Vec<usize> = (0..self.runs.len()).collect();
-        order.shuffle(&mut Pcg64::seed_from_u64(seed));
+        if !self.sequential {
+            order.shuffle(&mut Pcg64::seed_from_u64(seed));
+        }
         order
     }
 }
@@ -659,11 +665,13 @@ pub fn steepest_path(coefficients: &[f64], step: f64, steps: usize) -> Result<De
                 .collect()
         })
         .collect();
-    Ok(Design::new(
+    let mut d = Design::new(
         format!("steepest path, {steps} steps of {step}"),
         coefficients.len(),
         runs,
-    ))
+    );
+    d.sequential = true;
+    Ok(d)
 }
 
 #[cfg(test)]

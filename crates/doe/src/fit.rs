@@ -129,7 +129,9 @@ fn key(x: &[f64]) -> Vec<i64> {
     x.iter().map(|v| (v * 1e9).round() as i64).collect()
 }
 
-fn is_two_level_with_centres(coded: &[Vec<f64>]) -> (bool, Vec<bool>) {
+/// Whether every run is a centre point or has every factor at +-1 (with at least one such
+/// factorial run), and which runs are centre points.
+pub fn two_level_runs(coded: &[Vec<f64>]) -> (bool, Vec<bool>) {
     let centre: Vec<bool> = coded
         .iter()
         .map(|r| r.iter().all(|v| v.abs() < 1e-9))
@@ -250,7 +252,7 @@ impl Fit {
                 fmt_sig(mean)
             ));
         }
-        let (two_level, centre) = is_two_level_with_centres(&exp.coded);
+        let (two_level, centre) = two_level_runs(&exp.coded);
         let has_squares = terms.iter().any(|t| t.powers.iter().any(|&p| p >= 2));
         let use_curvature = curvature == Curvature::Auto
             && two_level

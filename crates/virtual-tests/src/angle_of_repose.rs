@@ -93,7 +93,7 @@ pub struct Outcome {
     pub wall_s: f64,
     pub seed: u64,
     #[serde(skip)]
-    pub measurement: Option<ReposeResult>,
+    pub measurement: ReposeResult,
     #[serde(skip)]
     pub positions: Vec<DVec3>,
     #[serde(skip)]
@@ -108,6 +108,10 @@ fn check(file: &TestFile, s: &Settings) -> Result<(), String> {
         ("lift_speed", s.lift_speed),
         ("settle_speed", s.settle_speed),
         ("time_step_percent", s.time_step_percent),
+        ("settle_max_time", s.settle_max_time),
+        ("final_max_time", s.final_max_time),
+        ("fill_height", s.fill_height.unwrap_or(1.0)),
+        ("lift_distance", s.lift_distance.unwrap_or(1.0)),
     ] {
         if v.is_nan() || v <= 0.0 {
             return err(key, format!("expected a positive number, got {v}"));
@@ -317,7 +321,7 @@ pub fn run(
         final_rms_speed_m_s: final_rms,
         wall_s: wall.elapsed().as_secs_f64(),
         seed,
-        measurement: Some(res),
+        measurement: res,
         positions,
         radii,
     })

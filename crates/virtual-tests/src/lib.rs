@@ -27,11 +27,9 @@ pub fn run_file(
             let o = angle_of_repose::run(file, seed, progress)?;
             if let Some(dir) = out {
                 std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-                if let Some(m) = &o.measurement {
-                    let svg = render::profiles_svg(m)?;
-                    let p = dir.join("profiles.svg");
-                    std::fs::write(&p, svg).map_err(|e| format!("{}: {e}", p.display()))?;
-                }
+                let svg = render::profiles_svg(&o.measurement)?;
+                let p = dir.join("profiles.svg");
+                std::fs::write(&p, svg).map_err(|e| format!("{}: {e}", p.display()))?;
                 render::side_view_png(&o.positions, &o.radii, 900, &dir.join("heap.png"))?;
                 let j = dir.join("result.json");
                 std::fs::write(&j, serde_json::to_string_pretty(&o).unwrap())

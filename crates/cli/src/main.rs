@@ -353,6 +353,7 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
         rayleigh_time_step,
         hertz_collision_time,
         warnings,
+        notes,
     } = scene;
     let dt = simulation.params.time_step;
     eprintln!(
@@ -366,6 +367,15 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
         hertz_collision_time,
         steps
     );
+    for n in &notes {
+        eprintln!("{n}");
+    }
+    if !simulation.factories.is_empty() {
+        eprintln!(
+            "{} factories create particles during the run",
+            simulation.factories.len()
+        );
+    }
     for w in &warnings {
         eprintln!("warning: {w}");
     }

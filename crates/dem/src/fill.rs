@@ -1,7 +1,8 @@
-//! Creating particles: size distributions, lattice fills and seeded random fills of a region.
+//! Creating particles: size distributions, regions and lattice fills (random fills of mixtures are
+//! in [`crate::mixture`]).
 
 use glam::DVec3;
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_pcg::Pcg64;
 use std::f64::consts::PI;
 
@@ -228,131 +229,10 @@ pub fn lattice_points(
     out
 }
 
-/// How much to generate in a random fill.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum FillTarget {
-    Count(usize),
-    /// Total mass in kg (with the given density).
-    Mass {
-        mass: f64,
-        density: f64,
-    },
-}
-
-/// Seeded random sequential insertion of non-overlapping spheres wholly inside `region`, avoiding
-/// `existing` spheres too. Radii are drawn first and placed largest first, which packs better.
-pub fn random_fill(
-    region: &Region,
-    sizes: &SizeDistribution,
-    target: FillTarget,
-    seed: u64,
-    existing: &[(DVec3, f64)],
-) -> Result<Vec<(DVec3, f64)>, String> {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let mut radii = Vec::new();
-    match target {
-        FillTarget::Count(n) => {
-            for _ in 0..n {
-                radii.push(sizes.sample(&mut rng));
-            }
-        }
-        FillTarget::Mass { mass, density } => {
-            let mut m = 0.0;
-            while m < mass {
-                let r = sizes.sample(&mut rng);
-                m += density * 4.0 / 3.0 * PI * r.powi(3);
-                radii.push(r);
-                if radii.len() > 50_000_000 {
-                    return Err("target mass needs more than 50 million particles".into());
-                }
-            }
-        }
-    }
-    radii.sort_by(|a, b| b.partial_cmp(a).unwrap());
-    let max_r = sizes
-        .max_radius()
-        .max(existing.iter().map(|e| e.1).fold(0.0, f64::max));
-    let (lo, hi) = region.bounds();
-    let cell = 2.0 * max_r;
-    let dims = (((hi - lo) / cell).ceil().max(DVec3::ONE)).as_uvec3();
-    let (nx, ny, nz) = (dims.x as usize, dims.y as usize, dims.z as usize);
-    if (nx as f64) * (ny as f64) * (nz as f64) > 2e8 {
-        return Err("region is too large for its particle size".into());
-    }
-    let mut grid: Vec<Vec<u32>> = vec![Vec::new(); nx * ny * nz];
-    let mut placed: Vec<(DVec3, f64)> = Vec::new();
-    let cell_of = |x: DVec3| -> Option<[i64; 3]> {
-        let c = ((x - lo) / cell).floor();
-        Some([c.x as i64, c.y as i64, c.z as i64])
-    };
-    let insert = |grid: &mut Vec<Vec<u32>>, placed: &mut Vec<(DVec3, f64)>, x: DVec3, r: f64| {
-        let c = cell_of(x).unwrap();
-        if c.iter()
-            .zip([nx, ny, nz])
-            .all(|(&v, d)| v >= 0 && (v as usize) < d)
-        {
-            grid[c[0] as usize + nx * (c[1] as usize + ny * c[2] as usize)]
-                .push(placed.len() as u32);
-        }
-        placed.push((x, r));
-    };
-    let n_existing = existing.len();
-    for &(x, r) in existing {
-        insert(&mut grid, &mut placed, x, r);
-    }
-    let free = |grid: &Vec<Vec<u32>>, placed: &Vec<(DVec3, f64)>, x: DVec3, r: f64| -> bool {
-        let c = cell_of(x).unwrap();
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let (a, b, d) = (c[0] + dx, c[1] + dy, c[2] + dz);
-                    if a < 0
-                        || b < 0
-                        || d < 0
-                        || a as usize >= nx
-                        || b as usize >= ny
-                        || d as usize >= nz
-                    {
-                        continue;
-                    }
-                    for &k in &grid[a as usize + nx * (b as usize + ny * d as usize)] {
-                        let (y, s) = placed[k as usize];
-                        if (x - y).length_squared() < (r + s) * (r + s) {
-                            return false;
-                        }
-                    }
-                }
-            }
-        }
-        true
-    };
-    let attempts_per_particle = 2000;
-    for (k, &r) in radii.iter().enumerate() {
-        let mut ok = false;
-        for _ in 0..attempts_per_particle {
-            let x = lo + (hi - lo) * DVec3::new(rng.gen(), rng.gen(), rng.gen());
-            if region.contains(x, r) && free(&grid, &placed, x, r) {
-                insert(&mut grid, &mut placed, x, r);
-                ok = true;
-                break;
-            }
-        }
-        if !ok {
-            let solid: f64 = radii.iter().map(|r| 4.0 / 3.0 * PI * r.powi(3)).sum();
-            return Err(format!(
-                "placed only {k} of {} particles without overlap: the region is too small \
-                 (requested solid fraction {:.2}; random insertion reaches about 0.3)",
-                radii.len(),
-                solid / region.volume()
-            ));
-        }
-    }
-    Ok(placed.split_off(n_existing))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
 
     #[test]
     fn settle_lattice_has_21160_points() {
@@ -405,53 +285,6 @@ mod tests {
             (inner / expected - 1.0).abs() < 0.05,
             "{inner} vs {expected}"
         );
-    }
-
-    #[test]
-    fn random_fill_is_seeded_and_overlap_free() {
-        let region = Region::Cylinder {
-            base: DVec3::ZERO,
-            axis: DVec3::Z,
-            radius: 0.02,
-            length: 0.04,
-        };
-        let sizes = SizeDistribution::Uniform {
-            min: 0.001,
-            max: 0.0015,
-        };
-        let a = random_fill(&region, &sizes, FillTarget::Count(500), 7, &[]).unwrap();
-        let b = random_fill(&region, &sizes, FillTarget::Count(500), 7, &[]).unwrap();
-        assert_eq!(a, b);
-        for (k, (x, r)) in a.iter().enumerate() {
-            assert!(region.contains(*x, *r));
-            for (y, s) in &a[k + 1..] {
-                assert!((*x - *y).length() >= r + s);
-            }
-        }
-    }
-
-    #[test]
-    fn random_fill_to_a_target_mass() {
-        let region = Region::Box {
-            min: DVec3::ZERO,
-            max: DVec3::splat(0.05),
-        };
-        let sizes = SizeDistribution::Fixed { radius: 0.002 };
-        let density = 1200.0;
-        let placed = random_fill(
-            &region,
-            &sizes,
-            FillTarget::Mass {
-                mass: 0.02,
-                density,
-            },
-            1,
-            &[],
-        )
-        .unwrap();
-        let one = density * 4.0 / 3.0 * PI * 0.002f64.powi(3);
-        let total = placed.len() as f64 * one;
-        assert!(total >= 0.02 && total < 0.02 + one, "{total}");
     }
 
     #[test]

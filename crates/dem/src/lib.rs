@@ -9,9 +9,12 @@
 pub mod bench;
 pub mod clump;
 pub mod contact;
+pub mod factory;
 pub mod fill;
 pub mod geometry;
+pub mod kernel;
 pub mod material;
+pub mod mixture;
 pub mod neighbour;
 pub mod output;
 pub mod particles;

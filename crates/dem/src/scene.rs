@@ -5,10 +5,14 @@
 //! the [`Simulation`]. Every failure is one [`SceneError`] line naming the file, the key and what was
 //! expected.
 
+use crate::clump::ClumpTemplate;
 use crate::contact::{NormalModel, RollingModel};
-use crate::fill::{self, FillTarget, Lattice, Region, SizeDistribution};
+use crate::factory::{perpendicular_axes, Factory, FactoryShape, Rate};
+use crate::fill::{self, Lattice, Region, SizeDistribution};
 use crate::geometry::{self, shapes, Element, Geometry, Motion};
+use crate::kernel::KernelShape;
 use crate::material::{Interaction, Material, MaterialTable};
+use crate::mixture::{self, FillTarget, Item, Mixture, ParticleType};
 use crate::particles::Particles;
 use crate::sim::{Simulation, SimulationParams};
 use crate::timestep;
@@ -50,6 +54,8 @@ struct SceneFile {
     interactions: Vec<InteractionEntry>,
     #[serde(rename = "geometry", default)]
     geometries: Vec<GeometryEntry>,
+    #[serde(rename = "particle_type", default)]
+    particle_types: Vec<ParticleTypeEntry>,
     #[serde(rename = "particles", default)]
     particles: Vec<ParticleEntry>,
 }
@@ -154,12 +160,65 @@ struct MotionEntry {
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-struct ParticleEntry {
+struct ParticleTypeEntry {
+    name: String,
     material: String,
-    size: SizeEntry,
-    region: RegionEntry,
+    shape: Option<ShapeEntry>,
+    size: Option<SizeEntry>,
+    scale: Option<SizeEntry>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct ShapeEntry {
+    #[serde(rename = "type")]
+    kind: String,
+    // rod
+    length: Option<f64>,
+    diameter: Option<f64>,
+    count: Option<usize>,
+    // spheres: [x, y, z, r] rows
+    spheres: Option<Vec<[f64; 4]>>,
+    // maize_kernel
+    class: Option<String>,
+    width: Option<f64>,
+    height: Option<f64>,
+    thickness: Option<f64>,
+    upper_width: Option<f64>,
+    lower_width: Option<f64>,
+    upper_thickness: Option<f64>,
+    lower_thickness: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct ParticleEntry {
+    // One type given inline ...
+    material: Option<String>,
+    size: Option<SizeEntry>,
+    shape: Option<ShapeEntry>,
+    scale: Option<SizeEntry>,
+    // ... or a mixture of named [[particle_type]]s.
+    types: Option<Vec<String>>,
+    fractions: Option<Vec<f64>>,
+    basis: Option<String>,
+    region: Option<RegionEntry>,
+    factory: Option<FactoryEntry>,
     fill: FillEntry,
     velocity: Option<V3>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct FactoryEntry {
+    #[serde(rename = "type")]
+    kind: String,
+    #[serde(alias = "center")]
+    centre: V3,
+    normal: Option<V3>,
+    radius: Option<f64>,
+    size: Option<[f64; 2]>,
+    u_axis: Option<V3>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -167,6 +226,8 @@ struct ParticleEntry {
 struct SizeEntry {
     #[serde(rename = "type")]
     kind: String,
+    /// `value` reads better for a clump's fixed scale factor.
+    #[serde(alias = "value")]
     radius: Option<f64>,
     min: Option<f64>,
     max: Option<f64>,
@@ -201,6 +262,10 @@ struct FillEntry {
     count: Option<usize>,
     mass: Option<f64>,
     seed: Option<u64>,
+    // factory
+    rate: Option<f64>,
+    mass_rate: Option<f64>,
+    start: Option<f64>,
 }
 
 /// Output settings of a scene.
@@ -222,6 +287,8 @@ pub struct Scene {
     pub hertz_collision_time: f64,
     /// Non-fatal remarks (e.g. few steps per collision).
     pub warnings: Vec<String>,
+    /// What was built that the user should know (e.g. each fitted kernel's volume error).
+    pub notes: Vec<String>,
 }
 
 fn v3(a: V3) -> DVec3 {
@@ -437,115 +504,162 @@ impl Scene {
             geometries.push(build_geometry(ctx, k, g, base, &material_id)?);
         }
 
-        // Particles.
-        let mut particles = Particles::default();
-        let mut group_of: Vec<usize> = Vec::new();
-        let mut smallest: Vec<(usize, f64)> = Vec::new();
+        // Particle types: the named ones, then each group's (a mixture of named types, or one inline).
+        let mut notes = Vec::new();
+        let mut named: Vec<ParticleType> = Vec::new();
+        for (k, t) in f.particle_types.iter().enumerate() {
+            let prefix = format!("particle_type[{k}]");
+            if named.iter().any(|n| n.name == t.name) {
+                return Err(ctx.err(
+                    format!("{prefix}.name"),
+                    format!("particle type \"{}\" is defined twice", t.name),
+                ));
+            }
+            let mat = material_id(&t.material, format!("{prefix}.material"))?;
+            let density = table.material(mat).density;
+            let parts = TypeParts {
+                shape: t.shape.as_ref(),
+                size: t.size.as_ref(),
+                scale: t.scale.as_ref(),
+            };
+            named.push(build_type(
+                ctx, &prefix, &t.name, mat, density, parts, &mut notes,
+            )?);
+        }
+        let mut groups: Vec<Group> = Vec::new();
         for (k, p) in f.particles.iter().enumerate() {
             let key = |s: &str| format!("particles[{k}].{s}");
-            let mat = material_id(&p.material, key("material"))?;
-            let sizes = build_size(ctx, &key("size"), &p.size)?;
-            let region = build_region(ctx, &key("region"), &p.region)?;
-            smallest.push((mat, sizes.min_radius()));
-            let velocity = v3(p.velocity.unwrap_or([0.0; 3]));
-            let density = table.material(mat).density;
-            let fk = |s: &str| format!("particles[{k}].fill.{s}");
-            let fe = &p.fill;
-            let given = [
-                ("lattice", fe.lattice.is_some()),
-                ("spacing", fe.spacing.is_some()),
-                ("origin", fe.origin.is_some()),
-                ("count", fe.count.is_some()),
-                ("mass", fe.mass.is_some()),
-                ("seed", fe.seed.is_some()),
-            ];
-            let placed: Vec<(DVec3, f64)> = match fe.kind.as_str() {
-                "lattice" => {
-                    ctx.only(
-                        &key("fill"),
-                        "lattice",
-                        &given,
-                        &["lattice", "spacing", "origin", "seed"],
-                    )?;
-                    let lattice = match fe.lattice.as_deref().unwrap_or("sc") {
-                        "sc" | "simple_cubic" => Lattice::SimpleCubic,
-                        "hcp" | "hexagonal_close_packed" => Lattice::HexagonalClosePacked,
+            let mixture = match (&p.types, &p.material) {
+                (Some(names), None) => {
+                    for (name, given) in [
+                        ("size", p.size.is_some()),
+                        ("shape", p.shape.is_some()),
+                        ("scale", p.scale.is_some()),
+                    ] {
+                        if given {
+                            return Err(ctx.err(
+                                key(name),
+                                "not used with types (each [[particle_type]] has its own)",
+                            ));
+                        }
+                    }
+                    if names.is_empty() {
+                        return Err(
+                            ctx.err(key("types"), "expected at least one particle type name")
+                        );
+                    }
+                    let mut types = Vec::new();
+                    for (i, name) in names.iter().enumerate() {
+                        let t = named.iter().find(|t| &t.name == name).ok_or_else(|| {
+                            let known: Vec<&str> = named.iter().map(|t| t.name.as_str()).collect();
+                            ctx.err(
+                                format!("particles[{k}].types[{i}]"),
+                                format!(
+                                    "no [[particle_type]] named \"{name}\" (defined: {})",
+                                    if known.is_empty() {
+                                        "none".to_string()
+                                    } else {
+                                        known.join(", ")
+                                    }
+                                ),
+                            )
+                        })?;
+                        types.push(t.clone());
+                    }
+                    let fractions = match &p.fractions {
+                        Some(fr) => {
+                            if fr.len() != types.len() {
+                                return Err(ctx.err(
+                                    key("fractions"),
+                                    format!(
+                                        "expected one fraction per type ({} types), got {}",
+                                        types.len(),
+                                        fr.len()
+                                    ),
+                                ));
+                            }
+                            for (i, v) in fr.iter().enumerate() {
+                                ctx.non_negative(*v, format!("particles[{k}].fractions[{i}]"))?;
+                            }
+                            let sum: f64 = fr.iter().sum();
+                            if sum <= 0.0 {
+                                return Err(ctx.err(
+                                    key("fractions"),
+                                    "expected fractions that sum to more than zero",
+                                ));
+                            }
+                            fr.iter().map(|v| v / sum).collect()
+                        }
+                        None if types.len() == 1 => vec![1.0],
+                        None => {
+                            return Err(ctx.err(
+                                key("fractions"),
+                                format!(
+                                    "missing; expected one fraction per type ({} types)",
+                                    types.len()
+                                ),
+                            ))
+                        }
+                    };
+                    let by_mass = match p.basis.as_deref().unwrap_or("number") {
+                        "number" => false,
+                        "mass" => true,
                         other => {
                             return Err(ctx.err(
-                                fk("lattice"),
-                                format!("unknown lattice \"{other}\" (expected sc or hcp)"),
+                                key("basis"),
+                                format!("unknown basis \"{other}\" (expected number or mass)"),
                             ))
                         }
                     };
-                    let spacing = ctx.positive(
-                        fe.spacing.unwrap_or(2.0 * sizes.max_radius()),
-                        fk("spacing"),
-                    )?;
-                    if spacing < 2.0 * sizes.max_radius() * (1.0 - 1e-9) {
-                        return Err(ctx.err(fk("spacing"), format!(
-                            "spacing {spacing} is smaller than the largest diameter {}; particles would overlap",
-                            2.0 * sizes.max_radius()
-                        )));
+                    Mixture {
+                        types,
+                        fractions,
+                        by_mass,
                     }
-                    let origin = fe.origin.map(v3).unwrap_or(region.bounds().0);
-                    let points = fill::lattice_points(&region, lattice, spacing, origin);
-                    let mut rng =
-                        <rand_pcg::Pcg64 as rand::SeedableRng>::seed_from_u64(fe.seed.unwrap_or(1));
-                    points
-                        .into_iter()
-                        .map(|x| (x, sizes.sample(&mut rng)))
-                        .collect()
                 }
-                "random" => {
-                    ctx.only(&key("fill"), "random", &given, &["count", "mass", "seed"])?;
-                    let target = match (fe.count, fe.mass) {
-                        (Some(n), None) if n > 0 => FillTarget::Count(n),
-                        (Some(_), None) => return Err(ctx.err(fk("count"), "expected a count > 0")),
-                        (None, Some(m)) => FillTarget::Mass {
-                            mass: ctx.positive(m, fk("mass"))?,
-                            density,
-                        },
-                        (Some(_), Some(_)) => {
-                            return Err(ctx.err(fk("mass"), "give count or mass, not both"))
-                        }
-                        (None, None) => {
+                (None, Some(material)) => {
+                    for (name, given) in [
+                        ("fractions", p.fractions.is_some()),
+                        ("basis", p.basis.is_some()),
+                    ] {
+                        if given {
                             return Err(ctx.err(
-                                fk("count"),
-                                "missing; expected count (particles) or mass (kg)",
-                            ))
+                                key(name),
+                                "only used with types (a mixture of [[particle_type]]s)",
+                            ));
                         }
+                    }
+                    let mat = material_id(material, key("material"))?;
+                    let density = table.material(mat).density;
+                    let parts = TypeParts {
+                        shape: p.shape.as_ref(),
+                        size: p.size.as_ref(),
+                        scale: p.scale.as_ref(),
                     };
-                    let existing: Vec<(DVec3, f64)> = particles
-                        .position
-                        .iter()
-                        .cloned()
-                        .zip(particles.radius.iter().cloned())
-                        .collect();
-                    fill::random_fill(
-                        &region,
-                        &sizes,
-                        target,
-                        fe.seed.unwrap_or(1) + k as u64,
-                        &existing,
-                    )
-                    .map_err(|m| ctx.err(key("fill"), m))?
+                    let prefix = format!("particles[{k}]");
+                    Mixture::single(build_type(
+                        ctx, &prefix, &prefix, mat, density, parts, &mut notes,
+                    )?)
                 }
-                other => {
+                (Some(_), Some(_)) => return Err(ctx.err(
+                    key("types"),
+                    "give types (named [[particle_type]]s) or material (one type inline), not both",
+                )),
+                (None, None) => {
                     return Err(ctx.err(
-                        fk("type"),
-                        format!("unknown fill \"{other}\" (expected lattice or random)"),
+                        key("material"),
+                        "missing; expected material (with size, or shape) or types",
                     ))
                 }
             };
-            if placed.is_empty() {
-                return Err(ctx.err(key("region"), "no particle fits in the region"));
-            }
-            for (x, r) in placed {
-                particles.push(x, velocity, r, density, mat);
-                group_of.push(k);
-            }
+            let placement = build_placement(ctx, k, p, &mixture)?;
+            groups.push(Group {
+                mixture,
+                placement,
+                velocity: v3(p.velocity.unwrap_or([0.0; 3])),
+            });
         }
-        if particles.is_empty() {
+        if groups.is_empty() {
             return Err(ctx.err(
                 "particles",
                 "no [[particles]] given; at least one group is needed",
@@ -553,8 +667,10 @@ impl Scene {
         }
 
         // Every pair that can meet needs an interaction.
-        let mut particle_materials: Vec<usize> =
-            particles.material.iter().map(|&m| m as usize).collect();
+        let mut particle_materials: Vec<usize> = groups
+            .iter()
+            .flat_map(|g| g.mixture.types.iter().map(|t| t.material))
+            .collect();
         particle_materials.sort_unstable();
         particle_materials.dedup();
         let mut geometry_materials: Vec<usize> =
@@ -576,8 +692,20 @@ impl Scene {
             }
         }
 
-        // Time step.
-        let rayleigh = timestep::rayleigh_time_step_for(&table, &smallest);
+        // Time step, from the smallest sphere each type can produce.
+        let smallest: Vec<(usize, f64, f64)> = groups
+            .iter()
+            .flat_map(|g| g.mixture.types.iter())
+            .map(|t| {
+                (
+                    t.material,
+                    t.min_sphere_radius(),
+                    t.mass(t.size.min_radius()),
+                )
+            })
+            .collect();
+        let smallest_radii: Vec<(usize, f64)> = smallest.iter().map(|s| (s.0, s.1)).collect();
+        let rayleigh = timestep::rayleigh_time_step_for(&table, &smallest_radii);
         let dt = match (s.time_step, s.time_step_percent) {
             (Some(dt), None) => ctx.positive(dt, "simulation.time_step".into())?,
             (None, Some(p)) => {
@@ -618,10 +746,9 @@ impl Scene {
             }
         };
         let gravity = v3(s.gravity.unwrap_or([0.0, 0.0, -9.81]));
-        let min_r = particles
-            .radius
+        let min_r = groups
             .iter()
-            .cloned()
+            .map(|g| g.mixture.min_sphere_radius())
             .fold(f64::INFINITY, f64::min);
         let skin = match s.neighbour_skin {
             Some(v) => ctx.positive(v, "simulation.neighbour_skin".into())?,
@@ -637,10 +764,15 @@ impl Scene {
                 }
                 Some((v3(d.min), v3(d.max)))
             }
-            None => Some(default_domain(&particles, &geometries)),
+            None => None,
         };
 
-        // Hertz collision time at the fastest speed we can foresee.
+        // Hertz collision time at the fastest speed we can foresee: the fastest initial velocity or
+        // a fall over the height of everything that starts or is created.
+        let spawn: Vec<(DVec3, DVec3)> = groups
+            .iter()
+            .map(|g| g.placement.bounds(&g.mixture))
+            .collect();
         let height: f64 = {
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
             let gdir = if gravity.length() > 0.0 {
@@ -648,16 +780,17 @@ impl Scene {
             } else {
                 DVec3::Z
             };
-            for &x in &particles.position {
-                lo = lo.min(x.dot(gdir));
-                hi = hi.max(x.dot(gdir));
+            for (a, b) in &spawn {
+                for x in [*a, *b] {
+                    lo = lo.min(x.dot(gdir));
+                    hi = hi.max(x.dot(gdir));
+                }
             }
             hi - lo
         };
-        let initial_speed = particles
-            .velocity
+        let initial_speed = groups
             .iter()
-            .map(|v| v.length())
+            .map(|g| g.velocity.length())
             .fold(0.0, f64::max);
         let fall_speed = (2.0 * gravity.length() * height).sqrt();
         let speed = match s.expected_max_speed {
@@ -665,7 +798,7 @@ impl Scene {
             None => initial_speed.max(fall_speed).max(0.1),
         };
         let hertz =
-            timestep::shortest_collision_time(&particles, &table, &geometry_materials, speed);
+            timestep::shortest_collision_time(&smallest, &table, &geometry_materials, speed);
         let mut warnings = Vec::new();
         if hertz / dt < 10.0 {
             warnings.push(format!(
@@ -698,7 +831,85 @@ impl Scene {
             skin,
             domain,
         };
-        let mut simulation = Simulation::new(particles, table, geometries, params);
+
+        // Place the particles group by group, each avoiding those before it.
+        let mut simulation = Simulation::new(Particles::default(), table, geometries, params);
+        let mut group_of: Vec<usize> = Vec::new();
+        for (k, g) in groups.into_iter().enumerate() {
+            let seed = |s: Option<u64>| s.unwrap_or(1) + k as u64;
+            let items = match g.placement {
+                Placement::Lattice { points, seed: s } => {
+                    let mut rng =
+                        <rand_pcg::Pcg64 as rand::SeedableRng>::seed_from_u64(s.unwrap_or(1));
+                    let t = &g.mixture.types[0];
+                    points
+                        .into_iter()
+                        .map(|x| Item {
+                            kind: 0,
+                            size: t.size.sample(&mut rng),
+                            position: x,
+                            orientation: glam::DQuat::IDENTITY,
+                        })
+                        .collect()
+                }
+                Placement::Random {
+                    region,
+                    target,
+                    seed: s,
+                } => {
+                    let p = &simulation.particles;
+                    let existing: Vec<(DVec3, f64)> = p
+                        .position
+                        .iter()
+                        .cloned()
+                        .zip(p.radius.iter().cloned())
+                        .collect();
+                    mixture::fill_region(&region, &g.mixture, target, seed(s), &existing)
+                        .map_err(|m| ctx.err(format!("particles[{k}].fill"), m))?
+                }
+                Placement::Factory {
+                    shape,
+                    normal,
+                    total,
+                    rate,
+                    start,
+                    seed: s,
+                } => {
+                    simulation.add_factory(Factory::new(
+                        &format!("particles[{k}]"),
+                        shape,
+                        normal,
+                        g.mixture,
+                        total,
+                        rate,
+                        start,
+                        g.velocity,
+                        seed(s),
+                    ));
+                    continue;
+                }
+            };
+            if items.is_empty() {
+                return Err(ctx.err(
+                    format!("particles[{k}].region"),
+                    "no particle fits in the region",
+                ));
+            }
+            simulation.add_items(&g.mixture, &items, g.velocity);
+            group_of.resize(simulation.particles.len(), k);
+        }
+        if simulation.params.domain.is_none() {
+            let mut d = default_domain(&simulation.particles, &simulation.geometries);
+            for f in &simulation.factories {
+                let (lo, hi) = f.bounds();
+                let ext = (hi - lo).max_element();
+                d = (
+                    d.0.min(lo - DVec3::splat(ext)),
+                    d.1.max(hi + DVec3::splat(ext)),
+                );
+            }
+            simulation.params.domain = Some(d);
+        }
         if let Some((rel, a, b)) = simulation.largest_relative_overlap() {
             if rel > max_overlap {
                 let (ga, gb) = (group_of[a as usize], group_of[b as usize]);
@@ -729,6 +940,7 @@ impl Scene {
             rayleigh_time_step: rayleigh,
             hertz_collision_time: hertz,
             warnings,
+            notes,
         })
     }
 }
@@ -1088,6 +1300,453 @@ fn build_region(ctx: &Ctx, prefix: &str, r: &RegionEntry) -> Result<Region, Scen
             return Err(ctx.err(
                 key("type"),
                 format!("unknown region \"{other}\" (expected box or cylinder)"),
+            ))
+        }
+    })
+}
+
+/// The parts of a [[particle_type]] (or an inline one in [[particles]]).
+struct TypeParts<'a> {
+    shape: Option<&'a ShapeEntry>,
+    size: Option<&'a SizeEntry>,
+    scale: Option<&'a SizeEntry>,
+}
+
+/// One [[particles]] group, checked but not placed yet.
+struct Group {
+    mixture: Mixture,
+    placement: Placement,
+    velocity: DVec3,
+}
+
+enum Placement {
+    Lattice {
+        points: Vec<DVec3>,
+        seed: Option<u64>,
+    },
+    Random {
+        region: Region,
+        target: FillTarget,
+        seed: Option<u64>,
+    },
+    Factory {
+        shape: FactoryShape,
+        normal: DVec3,
+        total: FillTarget,
+        rate: Rate,
+        start: f64,
+        seed: Option<u64>,
+    },
+}
+
+impl Placement {
+    /// Where this group's particles start or are created.
+    fn bounds(&self, mixture: &Mixture) -> (DVec3, DVec3) {
+        match self {
+            Placement::Lattice { points, .. } => points.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            ),
+            Placement::Random { region, .. } => region.bounds(),
+            Placement::Factory { shape, normal, .. } => {
+                let (centre, ext) = match *shape {
+                    FactoryShape::Disc { centre, radius } => {
+                        (centre, geometry::disc_extent(*normal, radius))
+                    }
+                    FactoryShape::Rectangle {
+                        centre,
+                        u,
+                        v,
+                        half_u,
+                        half_v,
+                    } => (centre, (u * half_u).abs() + (v * half_v).abs()),
+                };
+                let far = centre + *normal * 2.0 * mixture.bounding_radius();
+                (centre.min(far) - ext, centre.max(far) + ext)
+            }
+        }
+    }
+}
+
+fn build_type(
+    ctx: &Ctx,
+    prefix: &str,
+    name: &str,
+    material: usize,
+    density: f64,
+    parts: TypeParts,
+    notes: &mut Vec<String>,
+) -> Result<ParticleType, SceneError> {
+    let key = |n: &str| format!("{prefix}.{n}");
+    let shape_kind = parts.shape.map(|s| s.kind.as_str()).unwrap_or("sphere");
+    if shape_kind == "sphere" {
+        if let Some(sh) = parts.shape {
+            shape_keys(ctx, &key("shape"), sh, &[])?;
+        }
+        if parts.scale.is_some() {
+            return Err(ctx.err(
+                key("scale"),
+                "not used by a sphere (give its radius distribution as size)",
+            ));
+        }
+        let size = parts
+            .size
+            .ok_or_else(|| ctx.err(key("size"), "missing; expected the radius distribution, e.g. { type = \"fixed\", radius = 0.002 }"))?;
+        return Ok(ParticleType::sphere(
+            name,
+            material,
+            density,
+            build_size(ctx, &key("size"), size)?,
+        ));
+    }
+    let sh = parts.shape.unwrap();
+    if parts.size.is_some() {
+        return Err(ctx.err(
+            key("size"),
+            "not used by a clump (its shape sets its size; give a scale distribution as scale)",
+        ));
+    }
+    let scale = match parts.scale {
+        Some(sc) => build_size(ctx, &key("scale"), sc)?,
+        None => SizeDistribution::Fixed { radius: 1.0 },
+    };
+    let sk = |n: &str| format!("{prefix}.shape.{n}");
+    let template = match shape_kind {
+        "rod" => {
+            shape_keys(ctx, &key("shape"), sh, &["length", "diameter", "count"])?;
+            let length = ctx.positive(
+                ctx.require(sh.length, sk("length"), "the rod length end to end (m)")?,
+                sk("length"),
+            )?;
+            let diameter = ctx.positive(
+                ctx.require(sh.diameter, sk("diameter"), "the rod diameter (m)")?,
+                sk("diameter"),
+            )?;
+            let count = ctx.require(sh.count, sk("count"), "the number of spheres")?;
+            ClumpTemplate::rod(length, diameter, count).map_err(|m| ctx.err(key("shape"), m))?
+        }
+        "spheres" => {
+            shape_keys(ctx, &key("shape"), sh, &["spheres"])?;
+            let rows = sh.spheres.as_ref().ok_or_else(|| {
+                ctx.err(
+                    sk("spheres"),
+                    "missing; expected rows [x, y, z, radius] (m)",
+                )
+            })?;
+            let mut spheres = Vec::new();
+            for (i, r) in rows.iter().enumerate() {
+                ctx.positive(r[3], format!("{prefix}.shape.spheres[{i}]"))?;
+                spheres.push((DVec3::new(r[0], r[1], r[2]), r[3]));
+            }
+            ClumpTemplate::new(spheres).map_err(|m| ctx.err(sk("spheres"), m))?
+        }
+        "maize_kernel" => {
+            let class = sh.class.as_deref().ok_or_else(|| {
+                ctx.err(
+                    sk("class"),
+                    format!("missing; expected one of {}", KernelShape::KINDS.join(", ")),
+                )
+            })?;
+            let mut kernel = KernelShape::published(class).ok_or_else(|| {
+                ctx.err(
+                    sk("class"),
+                    format!(
+                        "unknown kernel class \"{class}\" (expected {})",
+                        KernelShape::KINDS.join(", ")
+                    ),
+                )
+            })?;
+            let dims: &[&str] = match kernel {
+                KernelShape::HorseTooth { .. } => &[
+                    "upper_width",
+                    "lower_width",
+                    "height",
+                    "upper_thickness",
+                    "lower_thickness",
+                ],
+                KernelShape::Flat { .. } => &["diameter", "thickness"],
+                _ => &["width", "height", "thickness"],
+            };
+            let mut allowed = vec!["class", "count"];
+            allowed.extend_from_slice(dims);
+            shape_keys(ctx, &key("shape"), sh, &allowed)?;
+            let set = |v: &mut f64, given: Option<f64>, n: &str| -> Result<(), SceneError> {
+                if let Some(g) = given {
+                    *v = ctx.positive(g, sk(n))?;
+                }
+                Ok(())
+            };
+            match &mut kernel {
+                KernelShape::HorseTooth {
+                    upper_width,
+                    lower_width,
+                    height,
+                    upper_thickness,
+                    lower_thickness,
+                } => {
+                    set(upper_width, sh.upper_width, "upper_width")?;
+                    set(lower_width, sh.lower_width, "lower_width")?;
+                    set(height, sh.height, "height")?;
+                    set(upper_thickness, sh.upper_thickness, "upper_thickness")?;
+                    set(lower_thickness, sh.lower_thickness, "lower_thickness")?;
+                }
+                KernelShape::Flat {
+                    diameter,
+                    thickness,
+                } => {
+                    set(diameter, sh.diameter, "diameter")?;
+                    set(thickness, sh.thickness, "thickness")?;
+                }
+                KernelShape::SphericalCone {
+                    width,
+                    height,
+                    thickness,
+                }
+                | KernelShape::NearSpherical {
+                    width,
+                    height,
+                    thickness,
+                } => {
+                    set(width, sh.width, "width")?;
+                    set(height, sh.height, "height")?;
+                    set(thickness, sh.thickness, "thickness")?;
+                }
+            }
+            let count = ctx.require(sh.count, sk("count"), "the number of spheres")?;
+            let fit = kernel.fit(count).map_err(|m| ctx.err(key("shape"), m))?;
+            notes.push(format!(
+                "{prefix} (\"{name}\"): {class} maize kernel of {} spheres, volume {:.4e} m^3, {:+.1} % against the target solid ({:.4e} m^3)",
+                fit.template.spheres.len(),
+                fit.clump_volume,
+                100.0 * fit.volume_error,
+                fit.target_volume
+            ));
+            fit.template
+        }
+        other => {
+            return Err(ctx.err(
+                sk("type"),
+                format!(
+                    "unknown shape \"{other}\" (expected sphere, rod, spheres or maize_kernel)"
+                ),
+            ))
+        }
+    };
+    Ok(ParticleType::clump(
+        name, material, density, template, scale,
+    ))
+}
+
+/// Rejects shape keys that the shape type does not use.
+fn shape_keys(ctx: &Ctx, prefix: &str, s: &ShapeEntry, allowed: &[&str]) -> Result<(), SceneError> {
+    let given = [
+        ("length", s.length.is_some()),
+        ("diameter", s.diameter.is_some()),
+        ("count", s.count.is_some()),
+        ("spheres", s.spheres.is_some()),
+        ("class", s.class.is_some()),
+        ("width", s.width.is_some()),
+        ("height", s.height.is_some()),
+        ("thickness", s.thickness.is_some()),
+        ("upper_width", s.upper_width.is_some()),
+        ("lower_width", s.lower_width.is_some()),
+        ("upper_thickness", s.upper_thickness.is_some()),
+        ("lower_thickness", s.lower_thickness.is_some()),
+    ];
+    ctx.only(prefix, &s.kind, &given, allowed)
+}
+
+fn build_placement(
+    ctx: &Ctx,
+    k: usize,
+    p: &ParticleEntry,
+    mixture: &Mixture,
+) -> Result<Placement, SceneError> {
+    let key = |s: &str| format!("particles[{k}].{s}");
+    let fk = |s: &str| format!("particles[{k}].fill.{s}");
+    let fe = &p.fill;
+    let given = [
+        ("lattice", fe.lattice.is_some()),
+        ("spacing", fe.spacing.is_some()),
+        ("origin", fe.origin.is_some()),
+        ("count", fe.count.is_some()),
+        ("mass", fe.mass.is_some()),
+        ("seed", fe.seed.is_some()),
+        ("rate", fe.rate.is_some()),
+        ("mass_rate", fe.mass_rate.is_some()),
+        ("start", fe.start.is_some()),
+    ];
+    let target = || -> Result<FillTarget, SceneError> {
+        match (fe.count, fe.mass) {
+            (Some(n), None) if n > 0 => Ok(FillTarget::Count(n)),
+            (Some(_), None) => Err(ctx.err(fk("count"), "expected a count > 0")),
+            (None, Some(m)) => Ok(FillTarget::Mass(ctx.positive(m, fk("mass"))?)),
+            (Some(_), Some(_)) => Err(ctx.err(fk("mass"), "give count or mass, not both")),
+            (None, None) => Err(ctx.err(
+                fk("count"),
+                "missing; expected count (particles) or mass (kg)",
+            )),
+        }
+    };
+    let region = |what: &str| -> Result<Region, SceneError> {
+        if p.factory.is_some() {
+            return Err(ctx.err(
+                key("factory"),
+                format!("not used by a {what} fill (use fill.type = \"factory\")"),
+            ));
+        }
+        let r = p
+            .region
+            .as_ref()
+            .ok_or_else(|| ctx.err(key("region"), "missing; expected the region to fill"))?;
+        build_region(ctx, &key("region"), r)
+    };
+    Ok(match fe.kind.as_str() {
+        "lattice" => {
+            ctx.only(
+                &key("fill"),
+                "lattice",
+                &given,
+                &["lattice", "spacing", "origin", "seed"],
+            )?;
+            let region = region("lattice")?;
+            if mixture.types.len() != 1 || !matches!(mixture.types[0].shape, mixture::Shape::Sphere)
+            {
+                return Err(ctx.err(fk("type"), "a lattice places spheres of one type; use a random fill or a factory for clumps and mixtures"));
+            }
+            let sizes = &mixture.types[0].size;
+            let lattice = match fe.lattice.as_deref().unwrap_or("sc") {
+                "sc" | "simple_cubic" => Lattice::SimpleCubic,
+                "hcp" | "hexagonal_close_packed" => Lattice::HexagonalClosePacked,
+                other => {
+                    return Err(ctx.err(
+                        fk("lattice"),
+                        format!("unknown lattice \"{other}\" (expected sc or hcp)"),
+                    ))
+                }
+            };
+            let spacing = ctx.positive(
+                fe.spacing.unwrap_or(2.0 * sizes.max_radius()),
+                fk("spacing"),
+            )?;
+            if spacing < 2.0 * sizes.max_radius() * (1.0 - 1e-9) {
+                return Err(ctx.err(fk("spacing"), format!(
+                    "spacing {spacing} is smaller than the largest diameter {}; particles would overlap",
+                    2.0 * sizes.max_radius()
+                )));
+            }
+            let origin = fe.origin.map(v3).unwrap_or(region.bounds().0);
+            Placement::Lattice {
+                points: fill::lattice_points(&region, lattice, spacing, origin),
+                seed: fe.seed,
+            }
+        }
+        "random" => {
+            ctx.only(&key("fill"), "random", &given, &["count", "mass", "seed"])?;
+            Placement::Random {
+                region: region("random")?,
+                target: target()?,
+                seed: fe.seed,
+            }
+        }
+        "factory" => {
+            ctx.only(
+                &key("fill"),
+                "factory",
+                &given,
+                &["count", "mass", "seed", "rate", "mass_rate", "start"],
+            )?;
+            if p.region.is_some() {
+                return Err(ctx.err(
+                    key("region"),
+                    "not used by a factory fill (give factory = { ... })",
+                ));
+            }
+            let fa = p.factory.as_ref().ok_or_else(|| ctx.err(key("factory"), "missing; expected factory = { type = \"disc\" or \"rectangle\", centre = [x, y, z], ... }"))?;
+            let fak = |s: &str| format!("particles[{k}].factory.{s}");
+            let normal = ctx.direction(fa.normal.unwrap_or([0.0, 0.0, -1.0]), fak("normal"))?;
+            let centre = v3(fa.centre);
+            let shape = match fa.kind.as_str() {
+                "disc" => {
+                    if fa.size.is_some() || fa.u_axis.is_some() {
+                        return Err(ctx.err(
+                            fak(if fa.size.is_some() { "size" } else { "u_axis" }),
+                            "not used by a disc (give radius)",
+                        ));
+                    }
+                    let radius = ctx.positive(
+                        ctx.require(fa.radius, fak("radius"), "the disc radius (m)")?,
+                        fak("radius"),
+                    )?;
+                    FactoryShape::Disc { centre, radius }
+                }
+                "rectangle" => {
+                    if fa.radius.is_some() {
+                        return Err(ctx.err(
+                            fak("radius"),
+                            "not used by a rectangle (give size = [a, b])",
+                        ));
+                    }
+                    let size = ctx.require(fa.size, fak("size"), "the side lengths [a, b] (m)")?;
+                    ctx.positive(size[0], fak("size"))?;
+                    ctx.positive(size[1], fak("size"))?;
+                    let u = match fa.u_axis {
+                        Some(a) => {
+                            let u = ctx.direction(a, fak("u_axis"))?;
+                            let u = u - normal * u.dot(normal);
+                            if u.length() < 1e-9 {
+                                return Err(ctx.err(
+                                    fak("u_axis"),
+                                    "expected a direction in the face (not along the normal)",
+                                ));
+                            }
+                            u.normalize()
+                        }
+                        None if normal.z.abs() > 0.999 => DVec3::X,
+                        None => perpendicular_axes(normal).0,
+                    };
+                    FactoryShape::Rectangle {
+                        centre,
+                        u,
+                        v: normal.cross(u),
+                        half_u: 0.5 * size[0],
+                        half_v: 0.5 * size[1],
+                    }
+                }
+                other => {
+                    return Err(ctx.err(
+                        fak("type"),
+                        format!("unknown factory \"{other}\" (expected disc or rectangle)"),
+                    ))
+                }
+            };
+            let rate = match (fe.rate, fe.mass_rate) {
+                (Some(r), None) => Rate::Count(ctx.positive(r, fk("rate"))?),
+                (None, Some(r)) => Rate::Mass(ctx.positive(r, fk("mass_rate"))?),
+                (Some(_), Some(_)) => {
+                    return Err(ctx.err(fk("mass_rate"), "give rate or mass_rate, not both"))
+                }
+                (None, None) => {
+                    return Err(ctx.err(
+                        fk("rate"),
+                        "missing; expected rate (particles/s) or mass_rate (kg/s)",
+                    ))
+                }
+            };
+            let start = ctx.non_negative(fe.start.unwrap_or(0.0), fk("start"))?;
+            Placement::Factory {
+                shape,
+                normal,
+                total: target()?,
+                rate,
+                start,
+                seed: fe.seed,
+            }
+        }
+        other => {
+            return Err(ctx.err(
+                fk("type"),
+                format!("unknown fill \"{other}\" (expected lattice, random or factory)"),
             ))
         }
     })

@@ -8,6 +8,7 @@
 //! 5. `particle_forces`: every particle sums its pair slots (as i and as j), computes its wall
 //!    contacts, adds gravity and does the second half kick, in parallel over particles.
 //! 6. geometry loads are summed from the wall contact slots.
+//! 7. factories due at this time create their particles, which forces a list rebuild.
 //!
 //! No stage uses atomics or locks and every sum runs in a fixed order, so results are bit-identical
 //! run to run for any thread count.
@@ -16,8 +17,10 @@ use crate::clump::Bodies;
 use crate::contact::{
     epsd_rolling_torque, hertz_mindlin, jkr_cutoff_overlap, ContactPoint, RollingModel,
 };
+use crate::factory::Factory;
 use crate::geometry::{ElementGrid, Geometry, Load, Region};
 use crate::material::MaterialTable;
+use crate::mixture::{Item, Mixture, Shape};
 use crate::neighbour::{NeighbourList, PairOutput};
 use crate::particles::Particles;
 use crate::particles::NO_BODY;
@@ -149,6 +152,10 @@ pub struct Simulation {
     pub bodies: Bodies,
     /// Current index of each particle by stable id (particles are reordered at rebuilds).
     index_of: Vec<u32>,
+    /// Particle factories (creating particles during the run).
+    pub factories: Vec<Factory>,
+    /// Largest sphere radius the wall grids and cohesive reach were sized for.
+    prepared_radius: f64,
 }
 
 /// Raw pointer that may be shared between rayon tasks that write disjoint slots.
@@ -194,16 +201,122 @@ impl Simulation {
             cohesive_reach: 0.0,
             bodies: Bodies::default(),
             index_of: Vec::new(),
+            factories: Vec::new(),
+            prepared_radius: -1.0,
         };
         let max_r = sim.particles.radius.iter().cloned().fold(0.0, f64::max);
+        sim.prepare_radius(max_r);
+        sim
+    }
+
+    /// Sizes the cohesive reach and the wall search grids for spheres up to `radius` (needed
+    /// before particles larger than any present are added).
+    pub fn prepare_radius(&mut self, radius: f64) {
+        if radius <= self.prepared_radius {
+            return;
+        }
+        self.prepared_radius = radius;
         // A wall contact has R* = r, the largest any contact of these particles can have.
-        sim.cohesive_reach = sim.materials.cohesive_reach(max_r);
-        for g in &mut sim.geometries {
+        self.cohesive_reach = self.materials.cohesive_reach(radius);
+        let reach = radius + self.params.skin + self.cohesive_reach;
+        for g in &mut self.geometries {
             if g.reference.len() > 16 {
-                g.grid = ElementGrid::build(&g.reference, max_r + skin + sim.cohesive_reach);
+                g.grid = ElementGrid::build(&g.reference, reach);
             }
         }
-        sim
+        self.forces_ready = false;
+    }
+
+    /// Adds a particle factory.
+    pub fn add_factory(&mut self, factory: Factory) {
+        self.prepare_radius(factory.mixture.max_sphere_radius());
+        self.factories.push(factory);
+    }
+
+    /// Whether every factory has created all it should.
+    pub fn factories_done(&self) -> bool {
+        self.factories.iter().all(|f| f.done())
+    }
+
+    /// Adds particles of a mixture (spheres, or clumps as bodies) with a common velocity. Their
+    /// force starts as their weight: they are placed free of contacts.
+    pub fn add_items(&mut self, mixture: &Mixture, items: &[Item], velocity: DVec3) {
+        if items.is_empty() {
+            return;
+        }
+        self.prepare_radius(mixture.max_sphere_radius());
+        let g = self.params.gravity;
+        for it in items {
+            let t = &mixture.types[it.kind];
+            let first = self.particles.len();
+            match &t.shape {
+                Shape::Sphere => {
+                    self.particles
+                        .push(it.position, velocity, it.size, t.density, t.material);
+                }
+                Shape::Clump { .. } => {
+                    let (template, props) = t.scaled_clump(it.size).unwrap();
+                    let b = self.bodies.add(
+                        &mut self.particles,
+                        &template,
+                        &props,
+                        t.density,
+                        t.material,
+                        it.position,
+                        it.orientation,
+                        velocity,
+                    );
+                    self.bodies.force[b] = g * self.bodies.mass[b];
+                }
+            }
+            let p = &mut self.particles;
+            for k in first..p.len() {
+                p.force[k] = g * p.mass[k];
+            }
+        }
+        if self.forces_ready {
+            self.rebuild();
+        }
+    }
+
+    /// Whether a sphere at `x` of radius `r` touches a particle among `near` or any geometry.
+    fn spot_is_free(&self, near: &[(DVec3, f64)], x: DVec3, r: f64) -> bool {
+        if near
+            .iter()
+            .any(|(y, q)| (x - *y).length_squared() < (r + q) * (r + q))
+        {
+            return false;
+        }
+        let mut clear = true;
+        for geo in &self.geometries {
+            visit_elements(geo, x, |e| {
+                if clear {
+                    if let Some(c) = geo.elements[e].closest(x, r) {
+                        clear = c.distance >= r;
+                    }
+                }
+            });
+        }
+        clear
+    }
+
+    /// Runs the factories that are due.
+    fn run_factories(&mut self) {
+        let time = self.time;
+        let mut factories = std::mem::take(&mut self.factories);
+        for factory in factories.iter_mut().filter(|f| f.due(time)) {
+            let (lo, hi) = factory.bounds();
+            let pad = DVec3::splat(2.0 * self.prepared_radius);
+            let (lo, hi) = (lo - pad, hi + pad);
+            let p = &self.particles;
+            let near: Vec<(DVec3, f64)> = (0..p.len())
+                .filter(|&k| p.position[k].cmpge(lo).all() && p.position[k].cmple(hi).all())
+                .map(|k| (p.position[k], p.radius[k]))
+                .collect();
+            let items = factory.batch(time, |x, r| self.spot_is_free(&near, x, r));
+            self.add_items(&factory.mixture, &items, factory.velocity);
+        }
+        self.factories = factories;
     }
 
     pub fn neighbour_rebuilds(&self) -> u64 {
@@ -237,6 +350,9 @@ impl Simulation {
         let mut worst: Option<(f64, u32, u32)> = None;
         for pair in &self.neighbours.pairs {
             let (i, j) = (pair.i as usize, pair.j as usize);
+            if p.body[i] != NO_BODY && p.body[i] == p.body[j] {
+                continue; // Members of one clump overlap by design.
+            }
             let d = p.radius[i] + p.radius[j] - (p.position[i] - p.position[j]).length();
             let rel = d / p.radius[i].min(p.radius[j]);
             if rel > 0.0 && worst.is_none_or(|w| rel > w.0) {
@@ -333,6 +449,9 @@ impl Simulation {
         self.compute_forces(true);
         self.time = (self.steps + 1) as f64 * dt;
         self.steps += 1;
+        if !self.factories.is_empty() {
+            self.run_factories();
+        }
         Ok(())
     }
 
@@ -535,19 +654,7 @@ impl Simulation {
                         }
                     };
                     for (g, geo) in geometries.iter().enumerate() {
-                        match &geo.grid {
-                            Some(grid) if grid.reach() > 0.0 => {
-                                let local = geo.rotation.transpose() * (x - geo.translation);
-                                for &e in grid.near(local) {
-                                    push(g, e as usize);
-                                }
-                            }
-                            _ => {
-                                for e in 0..geo.elements.len() {
-                                    push(g, e);
-                                }
-                            }
-                        }
+                        visit_elements(geo, x, |e| push(g, e));
                     }
                     counts.push((cands.len() - before) as u32);
                 }
@@ -773,6 +880,20 @@ impl Simulation {
 /// the spin with magnitude `limit` but can at most bring the spin to rest, so particles at rest do not
 /// jitter and a rolling resistance larger than the driving torque holds them exactly.
 #[inline(always)]
+/// Calls `f` with every element of `geo` that a sphere at `x` can reach (all of them when the
+/// geometry has no search grid).
+fn visit_elements(geo: &Geometry, x: DVec3, mut f: impl FnMut(usize)) {
+    match &geo.grid {
+        Some(grid) if grid.reach() > 0.0 => {
+            let local = geo.rotation.transpose() * (x - geo.translation);
+            for &e in grid.near(local) {
+                f(e as usize);
+            }
+        }
+        _ => (0..geo.elements.len()).for_each(f),
+    }
+}
+
 fn kick_spin(w: DVec3, torque: DVec3, limit: f64, inv_inertia_half_dt: f64) -> DVec3 {
     let w = w + torque * inv_inertia_half_dt;
     if limit <= 0.0 {

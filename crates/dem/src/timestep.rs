@@ -1,16 +1,6 @@
 //! Critical time steps: the Rayleigh step users size dt against, and the Hertz collision time.
 
 use crate::material::MaterialTable;
-use crate::particles::Particles;
-
-/// Rayleigh time step of the smallest particle of each material present; the minimum over materials.
-pub fn rayleigh_time_step(particles: &Particles, materials: &MaterialTable) -> f64 {
-    smallest_per_material(particles, materials.len())
-        .iter()
-        .enumerate()
-        .filter_map(|(m, s)| s.map(|(r, _)| materials.material(m).rayleigh_time_step(r)))
-        .fold(f64::INFINITY, f64::min)
-}
 
 /// Rayleigh time step for the smallest radius each material can have (its size distribution's lower
 /// bound: mean - 3 std for a normal distribution unless capped), the minimum over materials. This is
@@ -27,20 +17,18 @@ pub fn hertz_collision_time(m_eff: f64, r_eff: f64, e_star: f64, speed: f64) -> 
     2.87 * (m_eff * m_eff / (r_eff * e_star * e_star * speed)).powf(0.2)
 }
 
-/// Shortest Hertz collision time at impact speed `speed` over the pairs that can meet: the smallest
-/// particle of each material against the smallest of every other, and against each geometry material.
+/// Shortest Hertz collision time at impact speed `speed` over the pairs that can meet. `smallest`
+/// lists (material, radius, mass) of the smallest particle each particle type can produce (a
+/// clump sphere's mass is its body's); each meets every other and each geometry material.
 pub fn shortest_collision_time(
-    particles: &Particles,
+    smallest: &[(usize, f64, f64)],
     materials: &MaterialTable,
     geometry_materials: &[usize],
     speed: f64,
 ) -> f64 {
-    let smallest = smallest_per_material(particles, materials.len());
     let mut best = f64::INFINITY;
-    for (a, sa) in smallest.iter().enumerate() {
-        let Some((ra, ma)) = *sa else { continue };
-        for (b, sb) in smallest.iter().enumerate() {
-            let Some((rb, mb)) = *sb else { continue };
+    for &(a, ra, ma) in smallest {
+        for &(b, rb, mb) in smallest {
             let e = materials.pair(a, b).e_star;
             best = best.min(hertz_collision_time(
                 ma * mb / (ma + mb),
@@ -55,18 +43,6 @@ pub fn shortest_collision_time(
         }
     }
     best
-}
-
-fn smallest_per_material(particles: &Particles, n: usize) -> Vec<Option<(f64, f64)>> {
-    let mut smallest: Vec<Option<(f64, f64)>> = vec![None; n];
-    for k in 0..particles.len() {
-        let m = particles.material[k] as usize;
-        let r = particles.radius[k];
-        if smallest[m].is_none_or(|(s, _)| r < s) {
-            smallest[m] = Some((r, particles.mass[k]));
-        }
-    }
-    smallest
 }
 
 #[cfg(test)]

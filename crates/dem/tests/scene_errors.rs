@@ -296,3 +296,106 @@ fn random_fill_that_cannot_fit() {
     );
     assert_has(&e, &["particles[0].fill", "region is too small"]);
 }
+
+const INLINE_GROUP: &str = r#"[[particles]]
+material = "kernel"
+size = { type = "fixed", radius = 0.004 }
+region = { type = "box", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }
+fill = { type = "lattice", lattice = "sc", spacing = 0.01 }"#;
+
+#[test]
+fn unknown_particle_type_lists_the_defined_ones() {
+    let e = error_after(
+        INLINE_GROUP,
+        r#"[[particle_type]]
+name = "rod"
+material = "kernel"
+shape = { type = "rod", length = 0.02, diameter = 0.004, count = 4 }
+
+[[particles]]
+types = ["rods"]
+region = { type = "box", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }
+fill = { type = "random", count = 5 }"#,
+    );
+    assert_has(&e, &["particles[0].types[0]", "\"rods\"", "defined: rod"]);
+}
+
+#[test]
+fn clump_shape_errors_name_the_key() {
+    let e = error_after(
+        "size = { type = \"fixed\", radius = 0.004 }",
+        "shape = { type = \"maize_kernel\", class = \"dent\", count = 6 }",
+    );
+    assert_has(&e, &["particles[0].shape.class", "horse_tooth, flat"]);
+    let e = error_after(
+        "size = { type = \"fixed\", radius = 0.004 }",
+        "shape = { type = \"maize_kernel\", class = \"flat\", count = 6, upper_width = 0.007 }",
+    );
+    assert_has(&e, &["particles[0].shape.upper_width", "not used"]);
+    let e = error_after(
+        "size = { type = \"fixed\", radius = 0.004 }",
+        "shape = { type = \"rod\", length = 0.02, diameter = 0.004 }",
+    );
+    assert_has(&e, &["particles[0].shape.count", "missing"]);
+    // A lattice places spheres only.
+    let e = error_after(
+        "size = { type = \"fixed\", radius = 0.004 }",
+        "shape = { type = \"rod\", length = 0.02, diameter = 0.004, count = 4 }",
+    );
+    assert_has(&e, &["particles[0].fill.type", "lattice places spheres"]);
+}
+
+#[test]
+fn mixture_and_factory_errors_name_the_key() {
+    let group = |body: &str| {
+        format!(
+            r#"[[particle_type]]
+name = "a"
+material = "kernel"
+size = {{ type = "fixed", radius = 0.003 }}
+
+[[particle_type]]
+name = "b"
+material = "kernel"
+size = {{ type = "fixed", radius = 0.002 }}
+
+[[particles]]
+{body}"#
+        )
+    };
+    let random = "region = { type = \"box\", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }\nfill = { type = \"random\", count = 5 }";
+    let e = error_after(
+        INLINE_GROUP,
+        &group(&format!("types = [\"a\", \"b\"]\n{random}")),
+    );
+    assert_has(&e, &["particles[0].fractions", "missing"]);
+    let e = error_after(
+        INLINE_GROUP,
+        &group(&format!(
+            "types = [\"a\", \"b\"]\nfractions = [1, 2, 3]\n{random}"
+        )),
+    );
+    assert_has(&e, &["particles[0].fractions", "one fraction per type"]);
+    let e = error_after(
+        INLINE_GROUP,
+        &group(&format!("types = [\"a\"]\nbasis = \"volume\"\n{random}")),
+    );
+    assert_has(&e, &["particles[0].basis", "number or mass"]);
+    let e = error_after(
+        INLINE_GROUP,
+        &group("types = [\"a\"]\nfactory = { type = \"disc\", centre = [0.02, 0.02, 0.1], radius = 0.01 }\nfill = { type = \"factory\", count = 5 }"),
+    );
+    assert_has(&e, &["particles[0].fill.rate", "particles/s"]);
+    let e = error_after(
+        INLINE_GROUP,
+        &group("types = [\"a\"]\nfactory = { type = \"hexagon\", centre = [0.02, 0.02, 0.1] }\nfill = { type = \"factory\", count = 5, rate = 100 }"),
+    );
+    assert_has(&e, &["particles[0].factory.type", "disc or rectangle"]);
+    let e = error_after(
+        INLINE_GROUP,
+        &group(&format!(
+            "types = [\"a\"]\nsize = {{ type = \"fixed\", radius = 0.003 }}\n{random}"
+        )),
+    );
+    assert_has(&e, &["particles[0].size", "not used with types"]);
+}

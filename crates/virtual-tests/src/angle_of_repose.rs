@@ -9,24 +9,26 @@ use dem::scene::Scene;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::file::TestFile;
+use crate::file::{arr, group, table, text, TestFile};
 use crate::repose::{measure, ReposeMeasurement, ReposeResult};
 
 /// `[angle_of_repose]` settings.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Settings {
-    /// Material of the particles and of the cylinder and plate (names from `[[material]]`).
-    pub particle_material: String,
+    /// The particles, as in a scene's `[[particles]]` without placement: one type inline
+    /// (`material` and `size`, or `material`, `shape` and `scale`) or a mixture of the file's
+    /// `[[particle_type]]`s (`types`, `fractions`, `basis`).
+    pub particles: toml::Value,
+    /// Material of the cylinder and plate.
     pub wall_material: String,
     /// Inner diameter and height of the cylinder (m).
     pub cylinder_diameter: f64,
     pub cylinder_height: f64,
     /// Side of the square base plate (m; default 6 cylinder diameters).
     pub plate_size: Option<f64>,
-    /// Particle size distribution, as in a scene's `[[particles]] size`.
-    pub size: toml::Value,
-    /// `{ count = N }` or `{ mass = kg }`: generated at random inside the cylinder.
+    /// `{ count = N }` or `{ mass = kg }`: generated at random inside the cylinder, or with
+    /// `from = "factory"` poured from a disc at the cylinder's top.
     pub fill: Fill,
     /// Height of the region filled inside the cylinder (m; default the cylinder height).
     pub fill_height: Option<f64>,
@@ -56,6 +58,19 @@ pub struct Settings {
 pub struct Fill {
     pub count: Option<u64>,
     pub mass: Option<f64>,
+    /// "inside" (default) or "factory".
+    #[serde(default = "default_from")]
+    pub from: String,
+    /// Factory rate: particles/s or kg/s (default: the whole fill in 0.5 s).
+    pub rate: Option<f64>,
+    pub mass_rate: Option<f64>,
+    /// Downward speed of poured particles (m/s).
+    #[serde(default)]
+    pub speed: f64,
+}
+
+fn default_from() -> String {
+    "inside".into()
 }
 
 fn default_time_step_percent() -> f64 {
@@ -85,7 +100,9 @@ pub struct Outcome {
     pub heap_height_m: f64,
     pub heap_radius_m: f64,
     pub flank_angles_deg: Vec<f64>,
+    /// Particles (a clump counts once) and the spheres they are made of.
     pub particles: usize,
+    pub spheres: usize,
     pub time_step_s: f64,
     pub settle_time_s: f64,
     pub simulated_time_s: f64,
@@ -132,6 +149,34 @@ fn check(file: &TestFile, s: &Settings) -> Result<(), String> {
         (Some(_), None) | (None, Some(_)) => {}
         _ => return err("fill", "expected exactly one of count or mass".into()),
     }
+    match s.fill.from.as_str() {
+        "inside" => {
+            if s.fill.rate.is_some() || s.fill.mass_rate.is_some() || s.fill.speed != 0.0 {
+                return err(
+                    "fill",
+                    "rate, mass_rate and speed are for from = \"factory\"".into(),
+                );
+            }
+        }
+        "factory" => {
+            if s.fill.rate.is_some() && s.fill.mass_rate.is_some() {
+                return err("fill.mass_rate", "give rate or mass_rate, not both".into());
+            }
+            if s.fill.speed < 0.0 {
+                return err(
+                    "fill.speed",
+                    format!("expected a speed >= 0, got {}", s.fill.speed),
+                );
+            }
+        }
+        other => {
+            return err(
+                "fill.from",
+                format!("expected \"inside\" or \"factory\", got \"{other}\""),
+            )
+        }
+    }
+    file.check_particles(&s.particles)?;
     if !(0.0..1.0).contains(&s.fit_band[0]) || s.fit_band[1] <= s.fit_band[0] || s.fit_band[1] > 1.0
     {
         return err(
@@ -153,99 +198,99 @@ pub fn scene_toml(file: &TestFile, s: &Settings, seed: u64) -> Result<String, St
     let lift = s.lift_distance.unwrap_or(s.cylinder_height);
     let duration = s.settle_max_time + lift / s.lift_speed + s.final_max_time;
     let r = 0.5 * s.cylinder_diameter;
-    let arr = |v: [f64; 3]| Value::Array(v.iter().map(|x| Value::Float(*x)).collect());
-    let table = |pairs: Vec<(&str, Value)>| {
-        Value::Table(pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
-    };
     let half = 0.5 * plate;
-    let mut fill = vec![
-        ("type", Value::String("random".into())),
-        ("seed", Value::Integer(seed as i64)),
-    ];
+    let mut fill = vec![("seed", Value::Integer(seed as i64))];
     if let Some(c) = s.fill.count {
         fill.push(("count", Value::Integer(c as i64)));
     }
     if let Some(m) = s.fill.mass {
         fill.push(("mass", Value::Float(m)));
     }
-    let scene = table(vec![
-        (
-            "simulation",
+    let placement = if s.fill.from == "factory" {
+        fill.push(("type", text("factory")));
+        match (s.fill.rate, s.fill.mass_rate, s.fill.count, s.fill.mass) {
+            (Some(rate), _, _, _) => fill.push(("rate", Value::Float(rate))),
+            (_, Some(rate), _, _) => fill.push(("mass_rate", Value::Float(rate))),
+            (_, _, Some(n), _) => fill.push(("rate", Value::Float(n as f64 / 0.5))),
+            (_, _, _, m) => fill.push(("mass_rate", Value::Float(m.unwrap_or(0.0) / 0.5))),
+        }
+        // A disc just inside the rim, particles created below it.
+        vec![
+            (
+                "factory",
+                table(vec![
+                    ("type", text("disc")),
+                    ("centre", arr([0.0, 0.0, fill_height])),
+                    ("radius", Value::Float(0.95 * r)),
+                ]),
+            ),
+            ("velocity", arr([0.0, 0.0, -s.fill.speed])),
+        ]
+    } else {
+        fill.push(("type", text("random")));
+        vec![(
+            "region",
             table(vec![
-                ("duration", Value::Float(duration)),
-                ("time_step_percent", Value::Float(s.time_step_percent)),
+                ("type", text("cylinder")),
+                ("base", arr([0.0, 0.0, 0.0])),
+                ("radius", Value::Float(r)),
+                ("length", Value::Float(fill_height)),
+            ]),
+        )]
+    };
+    let mut extra = placement;
+    extra.push(("fill", table(fill)));
+    let simulation = table(vec![
+        ("duration", Value::Float(duration)),
+        ("time_step_percent", Value::Float(s.time_step_percent)),
+        (
+            "domain",
+            table(vec![
+                // A particle that rolls off the plate falls out of this box and stops the run
+                // with its reason: the plate is too small.
                 (
-                    "domain",
-                    table(vec![
-                        // A particle that rolls off the plate falls out of this box and stops
-                        // the run with its reason: the plate is too small.
-                        (
-                            "min",
-                            arr([-half * 1.2, -half * 1.2, -0.25 * s.cylinder_height]),
-                        ),
-                        (
-                            "max",
-                            arr([
-                                half * 1.2,
-                                half * 1.2,
-                                fill_height + 2.0 * s.cylinder_height,
-                            ]),
-                        ),
+                    "min",
+                    arr([-half * 1.2, -half * 1.2, -0.25 * s.cylinder_height]),
+                ),
+                (
+                    "max",
+                    arr([
+                        half * 1.2,
+                        half * 1.2,
+                        fill_height + 2.0 * s.cylinder_height,
                     ]),
                 ),
             ]),
-        ),
-        ("material", file.materials.clone()),
-        ("interaction", file.interactions.clone()),
-        (
-            "geometry",
-            Value::Array(vec![
-                table(vec![
-                    ("name", Value::String("plate".into())),
-                    ("type", Value::String("box".into())),
-                    ("material", Value::String(s.wall_material.clone())),
-                    ("min", arr([-half, -half, -0.01])),
-                    ("max", arr([half, half, 0.0])),
-                    (
-                        "open",
-                        Value::Array(
-                            ["-x", "+x", "-y", "+y", "-z"]
-                                .iter()
-                                .map(|f| Value::String(f.to_string()))
-                                .collect(),
-                        ),
-                    ),
-                ]),
-                table(vec![
-                    ("name", Value::String("cylinder".into())),
-                    ("type", Value::String("cylinder".into())),
-                    ("material", Value::String(s.wall_material.clone())),
-                    ("base", arr([0.0, 0.0, 0.0])),
-                    ("axis", arr([0.0, 0.0, 1.0])),
-                    ("radius", Value::Float(r)),
-                    ("length", Value::Float(s.cylinder_height)),
-                ]),
-            ]),
-        ),
-        (
-            "particles",
-            Value::Array(vec![table(vec![
-                ("material", Value::String(s.particle_material.clone())),
-                ("size", s.size.clone()),
-                (
-                    "region",
-                    table(vec![
-                        ("type", Value::String("cylinder".into())),
-                        ("base", arr([0.0, 0.0, 0.0])),
-                        ("radius", Value::Float(r)),
-                        ("length", Value::Float(fill_height)),
-                    ]),
-                ),
-                ("fill", table(fill)),
-            ])]),
         ),
     ]);
-    toml::to_string(&scene).map_err(|e| format!("{}: {e}", file.name))
+    let geometries = vec![
+        table(vec![
+            ("name", text("plate")),
+            ("type", text("box")),
+            ("material", text(&s.wall_material)),
+            ("min", arr([-half, -half, -0.01])),
+            ("max", arr([half, half, 0.0])),
+            (
+                "open",
+                Value::Array(
+                    ["-x", "+x", "-y", "+y", "-z"]
+                        .iter()
+                        .map(|f| text(f))
+                        .collect(),
+                ),
+            ),
+        ]),
+        table(vec![
+            ("name", text("cylinder")),
+            ("type", text("cylinder")),
+            ("material", text(&s.wall_material)),
+            ("base", arr([0.0, 0.0, 0.0])),
+            ("axis", arr([0.0, 0.0, 1.0])),
+            ("radius", Value::Float(r)),
+            ("length", Value::Float(s.cylinder_height)),
+        ]),
+    ];
+    file.scene_text(simulation, geometries, vec![group(&s.particles, extra)])
 }
 
 /// Runs the test. `progress` hears the phase and the simulated time.
@@ -263,8 +308,8 @@ pub fn run(
     let wall = Instant::now();
     let mut sim = scene.simulation;
     let dt = sim.params.time_step;
-    let total_mass = sim.total_mass();
-    let rms = |sim: &dem::Simulation| (2.0 * sim.kinetic_energy() / total_mass).sqrt();
+    // The mass grows while a factory pours.
+    let rms = |sim: &dem::Simulation| (2.0 * sim.kinetic_energy() / sim.total_mass()).sqrt();
     let chunk = ((0.01 / dt).ceil() as u64).max(1);
     let fail = |e: dem::sim::SimError| format!("{}: simulation failed: {e}", file.name);
 
@@ -272,9 +317,15 @@ pub fn run(
     while sim.time < s.settle_max_time {
         sim.run(chunk).map_err(fail)?;
         progress("settle", sim.time);
-        if sim.time > 0.05 && rms(&sim) < s.settle_speed {
+        if sim.time > 0.05 && sim.factories_done() && rms(&sim) < s.settle_speed {
             break;
         }
+    }
+    if !sim.factories_done() {
+        return Err(format!(
+            "{}: angle_of_repose.settle_max_time: the factory had not finished pouring after {} s; allow more time or pour faster",
+            file.name, s.settle_max_time
+        ));
     }
     let settle_time = sim.time;
     // 2. Lift.
@@ -314,7 +365,8 @@ pub fn run(
         heap_height_m: res.heap_height,
         heap_radius_m: res.heap_radius,
         flank_angles_deg: res.flanks.iter().map(|f| f.angle_deg).collect(),
-        particles: positions.len(),
+        particles: particle_count(&sim),
+        spheres: positions.len(),
         time_step_s: dt,
         settle_time_s: settle_time,
         simulated_time_s: sim.time,
@@ -325,4 +377,15 @@ pub fn run(
         positions,
         radii,
     })
+}
+
+/// Free spheres plus clumps.
+pub fn particle_count(sim: &dem::Simulation) -> usize {
+    let free = sim
+        .particles
+        .body
+        .iter()
+        .filter(|&&b| b == dem::particles::NO_BODY)
+        .count();
+    free + sim.bodies.len()
 }

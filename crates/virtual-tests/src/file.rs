@@ -14,14 +14,15 @@ pub struct TestFile {
     pub name: String,
     pub test: String,
     pub seed: Option<u64>,
-    /// `[[material]]` and `[[interaction]]` as given.
+    /// `[[material]]`, `[[interaction]]` and `[[particle_type]]` as given.
     pub materials: toml::Value,
     pub interactions: toml::Value,
+    pub particle_types: Option<toml::Value>,
     /// The table named after the test.
     pub settings: toml::Value,
 }
 
-pub const TESTS: &[&str] = &["angle_of_repose"];
+pub const TESTS: &[&str] = &["angle_of_repose", "incline_tilt", "incline_slide"];
 
 impl TestFile {
     pub fn load(path: &Path) -> Result<TestFile, String> {
@@ -50,9 +51,18 @@ impl TestFile {
             ));
         }
         for key in value.keys() {
-            if !["test", "seed", "material", "interaction", test.as_str()].contains(&key.as_str()) {
+            if ![
+                "test",
+                "seed",
+                "material",
+                "interaction",
+                "particle_type",
+                test.as_str(),
+            ]
+            .contains(&key.as_str())
+            {
                 return Err(format!(
-                    "{name}: {key}: unknown key (expected test, seed, material, interaction, {test})"
+                    "{name}: {key}: unknown key (expected test, seed, material, interaction, particle_type, {test})"
                 ));
             }
         }
@@ -72,6 +82,7 @@ impl TestFile {
                 .ok_or_else(|| format!("{name}: material: missing [[material]]"))?,
             interactions: get("interaction")
                 .ok_or_else(|| format!("{name}: interaction: missing [[interaction]]"))?,
+            particle_types: get("particle_type"),
         })
     }
 
@@ -87,6 +98,78 @@ impl TestFile {
             }
         })
     }
+
+    /// Checks a test's `particles` setting: one type inline (`material` with `size`, or with
+    /// `shape` and `scale`) or a mixture (`types`, `fractions`, `basis`), in the scene format.
+    /// Where and how many is the test's business.
+    pub fn check_particles(&self, particles: &toml::Value) -> Result<(), String> {
+        let key = format!("{}: {}.particles", self.name, self.test);
+        let t = particles
+            .as_table()
+            .ok_or_else(|| format!("{key}: expected a table, e.g. {{ material = \"bead\", size = {{ type = \"fixed\", radius = 0.002 }} }}"))?;
+        for k in t.keys() {
+            if ![
+                "material",
+                "size",
+                "shape",
+                "scale",
+                "types",
+                "fractions",
+                "basis",
+            ]
+            .contains(&k.as_str())
+            {
+                return Err(format!(
+                    "{key}.{k}: unknown key (expected material, size, shape, scale, types, fractions, basis)"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// A scene (as TOML) with this file's materials, interactions and particle types.
+    pub fn scene_text(
+        &self,
+        simulation: toml::Value,
+        geometries: Vec<toml::Value>,
+        particles: Vec<toml::Value>,
+    ) -> Result<String, String> {
+        let mut scene = vec![
+            ("simulation", simulation),
+            ("material", self.materials.clone()),
+            ("interaction", self.interactions.clone()),
+            ("geometry", toml::Value::Array(geometries)),
+            ("particles", toml::Value::Array(particles)),
+        ];
+        if let Some(t) = &self.particle_types {
+            scene.push(("particle_type", t.clone()));
+        }
+        toml::to_string(&table(scene)).map_err(|e| format!("{}: {e}", self.name))
+    }
+}
+
+/// `[x, y, z]` as TOML.
+pub fn arr(v: [f64; 3]) -> toml::Value {
+    toml::Value::Array(v.iter().map(|x| toml::Value::Float(*x)).collect())
+}
+
+/// A TOML table from pairs.
+pub fn table(pairs: Vec<(&str, toml::Value)>) -> toml::Value {
+    toml::Value::Table(pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
+}
+
+/// A TOML string.
+pub fn text(s: &str) -> toml::Value {
+    toml::Value::String(s.to_string())
+}
+
+/// `particles` with more keys (region, fill, velocity) added.
+pub fn group(particles: &toml::Value, extra: Vec<(&str, toml::Value)>) -> toml::Value {
+    let mut t = particles.as_table().cloned().unwrap_or_default();
+    for (k, v) in extra {
+        t.insert(k.to_string(), v);
+    }
+    toml::Value::Table(t)
 }
 
 fn one_line(s: &str) -> String {

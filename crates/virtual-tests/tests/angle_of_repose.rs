@@ -33,12 +33,11 @@ static_friction = 0.5
 rolling_friction = 0.1
 
 [angle_of_repose]
-particle_material = "bead"
+particles = {{ material = "bead", size = {{ type = "fixed", radius = 0.002 }} }}
 wall_material = "steel"
 cylinder_diameter = 0.04
 cylinder_height = 0.06
 plate_size = 0.24
-size = {{ type = "fixed", radius = 0.002 }}
 fill = {{ count = {count} }}
 lift_speed = 0.1
 {settings_extra}
@@ -102,10 +101,7 @@ fn file_errors_name_the_key() {
             "heap.toml: test: unknown test \"shear\"",
         ),
         (
-            file("", 10).replace(
-                "particle_material = \"bead\"",
-                "particle_material = \"corn\"",
-            ),
+            file("", 10).replace("material = \"bead\"", "material = \"corn\""),
             "heap.toml",
         ),
     ];

@@ -203,14 +203,7 @@ impl Mixture {
     /// Draws the next particle's type and size (position and orientation unset).
     pub fn draw(&self, drawn: &mut Drawn, rng: &mut Pcg64) -> Item {
         drawn.per_type.resize(self.types.len(), 0.0);
-        let total: f64 = drawn.per_type.iter().sum();
-        let kind = (0..self.types.len())
-            .filter(|&k| self.fractions[k] > 0.0)
-            .min_by(|&a, &b| {
-                let deficit = |k: usize| drawn.per_type[k] - self.fractions[k] * total;
-                deficit(a).total_cmp(&deficit(b))
-            })
-            .unwrap_or(0);
+        let kind = furthest_below_share(&drawn.per_type, &self.fractions);
         let t = &self.types[kind];
         let size = t.size.sample(rng);
         let mass = t.mass(size);
@@ -264,6 +257,20 @@ impl Mixture {
             .map(|t| t.bounding_radius())
             .fold(0.0, f64::max)
     }
+}
+
+/// The type whose amount so far is furthest below its share of the total (the first on ties;
+/// types with a zero fraction are never picked). Fractions need not sum to one.
+pub fn furthest_below_share(so_far: &[f64], fractions: &[f64]) -> usize {
+    let total: f64 = so_far.iter().sum();
+    let norm: f64 = fractions.iter().sum();
+    (0..fractions.len())
+        .filter(|&k| fractions[k] > 0.0)
+        .min_by(|&a, &b| {
+            let excess = |k: usize| so_far[k] - fractions[k] / norm * total;
+            excess(a).total_cmp(&excess(b))
+        })
+        .unwrap_or(0)
 }
 
 /// Uniformly distributed rotation (Shoemake's method).

@@ -233,6 +233,18 @@ impl Simulation {
         self.factories.push(factory);
     }
 
+    /// Moves every particle and clump by `delta` (placing a specimen where a test wants it).
+    pub fn shift(&mut self, delta: DVec3) {
+        for x in &mut self.particles.position {
+            *x += delta;
+        }
+        for x in &mut self.bodies.position {
+            *x += delta;
+        }
+        self.rebuild();
+        self.forces_ready = false;
+    }
+
     /// Whether every factory has created all it should.
     pub fn factories_done(&self) -> bool {
         self.factories.iter().all(|f| f.done())

@@ -1,0 +1,140 @@
+//! The inclined-plane tests against mechanics: a flat clump slides at tan(angle) = static
+//! friction, a sphere rolls at tan(angle) = rolling friction (constant directional torque), and a
+//! flat clump's slide distance is bounded by the work of friction.
+
+use virtual_tests::{run_file, TestFile};
+
+fn materials(static_friction: f64, rolling_friction: f64, restitution: f64) -> String {
+    format!(
+        r#"
+[[material]]
+name = "grain"
+density = 1200
+poisson_ratio = 0.3
+shear_modulus = 1e7
+
+[[material]]
+name = "steel"
+density = 7850
+poisson_ratio = 0.3
+shear_modulus = 7.9e10
+
+[[interaction]]
+materials = ["grain", "grain"]
+restitution = 0.3
+static_friction = 0.5
+rolling_friction = 0.1
+
+[[interaction]]
+materials = ["grain", "steel"]
+restitution = {restitution}
+static_friction = {static_friction}
+rolling_friction = {rolling_friction}
+
+[[particle_type]]
+name = "tile"
+material = "grain"
+# Four spheres in a square: it cannot roll, so it slides.
+shape = {{ type = "spheres", spheres = [[0.0, 0.0, 0.0, 0.002], [0.003, 0.0, 0.0, 0.002], [0.0, 0.003, 0.0, 0.002], [0.003, 0.003, 0.0, 0.002]] }}
+"#
+    )
+}
+
+fn run(text: &str) -> serde_json::Value {
+    let f = TestFile::parse("incline.toml", text).unwrap();
+    let (json, summary) =
+        run_file(&f, None, None, &mut |_, _| {}).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("{summary}");
+    json
+}
+
+#[test]
+fn a_flat_clump_slides_at_the_friction_angle() {
+    let text = format!(
+        "test = \"incline_tilt\"\n{}\n[incline_tilt]\nparticles = {{ types = [\"tile\"] }}\nplate_material = \"steel\"\n",
+        materials(0.4, 0.05, 0.3)
+    );
+    let j = run(&text);
+    let angle = j["angle_deg"].as_f64().unwrap();
+    // Sliding starts at atan(0.4) = 21.80 deg; 2 mm of travel at 2 deg/s adds about half a degree.
+    assert!(j["slid"].as_bool().unwrap());
+    assert!(
+        (angle - 0.4f64.atan().to_degrees() - 0.5).abs() < 0.6,
+        "{angle}"
+    );
+    assert!((j["tan_angle"].as_f64().unwrap() - angle.to_radians().tan()).abs() < 1e-12);
+}
+
+#[test]
+fn a_sphere_rolls_at_the_rolling_friction_angle() {
+    let text = format!(
+        "test = \"incline_tilt\"\n{}\n[incline_tilt]\nparticles = {{ material = \"grain\", size = {{ type = \"fixed\", radius = 0.002 }} }}\nplate_material = \"steel\"\n",
+        materials(0.5, 0.1, 0.3)
+    );
+    let j = run(&text);
+    let angle = j["angle_deg"].as_f64().unwrap();
+    // Rolling starts when tan(angle) exceeds the rolling friction: atan(0.1) = 5.71 deg.
+    assert!(
+        (angle - 0.1f64.atan().to_degrees() - 0.5).abs() < 0.7,
+        "{angle}"
+    );
+}
+
+#[test]
+fn slide_distance_of_a_flat_clump_is_bounded_by_the_work_of_friction() {
+    let (mu, e, theta, length) = (0.2f64, 0.1, 20f64.to_radians(), 0.2);
+    let text = format!(
+        "test = \"incline_slide\"\nseed = 2\n{}\n[incline_slide]\nparticles = {{ types = [\"tile\"] }}\nramp_material = \"steel\"\nramp_angle_deg = 20\nramp_length = {length}\nreleases = 2\n",
+        materials(mu, 0.05, e)
+    );
+    let j = run(&text);
+    // Down the ramp: v^2 = 2 g L (sin - mu cos); then it slides to rest over v_h^2 / (2 mu g).
+    // At the foot a point mass would lose its normal velocity v sin (e of it returned) and, to
+    // friction during that impact, mu (1 + e) v sin of v cos; a tile turns over the corner and
+    // loses less. So the distance lies between those two ends (plus the tile's half length,
+    // as the centre is measured).
+    let g = 9.81;
+    let v = (2.0 * g * length * (theta.sin() - mu * theta.cos())).sqrt();
+    let vh = v * theta.cos() - mu * (1.0 + e) * v * theta.sin();
+    let (shortest, longest) = (vh * vh / (2.0 * mu * g), v * v / (2.0 * mu * g) + 0.0035);
+    let d = j["distance_m"].as_f64().unwrap();
+    assert!(d > shortest && d < longest, "{d} outside [{shortest}, {longest}]");
+    assert_eq!(j["stopped_on_ramp"], 0);
+}
+
+#[test]
+fn incline_file_errors_name_the_key() {
+    let base = format!(
+        "test = \"incline_slide\"\n{}\n[incline_slide]\nparticles = {{ types = [\"tile\"] }}\nramp_material = \"steel\"\nramp_angle_deg = 20\nramp_length = 0.2\n",
+        materials(0.2, 0.05, 0.1)
+    );
+    for (from, to, want) in [
+        (
+            "ramp_angle_deg = 20",
+            "ramp_angle_deg = 95",
+            "incline_slide.ramp_angle_deg: expected less than 90",
+        ),
+        (
+            "ramp_length = 0.2",
+            "ramp_length = 0",
+            "incline_slide.ramp_length: expected a positive number",
+        ),
+        (
+            "ramp_material = \"steel\"",
+            "ramp_material = \"iron\"",
+            "iron",
+        ),
+        (
+            "particles = {",
+            "particles = { region = 1, ",
+            "incline_slide.particles.region: unknown key",
+        ),
+    ] {
+        let text = base.replace(from, to);
+        let e = TestFile::parse("incline.toml", &text)
+            .and_then(|f| run_file(&f, None, None, &mut |_, _| {}).map(|_| ()))
+            .unwrap_err();
+        assert!(e.contains(want), "{e}\nwanted: {want}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}

@@ -32,7 +32,34 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Run a virtual lab test (angle_of_repose) and print what it measures.
+    /// Measure the angle of repose of a heap given as spheres: a CSV file (x, y, z, radius) or a
+    /// LIGGGHTS/LAMMPS custom dump (last frame), the way `demcal test` measures its own heaps.
+    HeapAngle {
+        file: PathBuf,
+        /// Vertical planes through the heap axis.
+        #[arg(long, default_value_t = 4)]
+        planes: usize,
+        /// Heap axis x and y (m).
+        #[arg(
+            long,
+            default_value = "0,0",
+            value_delimiter = ',',
+            num_args = 1,
+            allow_negative_numbers = true
+        )]
+        axis: Vec<f64>,
+        /// Height of the base plate (m).
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        base: f64,
+        /// Write profiles.svg and heap.png here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// End with one JSON object with the results.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run a virtual lab test (angle_of_repose, incline_tilt, incline_slide) and print what it
+    /// measures.
     Test {
         test: PathBuf,
         /// Seed of the particle generation (overrides the file's `seed`).
@@ -41,7 +68,7 @@ enum Command {
         /// End with one JSON object with the results.
         #[arg(long)]
         json: bool,
-        /// Write pictures (profiles.svg, heap.png) and result.json here.
+        /// Write result.json (and for the repose test profiles.svg and heap.png) here.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Worker threads (default: all cores).
@@ -280,13 +307,66 @@ fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> R
     let (value, summary) = result?;
     println!("{summary}");
     if let Some(dir) = out {
-        println!(
-            "wrote profiles.svg, heap.png and result.json to {}",
-            dir.display()
-        );
+        println!("wrote the results to {}", dir.display());
     }
     if json {
         println!("{value}");
+    }
+    Ok(())
+}
+
+fn heap_angle(
+    path: &Path,
+    planes: usize,
+    axis: &[f64],
+    base: f64,
+    out: Option<&Path>,
+    json: bool,
+) -> Result<(), String> {
+    use virtual_tests::repose::{measure, read_spheres, ReposeMeasurement};
+    if planes == 0 {
+        return Err("--planes: expected at least 1".into());
+    }
+    if axis.len() != 2 {
+        return Err(format!("--axis: expected X,Y, got {} numbers", axis.len()));
+    }
+    let (positions, radii) = read_spheres(path)?;
+    let m = ReposeMeasurement {
+        axis: (axis[0], axis[1]),
+        base_z: base,
+        planes,
+        ..Default::default()
+    };
+    let r = measure(&positions, &radii, &m).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!(
+        "{}: angle_deg={:.2} std_deg={:.2} heap_height_m={:.4} heap_radius_m={:.4} spheres={}",
+        path.display(),
+        r.angle_deg,
+        r.angle_std_deg,
+        r.heap_height,
+        r.heap_radius,
+        positions.len()
+    );
+    if let Some(dir) = out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let svg = virtual_tests::render::profiles_svg(&r)?;
+        std::fs::write(dir.join("profiles.svg"), svg)
+            .map_err(|e| format!("{}: {e}", dir.display()))?;
+        virtual_tests::render::side_view_png(&positions, &radii, 900, &dir.join("heap.png"))?;
+    }
+    if json {
+        let flanks: Vec<f64> = r.flanks.iter().map(|f| f.angle_deg).collect();
+        println!(
+            "{}",
+            serde_json::json!({
+                "angle_of_repose_deg": r.angle_deg,
+                "angle_std_deg": r.angle_std_deg,
+                "heap_height_m": r.heap_height,
+                "heap_radius_m": r.heap_radius,
+                "flank_angles_deg": flanks,
+                "spheres": positions.len(),
+            })
+        );
     }
     Ok(())
 }
@@ -320,6 +400,14 @@ fn main() -> ExitCode {
             out,
             threads,
         } => set_threads(threads).and_then(|_| run_test(&test, seed, json, out.as_deref())),
+        Command::HeapAngle {
+            file,
+            planes,
+            axis,
+            base,
+            out,
+            json,
+        } => heap_angle(&file, planes, &axis, base, out.as_deref(), json),
         Command::Bench {
             name: _,
             steps,

@@ -384,3 +384,58 @@ fn test_command_prints_json_last() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("material: missing [[material]]"), "{err}");
 }
+
+/// The surface spheres of a cone heap of slope `deg` (1 mm spheres whose tops trace the cone).
+fn cone_spheres(deg: f64) -> Vec<[f64; 4]> {
+    let (r, radius, step) = (0.001, 0.06, 0.0015);
+    let slope = deg.to_radians().tan();
+    let n = (radius / step) as i64;
+    let mut out = Vec::new();
+    for i in -n..=n {
+        for j in -n..=n {
+            let (x, y) = (i as f64 * step, j as f64 * step);
+            let rho = (x * x + y * y).sqrt();
+            if rho < radius {
+                out.push([x, y, (radius - rho) * slope - r, r]);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn heap_angle_measures_csv_and_liggghts_dumps_alike() {
+    let dir = temp_dir("heap-angle");
+    let spheres = cone_spheres(35.0);
+    let mut csv = String::from("id,x,y,z,radius\n");
+    let mut dump = format!(
+        "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS ff ff ff\n-1 1\n-1 1\n-1 1\nITEM: ATOMS id x y z radius\n",
+        spheres.len()
+    );
+    for (k, s) in spheres.iter().enumerate() {
+        csv.push_str(&format!("{k},{},{},{},{}\n", s[0], s[1], s[2], s[3]));
+        dump.push_str(&format!("{k} {} {} {} {}\n", s[0], s[1], s[2], s[3]));
+    }
+    let (c, d) = (dir.join("heap.csv"), dir.join("final.dump"));
+    std::fs::write(&c, csv).unwrap();
+    std::fs::write(&d, dump).unwrap();
+    let angle = |path: &Path| -> f64 {
+        let out = run_ok(&[
+            "heap-angle".as_ref(),
+            path.as_os_str(),
+            "--axis=-0.0,0".as_ref(),
+            "--json".as_ref(),
+        ]);
+        let j: serde_json::Value = serde_json::from_str(out.lines().last().unwrap()).unwrap();
+        j["angle_of_repose_deg"].as_f64().unwrap()
+    };
+    let (a, b) = (angle(&c), angle(&d));
+    assert_eq!(a, b);
+    assert!((a - 35.0).abs() < 0.5, "{a}");
+    // A file without a radius column names what is missing.
+    std::fs::write(&c, "x,y,z\n0,0,0\n").unwrap();
+    let out = demcal().args(["heap-angle".as_ref(), c.as_os_str()]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("no column \"radius\""), "{err}");
+}

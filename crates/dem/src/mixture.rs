@@ -490,11 +490,10 @@ mod tests {
         }
         let total: f64 = per.iter().sum();
         let largest = m.types[0].mass(1.0);
-        for k in 0..3 {
+        for (k, (got, share)) in per.iter().zip(&m.fractions).enumerate() {
             assert!(
-                (per[k] - m.fractions[k] * total).abs() <= largest,
-                "type {k}: {} of {total}",
-                per[k]
+                (got - share * total).abs() <= largest,
+                "type {k}: {got} of {total}"
             );
         }
         // By number: 30 % / 70 %.

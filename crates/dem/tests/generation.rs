@@ -96,7 +96,7 @@ fill = {{ type = "random", mass = 0.1 }}
         }
     }
     let total = rods + kernels + fines;
-    assert!(total >= 0.1 && total < 0.1 + 0.002, "{total}");
+    assert!((0.1..0.102).contains(&total), "{total}");
     for (got, want) in [(rods, 0.2), (kernels, 0.5), (fines, 0.3)] {
         // Within one particle (a kernel at scale 1.1 weighs less than 0.5 g).
         assert!(

@@ -34,6 +34,10 @@ pub struct Settings {
     pub fill_height: Option<f64>,
     #[serde(default = "default_time_step_percent")]
     pub time_step_percent: f64,
+    /// As in a scene's `[simulation]`: "cdt" (EDEM's standard, default) or "epsd", and the
+    /// epsd viscous damping.
+    pub rolling_friction_model: Option<String>,
+    pub rolling_viscous_damping: Option<f64>,
     /// Settled when the rms particle speed falls below this (m/s).
     #[serde(default = "default_settle_speed")]
     pub settle_speed: f64,
@@ -240,7 +244,7 @@ pub fn scene_toml(file: &TestFile, s: &Settings, seed: u64) -> Result<String, St
     };
     let mut extra = placement;
     extra.push(("fill", table(fill)));
-    let simulation = table(vec![
+    let mut simulation = vec![
         ("duration", Value::Float(duration)),
         ("time_step_percent", Value::Float(s.time_step_percent)),
         (
@@ -262,7 +266,14 @@ pub fn scene_toml(file: &TestFile, s: &Settings, seed: u64) -> Result<String, St
                 ),
             ]),
         ),
-    ]);
+    ];
+    if let Some(m) = &s.rolling_friction_model {
+        simulation.push(("rolling_friction_model", text(m)));
+    }
+    if let Some(d) = s.rolling_viscous_damping {
+        simulation.push(("rolling_viscous_damping", Value::Float(d)));
+    }
+    let simulation = table(simulation);
     let geometries = vec![
         table(vec![
             ("name", text("plate")),

@@ -187,6 +187,80 @@ fn line_fit(pts: &[(f64, f64)]) -> (f64, f64) {
     (b, mz - b * ms)
 }
 
+/// Reads sphere centres and radii from a CSV file with columns `x, y, z, radius` (a header row
+/// naming them, any order, other columns ignored), or from a LAMMPS/LIGGGHTS custom dump (the
+/// last frame; `ITEM: ATOMS ... x y z radius ...`). Lets a heap from another engine, or EDEM's
+/// export, be measured exactly as demcal measures its own.
+pub fn read_spheres(path: &std::path::Path) -> Result<(Vec<glam::DVec3>, Vec<f64>), String> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    let columns = |header: &[&str]| -> Result<[usize; 4], String> {
+        let mut idx = [usize::MAX; 4];
+        for (k, want) in ["x", "y", "z", "radius"].iter().enumerate() {
+            idx[k] = header
+                .iter()
+                .position(|h| h.trim().eq_ignore_ascii_case(want))
+                .ok_or_else(|| {
+                    format!(
+                        "{name}: no column \"{want}\" (columns: {}); expected x, y, z, radius",
+                        header.join(", ")
+                    )
+                })?;
+        }
+        Ok(idx)
+    };
+    let parse_rows = |rows: &[&str], sep: char, idx: [usize; 4], first_line: usize| {
+        let mut xs = Vec::new();
+        let mut rs = Vec::new();
+        for (k, row) in rows.iter().enumerate() {
+            if row.trim().is_empty() {
+                continue;
+            }
+            let cells: Vec<&str> = if sep == ' ' {
+                row.split_whitespace().collect()
+            } else {
+                row.split(sep).collect()
+            };
+            let get = |c: usize| -> Result<f64, String> {
+                cells
+                    .get(c)
+                    .and_then(|v| v.trim().parse::<f64>().ok())
+                    .ok_or_else(|| {
+                        format!(
+                            "{name}: line {}: expected a number in column {}",
+                            first_line + k,
+                            c + 1
+                        )
+                    })
+            };
+            xs.push(glam::DVec3::new(get(idx[0])?, get(idx[1])?, get(idx[2])?));
+            rs.push(get(idx[3])?);
+        }
+        Ok::<_, String>((xs, rs))
+    };
+    let lines: Vec<&str> = text.lines().collect();
+    let out = if let Some(start) = lines.iter().rposition(|l| l.starts_with("ITEM: ATOMS")) {
+        let header: Vec<&str> = lines[start]["ITEM: ATOMS".len()..]
+            .split_whitespace()
+            .collect();
+        let end = lines[start + 1..]
+            .iter()
+            .position(|l| l.starts_with("ITEM:"))
+            .map_or(lines.len(), |e| start + 1 + e);
+        parse_rows(&lines[start + 1..end], ' ', columns(&header)?, start + 2)?
+    } else {
+        let header: Vec<&str> = lines
+            .first()
+            .map(|l| l.split(',').collect())
+            .unwrap_or_default();
+        parse_rows(&lines[1.min(lines.len())..], ',', columns(&header)?, 2)?
+    };
+    if out.0.is_empty() {
+        return Err(format!("{name}: no spheres in the file"));
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -98,7 +98,10 @@ fn slide_distance_of_a_flat_clump_is_bounded_by_the_work_of_friction() {
     let vh = v * theta.cos() - mu * (1.0 + e) * v * theta.sin();
     let (shortest, longest) = (vh * vh / (2.0 * mu * g), v * v / (2.0 * mu * g) + 0.0035);
     let d = j["distance_m"].as_f64().unwrap();
-    assert!(d > shortest && d < longest, "{d} outside [{shortest}, {longest}]");
+    assert!(
+        d > shortest && d < longest,
+        "{d} outside [{shortest}, {longest}]"
+    );
     assert_eq!(j["stopped_on_ramp"], 0);
 }
 

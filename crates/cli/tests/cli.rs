@@ -434,7 +434,10 @@ fn heap_angle_measures_csv_and_liggghts_dumps_alike() {
     assert!((a - 35.0).abs() < 0.5, "{a}");
     // A file without a radius column names what is missing.
     std::fs::write(&c, "x,y,z\n0,0,0\n").unwrap();
-    let out = demcal().args(["heap-angle".as_ref(), c.as_os_str()]).output().unwrap();
+    let out = demcal()
+        .args(["heap-angle".as_ref(), c.as_os_str()])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.contains("no column \"radius\""), "{err}");

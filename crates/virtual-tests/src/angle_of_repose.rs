@@ -9,7 +9,7 @@ use dem::scene::Scene;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::file::{arr, group, table, text, TestFile};
+use crate::file::{arr, group, plate_geometry, table, text, TestFile};
 use crate::repose::{measure, ReposeMeasurement, ReposeResult};
 
 /// `[angle_of_repose]` settings.
@@ -275,22 +275,7 @@ pub fn scene_toml(file: &TestFile, s: &Settings, seed: u64) -> Result<String, St
     }
     let simulation = table(simulation);
     let geometries = vec![
-        table(vec![
-            ("name", text("plate")),
-            ("type", text("box")),
-            ("material", text(&s.wall_material)),
-            ("min", arr([-half, -half, -0.01])),
-            ("max", arr([half, half, 0.0])),
-            (
-                "open",
-                Value::Array(
-                    ["-x", "+x", "-y", "+y", "-z"]
-                        .iter()
-                        .map(|f| text(f))
-                        .collect(),
-                ),
-            ),
-        ]),
+        plate_geometry(&s.wall_material, half, half, 0.0),
         table(vec![
             ("name", text("cylinder")),
             ("type", text("cylinder")),
@@ -305,9 +290,11 @@ pub fn scene_toml(file: &TestFile, s: &Settings, seed: u64) -> Result<String, St
 }
 
 /// Runs the test. `progress` hears the phase and the simulated time.
+/// When the heap cannot be measured and `out` is given, its side view is written there first.
 pub fn run(
     file: &TestFile,
     seed_override: Option<u64>,
+    out: Option<&std::path::Path>,
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Outcome, String> {
     let s: Settings = file.settings()?;
@@ -369,7 +356,15 @@ pub fn run(
         fit_band: (s.fit_band[0], s.fit_band[1]),
         ..Default::default()
     };
-    let res = measure(&positions, &radii, &m).map_err(|e| format!("{}: {e}", file.name))?;
+    let res = measure(&positions, &radii, &m).map_err(|e| {
+        let picture = out.and_then(|dir| {
+            std::fs::create_dir_all(dir).ok()?;
+            let png = dir.join("heap.png");
+            crate::render::side_view_png(&positions, &radii, 900, &png).ok()?;
+            Some(format!(" (side view in {})", png.display()))
+        });
+        format!("{}: {e}{}", file.name, picture.unwrap_or_default())
+    })?;
     Ok(Outcome {
         angle_of_repose_deg: res.angle_deg,
         angle_std_deg: res.angle_std_deg,

@@ -158,6 +158,27 @@ pub fn table(pairs: Vec<(&str, toml::Value)>) -> toml::Value {
     toml::Value::Table(pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
 }
 
+/// A flat plate as a scene geometry: a box whose top face (z = `top`) is the only closed one, so
+/// particles see a plate and nothing of its sides.
+pub fn plate_geometry(material: &str, half_x: f64, half_y: f64, top: f64) -> toml::Value {
+    table(vec![
+        ("name", text("plate")),
+        ("type", text("box")),
+        ("material", text(material)),
+        ("min", arr([-half_x, -half_y, top - 0.01])),
+        ("max", arr([half_x, half_y, top])),
+        (
+            "open",
+            toml::Value::Array(
+                ["-x", "+x", "-y", "+y", "-z"]
+                    .iter()
+                    .map(|f| text(f))
+                    .collect(),
+            ),
+        ),
+    ])
+}
+
 /// A TOML string.
 pub fn text(s: &str) -> toml::Value {
     toml::Value::String(s.to_string())

@@ -21,7 +21,7 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use crate::angle_of_repose::particle_count;
-use crate::file::{arr, group, table, text, TestFile};
+use crate::file::{arr, group, plate_geometry, table, text, TestFile};
 
 /// `[incline_tilt]` settings.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -204,22 +204,7 @@ pub fn run_tilt(
             ]),
         ),
     ]);
-    let plate = table(vec![
-        ("name", text("plate")),
-        ("type", text("box")),
-        ("material", text(&s.plate_material)),
-        ("min", arr([-0.5 * length, -0.5 * width, -0.005])),
-        ("max", arr([0.5 * length, 0.5 * width, 0.0])),
-        (
-            "open",
-            Value::Array(
-                ["-x", "+x", "-y", "+y", "-z"]
-                    .iter()
-                    .map(|f| text(f))
-                    .collect(),
-            ),
-        ),
-    ]);
+    let plate = plate_geometry(&s.plate_material, 0.5 * length, 0.5 * width, 0.0);
     let particles = group(
         &s.particles,
         vec![

@@ -34,7 +34,7 @@ pub fn run_file(
     };
     let (json, summary) = match file.test.as_str() {
         "angle_of_repose" => {
-            let o = angle_of_repose::run(file, seed, progress)?;
+            let o = angle_of_repose::run(file, seed, out, progress)?;
             if let Some(dir) = out {
                 write(
                     "profiles.svg",

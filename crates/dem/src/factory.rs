@@ -29,6 +29,26 @@ pub enum FactoryShape {
     },
 }
 
+impl FactoryShape {
+    /// Box around the slab `depth` deep behind the face along `normal`.
+    pub fn slab_bounds(&self, normal: DVec3, depth: f64) -> (DVec3, DVec3) {
+        let (centre, ext) = match *self {
+            FactoryShape::Disc { centre, radius } => {
+                (centre, crate::geometry::disc_extent(normal, radius))
+            }
+            FactoryShape::Rectangle {
+                centre,
+                u,
+                v,
+                half_u,
+                half_v,
+            } => (centre, (u * half_u).abs() + (v * half_v).abs()),
+        };
+        let far = centre + normal * depth;
+        (centre.min(far) - ext, centre.max(far) + ext)
+    }
+}
+
 /// How fast to create: particles per second, or kg per second.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Rate {
@@ -109,21 +129,8 @@ impl Factory {
 
     /// Box around the slab (for the domain and for finding particles near it).
     pub fn bounds(&self) -> (DVec3, DVec3) {
-        let depth = 2.0 * self.mixture.bounding_radius();
-        let (centre, ext) = match self.shape {
-            FactoryShape::Disc { centre, radius } => {
-                (centre, crate::geometry::disc_extent(self.normal, radius))
-            }
-            FactoryShape::Rectangle {
-                centre,
-                u,
-                v,
-                half_u,
-                half_v,
-            } => (centre, (u * half_u).abs() + (v * half_v).abs()),
-        };
-        let far = centre + self.normal * depth;
-        (centre.min(far) - ext, centre.max(far) + ext)
+        self.shape
+            .slab_bounds(self.normal, 2.0 * self.mixture.bounding_radius())
     }
 
     /// Whether a batch is due at `time`.

@@ -79,9 +79,9 @@ impl KernelShape {
     pub const KINDS: [&'static str; 4] =
         ["horse_tooth", "flat", "spherical_cone", "near_spherical"];
 
-    /// Checks that every dimension is positive (and the cone is taller than its cap).
-    pub fn validate(&self) -> Result<(), String> {
-        let dims: Vec<(&str, f64)> = match *self {
+    /// The class's dimensions by name (the scene-file keys), to read or override.
+    pub fn dimensions_mut(&mut self) -> Vec<(&'static str, &mut f64)> {
+        match self {
             KernelShape::HorseTooth {
                 upper_width,
                 lower_width,
@@ -113,7 +113,17 @@ impl KernelShape {
                 ("height", height),
                 ("thickness", thickness),
             ],
-        };
+        }
+    }
+
+    /// Checks that every dimension is positive (and the cone is taller than its cap).
+    pub fn validate(&self) -> Result<(), String> {
+        let mut copy = *self;
+        let dims: Vec<(&str, f64)> = copy
+            .dimensions_mut()
+            .into_iter()
+            .map(|(n, v)| (n, *v))
+            .collect();
         for (name, v) in dims {
             if !(v > 0.0 && v.is_finite()) {
                 return Err(format!("{name} must be positive, got {v}"));

@@ -1349,20 +1349,7 @@ impl Placement {
             ),
             Placement::Random { region, .. } => region.bounds(),
             Placement::Factory { shape, normal, .. } => {
-                let (centre, ext) = match *shape {
-                    FactoryShape::Disc { centre, radius } => {
-                        (centre, geometry::disc_extent(*normal, radius))
-                    }
-                    FactoryShape::Rectangle {
-                        centre,
-                        u,
-                        v,
-                        half_u,
-                        half_v,
-                    } => (centre, (u * half_u).abs() + (v * half_v).abs()),
-                };
-                let far = centre + *normal * 2.0 * mixture.bounding_radius();
-                (centre.min(far) - ext, centre.max(far) + ext)
+                shape.slab_bounds(*normal, 2.0 * mixture.bounding_radius())
             }
         }
     }
@@ -1456,60 +1443,13 @@ fn build_type(
                     ),
                 )
             })?;
-            let dims: &[&str] = match kernel {
-                KernelShape::HorseTooth { .. } => &[
-                    "upper_width",
-                    "lower_width",
-                    "height",
-                    "upper_thickness",
-                    "lower_thickness",
-                ],
-                KernelShape::Flat { .. } => &["diameter", "thickness"],
-                _ => &["width", "height", "thickness"],
-            };
             let mut allowed = vec!["class", "count"];
-            allowed.extend_from_slice(dims);
+            allowed.extend(kernel.dimensions_mut().into_iter().map(|(n, _)| n));
             shape_keys(ctx, &key("shape"), sh, &allowed)?;
-            let set = |v: &mut f64, given: Option<f64>, n: &str| -> Result<(), SceneError> {
-                if let Some(g) = given {
-                    *v = ctx.positive(g, sk(n))?;
-                }
-                Ok(())
-            };
-            match &mut kernel {
-                KernelShape::HorseTooth {
-                    upper_width,
-                    lower_width,
-                    height,
-                    upper_thickness,
-                    lower_thickness,
-                } => {
-                    set(upper_width, sh.upper_width, "upper_width")?;
-                    set(lower_width, sh.lower_width, "lower_width")?;
-                    set(height, sh.height, "height")?;
-                    set(upper_thickness, sh.upper_thickness, "upper_thickness")?;
-                    set(lower_thickness, sh.lower_thickness, "lower_thickness")?;
-                }
-                KernelShape::Flat {
-                    diameter,
-                    thickness,
-                } => {
-                    set(diameter, sh.diameter, "diameter")?;
-                    set(thickness, sh.thickness, "thickness")?;
-                }
-                KernelShape::SphericalCone {
-                    width,
-                    height,
-                    thickness,
-                }
-                | KernelShape::NearSpherical {
-                    width,
-                    height,
-                    thickness,
-                } => {
-                    set(width, sh.width, "width")?;
-                    set(height, sh.height, "height")?;
-                    set(thickness, sh.thickness, "thickness")?;
+            let given = shape_values(sh);
+            for (name, v) in kernel.dimensions_mut() {
+                if let Some(g) = given.iter().find(|(n, _)| *n == name).and_then(|(_, g)| *g) {
+                    *v = ctx.positive(g, sk(name))?;
                 }
             }
             let count = ctx.require(sh.count, sk("count"), "the number of spheres")?;
@@ -1537,22 +1477,32 @@ fn build_type(
     ))
 }
 
+/// The numeric keys of a shape entry, by name.
+fn shape_values(s: &ShapeEntry) -> [(&'static str, Option<f64>); 9] {
+    [
+        ("length", s.length),
+        ("diameter", s.diameter),
+        ("width", s.width),
+        ("height", s.height),
+        ("thickness", s.thickness),
+        ("upper_width", s.upper_width),
+        ("lower_width", s.lower_width),
+        ("upper_thickness", s.upper_thickness),
+        ("lower_thickness", s.lower_thickness),
+    ]
+}
+
 /// Rejects shape keys that the shape type does not use.
 fn shape_keys(ctx: &Ctx, prefix: &str, s: &ShapeEntry, allowed: &[&str]) -> Result<(), SceneError> {
-    let given = [
-        ("length", s.length.is_some()),
-        ("diameter", s.diameter.is_some()),
+    let mut given: Vec<(&str, bool)> = shape_values(s)
+        .iter()
+        .map(|(n, v)| (*n, v.is_some()))
+        .collect();
+    given.extend([
         ("count", s.count.is_some()),
         ("spheres", s.spheres.is_some()),
         ("class", s.class.is_some()),
-        ("width", s.width.is_some()),
-        ("height", s.height.is_some()),
-        ("thickness", s.thickness.is_some()),
-        ("upper_width", s.upper_width.is_some()),
-        ("lower_width", s.lower_width.is_some()),
-        ("upper_thickness", s.upper_thickness.is_some()),
-        ("lower_thickness", s.lower_thickness.is_some()),
-    ];
+    ]);
     ctx.only(prefix, &s.kind, &given, allowed)
 }
 

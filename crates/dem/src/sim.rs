@@ -420,6 +420,17 @@ impl Simulation {
         self.particles.kinetic_energy() + self.bodies.kinetic_energy()
     }
 
+    /// Particles as a user counts them: free spheres plus clumps.
+    pub fn particle_count(&self) -> usize {
+        let free = self
+            .particles
+            .body
+            .iter()
+            .filter(|&&b| b == NO_BODY)
+            .count();
+        free + self.bodies.len()
+    }
+
     /// Mass of free spheres and clumps.
     pub fn total_mass(&self) -> f64 {
         self.particles.total_mass() + self.bodies.mass.iter().sum::<f64>()

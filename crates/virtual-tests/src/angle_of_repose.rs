@@ -371,7 +371,7 @@ pub fn run(
         heap_height_m: res.heap_height,
         heap_radius_m: res.heap_radius,
         flank_angles_deg: res.flanks.iter().map(|f| f.angle_deg).collect(),
-        particles: particle_count(&sim),
+        particles: sim.particle_count(),
         spheres: positions.len(),
         time_step_s: dt,
         settle_time_s: settle_time,
@@ -383,15 +383,4 @@ pub fn run(
         positions,
         radii,
     })
-}
-
-/// Free spheres plus clumps.
-pub fn particle_count(sim: &dem::Simulation) -> usize {
-    let free = sim
-        .particles
-        .body
-        .iter()
-        .filter(|&&b| b == dem::particles::NO_BODY)
-        .count();
-    free + sim.bodies.len()
 }

@@ -20,7 +20,6 @@ use dem::Simulation;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::angle_of_repose::particle_count;
 use crate::file::{arr, group, plate_geometry, table, text, TestFile};
 
 /// `[incline_tilt]` settings.
@@ -276,7 +275,7 @@ pub fn run_tilt(
         angle_deg,
         tan_angle: angle_deg.to_radians().tan(),
         slid,
-        particles: particle_count(&sim),
+        particles: sim.particle_count(),
         simulated_time_s: sim.time,
         wall_s: wall.elapsed().as_secs_f64(),
         seed,
@@ -344,27 +343,44 @@ pub fn run_slide(
             ("normal", arr(normal.to_array())),
         ]),
     ];
-    // A mixture is released type by type in its number shares.
-    let types: Vec<String> = s
-        .particles
-        .get("types")
-        .and_then(|t| t.as_array())
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default();
-    let fractions: Vec<f64> = match s.particles.get("fractions").and_then(|f| f.as_array()) {
-        Some(a) => a
-            .iter()
-            .map(|v| {
-                v.as_float()
-                    .or(v.as_integer().map(|i| i as f64))
-                    .unwrap_or(0.0)
+    // A mixture is released type by type in its number shares (the scene checks the names).
+    let key = format!("{}: incline_slide.particles", file.name);
+    let types: Vec<String> = match s.particles.get("types") {
+        None => Vec::new(),
+        Some(t) => t
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .map(|v| v.as_str().map(String::from))
+                    .collect::<Option<Vec<_>>>()
             })
-            .collect(),
+            .and_then(|v| v.filter(|v| !v.is_empty()))
+            .ok_or_else(|| format!("{key}.types: expected a list of particle type names"))?,
+    };
+    let fractions: Vec<f64> = match s.particles.get("fractions") {
         None => vec![1.0; types.len()],
+        Some(f) => {
+            let v: Option<Vec<f64>> = f.as_array().and_then(|a| {
+                a.iter()
+                    .map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+                    .collect()
+            });
+            match v {
+                Some(v)
+                    if v.len() == types.len()
+                        && v.iter().all(|x| *x >= 0.0)
+                        && v.iter().sum::<f64>() > 0.0 =>
+                {
+                    v
+                }
+                _ => {
+                    return Err(format!(
+                    "{key}.fractions: expected one number >= 0 per type ({} types), not all zero",
+                    types.len()
+                ))
+                }
+            }
+        }
     };
     let mut released = vec![0.0; types.len()];
 
@@ -375,7 +391,7 @@ pub fn run_slide(
     let mut simulated = 0.0;
     for release in 0..s.releases {
         let mut particles = s.particles.clone();
-        if !types.is_empty() && fractions.len() == types.len() {
+        if !types.is_empty() {
             let k = furthest_below_share(&released, &fractions);
             released[k] += 1.0;
             let t = particles.as_table_mut().unwrap();

@@ -132,6 +132,11 @@ fn incline_file_errors_name_the_key() {
             "particles = { region = 1, ",
             "incline_slide.particles.region: unknown key",
         ),
+        (
+            "types = [\"tile\"] }",
+            "types = [\"tile\"], fractions = [\"all\"] }",
+            "incline_slide.particles.fractions: expected one number",
+        ),
     ] {
         let text = base.replace(from, to);
         let e = TestFile::parse("incline.toml", &text)

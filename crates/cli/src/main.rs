@@ -7,6 +7,8 @@ use dem::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -58,7 +60,7 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Run a virtual lab test (angle_of_repose, incline_tilt, incline_slide) and print what it
+    /// Run a virtual lab test (angle_of_repose, incline_tilt, incline_slide, function) and print what it
     /// measures.
     Test {
         test: PathBuf,
@@ -74,6 +76,29 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+    },
+    /// Run (or resume) a calibration study: every stage of its plan, the runs stored in
+    /// <study>.db next to it, then the report in report/ next to it.
+    Run {
+        study: PathBuf,
+        /// Simulations at once; each gets its share of the cores.
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// Move the stored results aside (kept as <study>.db.old-<time>) and start over.
+        #[arg(long)]
+        restart: bool,
+        /// Run failed simulations again instead of keeping their failure.
+        #[arg(long)]
+        retry_failed: bool,
+    },
+    /// Show a study's stages, runs done / failed / pending, and the best values so far.
+    Status { study: PathBuf },
+    /// Write a study's report (index.html, results.csv, summary.json) from its stored runs.
+    Report {
+        study: PathBuf,
+        /// Folder to write to (default: report/ next to the study).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Designed experiments: generate designs, analyse results (ANOVA), optimise fitted models.
     Doe {
@@ -301,6 +326,7 @@ fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> R
     let mut progress = |phase: &str, t: f64| {
         bar.set_message(format!("{phase}: t = {t:.2} s"));
         bar.tick();
+        Ok(())
     };
     let result = virtual_tests::run_file(&file, seed, out, &mut progress);
     bar.finish_and_clear();
@@ -393,6 +419,16 @@ fn main() -> ExitCode {
             out,
         } => set_threads(threads).and_then(|_| simulate(&scene, out.as_deref())),
         Command::Doe { action } => doe_command(action),
+        Command::Run {
+            study,
+            jobs,
+            restart,
+            retry_failed,
+        } => run_study(&study, jobs, restart, retry_failed),
+        Command::Status { study } => study::status(&study).map(|s| print!("{s}")),
+        Command::Report { study, out } => study::report(&study, out.as_deref()).map(|dir| {
+            println!("wrote {}", dir.join("index.html").display());
+        }),
         Command::Test {
             test,
             seed,
@@ -421,6 +457,27 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn run_study(path: &Path, jobs: usize, restart: bool, retry_failed: bool) -> Result<(), String> {
+    let interrupted = Arc::new(AtomicBool::new(false));
+    let flag = interrupted.clone();
+    // The first Ctrl-C stops the running simulations and keeps every finished one; the store is
+    // written by one thread in transactions, so it is whole whenever the process ends.
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\nstopping: finished runs are kept (Ctrl-C again to quit at once)");
+    })
+    .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    let opts = study::RunOptions {
+        jobs,
+        restart,
+        retry_failed,
+    };
+    print!("{}", study::run(path, &opts, interrupted)?);
+    Ok(())
 }
 
 fn progress_bar(len: u64) -> ProgressBar {

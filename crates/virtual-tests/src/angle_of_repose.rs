@@ -295,7 +295,7 @@ pub fn run(
     file: &TestFile,
     seed_override: Option<u64>,
     out: Option<&std::path::Path>,
-    progress: &mut dyn FnMut(&str, f64),
+    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
 ) -> Result<Outcome, String> {
     let s: Settings = file.settings()?;
     check(file, &s)?;
@@ -314,7 +314,7 @@ pub fn run(
     // 1. Settle in the cylinder (at least 0.05 s so a fill at rest does not count as settled).
     while sim.time < s.settle_max_time {
         sim.run(chunk).map_err(fail)?;
-        progress("settle", sim.time);
+        progress("settle", sim.time)?;
         if sim.time > 0.05 && sim.factories_done() && rms(&sim) < s.settle_speed {
             break;
         }
@@ -337,13 +337,13 @@ pub fn run(
     });
     while sim.time < start + lift_time {
         sim.run(chunk).map_err(fail)?;
-        progress("lift", sim.time);
+        progress("lift", sim.time)?;
     }
     // 3. Let the heap come to rest.
     let final_start = sim.time;
     while sim.time < final_start + s.final_max_time {
         sim.run(chunk).map_err(fail)?;
-        progress("final settle", sim.time);
+        progress("final settle", sim.time)?;
         if rms(&sim) < s.settle_speed {
             break;
         }

@@ -22,7 +22,17 @@ pub struct TestFile {
     pub settings: toml::Value,
 }
 
-pub const TESTS: &[&str] = &["angle_of_repose", "incline_tilt", "incline_slide"];
+pub const TESTS: &[&str] = &[
+    "angle_of_repose",
+    "incline_tilt",
+    "incline_slide",
+    "function",
+];
+
+/// Tests that simulate particles and so need materials and interactions.
+fn needs_materials(test: &str) -> bool {
+    test != "function"
+}
 
 impl TestFile {
     pub fn load(path: &Path) -> Result<TestFile, String> {
@@ -34,6 +44,11 @@ impl TestFile {
     pub fn parse(name: &str, text: &str) -> Result<TestFile, String> {
         let value: toml::Table =
             toml::from_str(text).map_err(|e| format!("{name}: {}", one_line(&e.to_string())))?;
+        TestFile::from_table(name, &value)
+    }
+
+    /// A test file already read as TOML (a study's inline test, or one with parameters set).
+    pub fn from_table(name: &str, value: &toml::Table) -> Result<TestFile, String> {
         let test = match value.get("test") {
             Some(toml::Value::String(s)) => s.clone(),
             Some(_) => return Err(format!("{name}: test: expected a string")),
@@ -76,12 +91,22 @@ impl TestFile {
             name: name.to_string(),
             settings: get(&test)
                 .ok_or_else(|| format!("{name}: {test}: missing table [{test}]"))?,
-            test,
+            test: test.clone(),
             seed,
-            materials: get("material")
-                .ok_or_else(|| format!("{name}: material: missing [[material]]"))?,
-            interactions: get("interaction")
-                .ok_or_else(|| format!("{name}: interaction: missing [[interaction]]"))?,
+            materials: match get("material") {
+                Some(m) => m,
+                None if needs_materials(&test) => {
+                    return Err(format!("{name}: material: missing [[material]]"))
+                }
+                None => toml::Value::Array(Vec::new()),
+            },
+            interactions: match get("interaction") {
+                Some(i) => i,
+                None if needs_materials(&test) => {
+                    return Err(format!("{name}: interaction: missing [[interaction]]"))
+                }
+                None => toml::Value::Array(Vec::new()),
+            },
             particle_types: get("particle_type"),
         })
     }

@@ -164,7 +164,7 @@ fn rms_speed(sim: &Simulation) -> f64 {
 pub fn run_tilt(
     file: &TestFile,
     seed_override: Option<u64>,
-    progress: &mut dyn FnMut(&str, f64),
+    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
 ) -> Result<TiltOutcome, String> {
     use toml::Value;
     let s: TiltSettings = file.settings()?;
@@ -234,7 +234,7 @@ pub fn run_tilt(
     let chunk = ((0.005 / sim.params.time_step).ceil() as u64).max(1);
     while sim.time < s.settle_max_time {
         sim.run(chunk).map_err(fail)?;
-        progress("settle", sim.time);
+        progress("settle", sim.time)?;
         if sim.time > 0.05 && rms_speed(&sim) < s.settle_speed {
             break;
         }
@@ -266,7 +266,7 @@ pub fn run_tilt(
             slid = true;
             break;
         }
-        progress("tilt", sim.time);
+        progress("tilt", sim.time)?;
     }
     let angle_deg = (omega * (sim.time - start))
         .to_degrees()
@@ -285,7 +285,7 @@ pub fn run_tilt(
 pub fn run_slide(
     file: &TestFile,
     seed_override: Option<u64>,
-    progress: &mut dyn FnMut(&str, f64),
+    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
 ) -> Result<SlideOutcome, String> {
     use toml::Value;
     let s: SlideSettings = file.settings()?;
@@ -447,7 +447,7 @@ pub fn run_slide(
         let chunk = ((0.005 / sim.params.time_step).ceil() as u64).max(1);
         loop {
             sim.run(chunk).map_err(fail)?;
-            progress(&format!("release {}/{}", release + 1, s.releases), sim.time);
+            progress(&format!("release {}/{}", release + 1, s.releases), sim.time)?;
             if sim.time > 0.05 && rms_speed(&sim) < s.rest_speed {
                 break;
             }

@@ -10,6 +10,7 @@
 
 pub mod angle_of_repose;
 pub mod file;
+pub mod function;
 pub mod incline;
 pub mod render;
 pub mod repose;
@@ -17,12 +18,13 @@ pub mod repose;
 pub use file::TestFile;
 
 /// Runs the test a file describes and writes its pictures into `out` when given. Returns the
-/// outcome as JSON (the keys `demcal test --json` prints) and a one-line summary.
+/// outcome as JSON (the keys `demcal test --json` prints) and a one-line summary. `progress` hears
+/// the phase and the simulated time, and stops the run by returning an error.
 pub fn run_file(
     file: &TestFile,
     seed: Option<u64>,
     out: Option<&std::path::Path>,
-    progress: &mut dyn FnMut(&str, f64),
+    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
 ) -> Result<(serde_json::Value, String), String> {
     let write = |name: &str, bytes: &[u8]| -> Result<(), String> {
         if let Some(dir) = out {
@@ -75,6 +77,14 @@ pub fn run_file(
             );
             (serde_json::to_value(&o).unwrap(), summary)
         }
+        "function" => {
+            let o = function::run(file, seed, progress)?;
+            let summary = format!(
+                "function: value={} exact={} noise={}",
+                o.value, o.exact, o.noise
+            );
+            (serde_json::to_value(&o).unwrap(), summary)
+        }
         other => return Err(format!("{}: test: unknown test \"{other}\"", file.name)),
     };
     write(
@@ -82,4 +92,20 @@ pub fn run_file(
         serde_json::to_string_pretty(&json).unwrap().as_bytes(),
     )?;
     Ok((json, summary))
+}
+
+/// The numeric outcomes of a test that a study can calibrate against, the usual one first.
+pub fn responses(test: &str) -> &'static [&'static str] {
+    match test {
+        "angle_of_repose" => &[
+            "angle_of_repose_deg",
+            "angle_std_deg",
+            "heap_height_m",
+            "heap_radius_m",
+        ],
+        "incline_tilt" => &["angle_deg", "tan_angle"],
+        "incline_slide" => &["distance_m", "distance_std_m"],
+        "function" => &["value", "exact"],
+        _ => &[],
+    }
 }

@@ -49,8 +49,8 @@ lift_speed = 0.1
 fn same_seed_same_angle_and_pictures_are_written() {
     let f = TestFile::parse("heap.toml", &file("", 500)).unwrap();
     let out = std::env::temp_dir().join(format!("demcal-heap-{}", std::process::id()));
-    let (a, summary) = run_file(&f, None, Some(&out), &mut |_, _| {}).unwrap();
-    let (b, _) = run_file(&f, None, None, &mut |_, _| {}).unwrap();
+    let (a, summary) = run_file(&f, None, Some(&out), &mut |_, _| Ok(())).unwrap();
+    let (b, _) = run_file(&f, None, None, &mut |_, _| Ok(())).unwrap();
     eprintln!("{summary}");
     assert_eq!(a["angle_of_repose_deg"], b["angle_of_repose_deg"]);
     assert_eq!(a["particles"], 500);
@@ -77,7 +77,7 @@ fn same_seed_same_angle_and_pictures_are_written() {
     let png = std::fs::read(out.join("heap.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     // Another seed gives another heap.
-    let (c, _) = run_file(&f, Some(4), None, &mut |_, _| {}).unwrap();
+    let (c, _) = run_file(&f, Some(4), None, &mut |_, _| Ok(())).unwrap();
     assert_ne!(a["angle_of_repose_deg"], c["angle_of_repose_deg"]);
 }
 
@@ -107,7 +107,7 @@ fn file_errors_name_the_key() {
     ];
     for (text, want) in cases {
         let e = TestFile::parse("heap.toml", &text)
-            .and_then(|f| run_file(&f, None, None, &mut |_, _| {}).map(|_| ()))
+            .and_then(|f| run_file(&f, None, None, &mut |_, _| Ok(())).map(|_| ()))
             .unwrap_err();
         assert!(e.contains(want), "{e}\nwanted: {want}");
         assert_eq!(e.lines().count(), 1, "{e}");

@@ -43,7 +43,7 @@ shape = {{ type = "spheres", spheres = [[0.0, 0.0, 0.0, 0.002], [0.003, 0.0, 0.0
 fn run(text: &str) -> serde_json::Value {
     let f = TestFile::parse("incline.toml", text).unwrap();
     let (json, summary) =
-        run_file(&f, None, None, &mut |_, _| {}).unwrap_or_else(|e| panic!("{e}"));
+        run_file(&f, None, None, &mut |_, _| Ok(())).unwrap_or_else(|e| panic!("{e}"));
     eprintln!("{summary}");
     json
 }
@@ -140,7 +140,7 @@ fn incline_file_errors_name_the_key() {
     ] {
         let text = base.replace(from, to);
         let e = TestFile::parse("incline.toml", &text)
-            .and_then(|f| run_file(&f, None, None, &mut |_, _| {}).map(|_| ()))
+            .and_then(|f| run_file(&f, None, None, &mut |_, _| Ok(())).map(|_| ()))
             .unwrap_err();
         assert!(e.contains(want), "{e}\nwanted: {want}");
         assert_eq!(e.lines().count(), 1, "{e}");

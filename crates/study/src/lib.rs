@@ -1,0 +1,219 @@
+//! Calibration studies: one file describes a whole calibration, one command runs it.
+//!
+//! A study ([`spec`]) names a virtual test, the parameters to calibrate (each a path into the
+//! test's TOML, [`paths`]) with their ranges, the lab value, and a plan of stages: screening,
+//! steepest path, response surface, optimisation, validation ([`stages`]). [`run`] replays the
+//! plan against the results store ([`store`], SQLite next to the study) and runs what is missing
+//! on this machine ([`runner`]); [`status`] and [`report`] replay without running. The report
+//! ([`report`]) is one self-contained HTML page plus `results.csv` and `summary.json`.
+
+pub mod paths;
+pub mod report;
+pub mod runner;
+pub mod spec;
+pub mod stages;
+pub mod store;
+
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+pub use spec::Study;
+pub use stages::{replay, Replay, State};
+pub use store::Store;
+
+/// Options of `demcal run`.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    pub jobs: usize,
+    /// Move the old store aside and start over.
+    pub restart: bool,
+    /// Forget failed runs so that they run again.
+    pub retry_failed: bool,
+}
+
+/// Runs (or resumes) a study, then writes its report. Returns what to print.
+pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
+    let study = Study::load(path)?;
+    let db = study.store_path();
+    if opts.restart && db.exists() {
+        let aside = db.with_extension(format!(
+            "db.old-{}",
+            store::now_utc().replace([' ', ':'], "-")
+        ));
+        std::fs::rename(&db, &aside)
+            .map_err(|e| format!("{}: cannot move aside: {e}", db.display()))?;
+        eprintln!("moved the old results to {}", aside.display());
+    }
+    let mut store = Store::open(&db, true)?;
+    if store.meta("created")?.is_none() {
+        store.set_meta("created", &store::now_utc())?;
+        store.set_meta("first_study_text", &study.text)?;
+    }
+    store.set_meta("demcal_version", env!("CARGO_PKG_VERSION"))?;
+    if opts.retry_failed {
+        let n = store.delete_failed()?;
+        if n > 0 {
+            eprintln!("{n} failed run(s) will run again");
+        }
+    }
+    let stored = store.runs()?;
+    let started = std::time::Instant::now();
+    let outcome = {
+        let mut exec = runner::LocalExecutor::new(opts.jobs, &mut store, interrupted);
+        replay(&study, &stored, Some(&mut exec))
+    };
+    let replay = outcome?;
+    store.set_meta("last_study_text", &study.text)?;
+    let dir = report::write(&study, &replay, &store.runs()?, None)?;
+    let mut out = status_text(&study, &replay);
+    writeln!(
+        out,
+        "ran for {:.0} s; report: {}",
+        started.elapsed().as_secs_f64(),
+        dir.join("index.html").display()
+    )
+    .unwrap();
+    match &replay.state {
+        State::Stopped(why) => Err(format!("{out}{}: {why}", study.path.display())),
+        _ => Ok(out),
+    }
+}
+
+fn load_replay(path: &Path) -> Result<(Study, Replay, Vec<store::RunRecord>), String> {
+    let study = Study::load(path)?;
+    let store = Store::open(&study.store_path(), false)?;
+    let stored = store.runs()?;
+    let r = replay(&study, &stored, None)?;
+    Ok((study, r, stored))
+}
+
+/// `demcal status`: the stages, their runs, and the best so far.
+pub fn status(path: &Path) -> Result<String, String> {
+    let study = Study::load(path)?;
+    if !study.store_path().exists() {
+        let mut s = format!(
+            "{}: not started (no {}); {} stages planned: {}\n",
+            study.name,
+            study.store_path().display(),
+            study.plan.len(),
+            study
+                .plan
+                .iter()
+                .map(|s| s.kind())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        s.push_str("start it with: demcal run ");
+        s.push_str(&study.path.display().to_string());
+        s.push('\n');
+        return Ok(s);
+    }
+    let (study, r, _) = load_replay(path)?;
+    Ok(status_text(&study, &r))
+}
+
+/// `demcal report`: writes the report; returns its folder.
+pub fn report(path: &Path, out: Option<&Path>) -> Result<PathBuf, String> {
+    let (study, r, stored) = load_replay(path)?;
+    report::write(&study, &r, &stored, out)
+}
+
+/// Stages with their runs done / failed / pending, and the best values so far.
+pub fn status_text(study: &Study, r: &Replay) -> String {
+    let mut s = String::new();
+    let t = &study.target;
+    writeln!(
+        s,
+        "{}: {} calibrated against {} = {}{}",
+        study.name,
+        study.test_kind(),
+        t.response,
+        stages::sig(t.value),
+        if t.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", t.unit)
+        }
+    )
+    .unwrap();
+    for (i, stage) in study.plan.iter().enumerate() {
+        let line = match r.stages.get(i) {
+            Some(st) if stage.runs_simulations() => format!(
+                "{} runs: {} done, {} failed, {} pending{}",
+                st.runs.len(),
+                st.done(),
+                st.failed(),
+                st.pending(),
+                if st.complete { "" } else { " (in progress)" }
+            ),
+            Some(st) if st.complete => format!("{} solution(s)", st.solutions.len()),
+            _ => "waiting for the stages before it".to_string(),
+        };
+        writeln!(s, "  {}. {:<10} {line}", i + 1, stage.kind()).unwrap();
+        if let Some(st) = r.stages.get(i) {
+            if !st.selected.is_empty() {
+                let names: Vec<&str> = st
+                    .selected
+                    .iter()
+                    .map(|&p| study.parameters[p].name.as_str())
+                    .collect();
+                writeln!(s, "     going on: {}", names.join(", ")).unwrap();
+            }
+            if let Some(v) = &st.validation {
+                writeln!(
+                    s,
+                    "     validation: {} = {}{} over {} runs, relative error {:.2} %",
+                    t.response,
+                    stages::sig(v.mean),
+                    v.std
+                        .map(|d| format!(" ± {}", stages::sig(d)))
+                        .unwrap_or_default(),
+                    v.runs,
+                    v.relative_error_percent
+                )
+                .unwrap();
+            }
+        }
+    }
+    if let Some((spec, y)) = stages::best_run(study, &r.stages) {
+        writeln!(
+            s,
+            "best run so far: stage {} run {}: {} = {} (relative error {:.2} %)",
+            spec.stage + 1,
+            spec.index + 1,
+            t.response,
+            stages::sig(y),
+            t.relative_error_percent(y)
+        )
+        .unwrap();
+    }
+    if let Some(values) = stages::calibrated(study, &r.stages) {
+        let parts: Vec<String> = study
+            .parameters
+            .iter()
+            .zip(&values)
+            .map(|(p, v)| format!("{} = {}", p.name, stages::sig(*v)))
+            .collect();
+        let what = if r.stages.iter().any(|s| s.calibrated.is_some()) {
+            "calibrated"
+        } else {
+            "best so far"
+        };
+        writeln!(s, "{what}: {}", parts.join(", ")).unwrap();
+    }
+    match &r.state {
+        State::Complete => writeln!(s, "state: complete").unwrap(),
+        State::Pending { stage } => writeln!(
+            s,
+            "state: stage {} ({}) has runs to make; `demcal run {}` goes on",
+            stage + 1,
+            study.plan[*stage].kind(),
+            study.path.display()
+        )
+        .unwrap(),
+        State::Stopped(why) => writeln!(s, "state: stopped: {why}").unwrap(),
+    }
+    s
+}

@@ -1,0 +1,267 @@
+//! Running simulations on this machine: `jobs` runs at once, each in its own rayon pool holding
+//! its share of the cores, with a progress bar per stage (and a line per job) on a terminal and
+//! one log line per finished run otherwise. Finished runs go to the store one transaction each,
+//! from this thread only, so the store never sees two writers.
+
+use std::collections::VecDeque;
+use std::io::IsTerminal;
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc, Mutex};
+use std::time::Instant;
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::spec::Study;
+use crate::stages::{Execute, RunSpec, StageResult};
+use crate::store::{now_utc, RunRecord, Status, Store};
+
+/// The error text a run returns when the study is interrupted; such runs are not stored.
+const INTERRUPTED: &str = "interrupted";
+
+pub struct LocalExecutor<'a> {
+    pub jobs: usize,
+    pub store: &'a mut Store,
+    /// Set by Ctrl-C: running simulations stop, nothing more starts.
+    pub interrupted: Arc<AtomicBool>,
+    multi: MultiProgress,
+    terminal: bool,
+}
+
+impl<'a> LocalExecutor<'a> {
+    pub fn new(jobs: usize, store: &'a mut Store, interrupted: Arc<AtomicBool>) -> Self {
+        let terminal = std::io::stderr().is_terminal();
+        let multi = MultiProgress::with_draw_target(if terminal {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        });
+        LocalExecutor {
+            jobs: jobs.max(1),
+            store,
+            interrupted,
+            multi,
+            terminal,
+        }
+    }
+}
+
+/// The folder a run writes its pictures and result into.
+pub fn run_dir(study: &Study, spec: &RunSpec) -> std::path::PathBuf {
+    study
+        .runs_dir()
+        .join(format!("stage{}-{}", spec.stage + 1, spec.stage_kind))
+        .join(format!("run{:03}", spec.index + 1))
+}
+
+/// Runs one simulation. None when it was interrupted.
+fn run_one(
+    study: &Study,
+    spec: &RunSpec,
+    interrupted: &AtomicBool,
+    report: &dyn Fn(&str),
+) -> Option<RunRecord> {
+    let start = Instant::now();
+    let dir = run_dir(study, spec);
+    // A run killed before may have left pictures behind.
+    let _ = std::fs::remove_dir_all(&dir);
+    let limit = study.run_time_limit_s;
+    let table = study.test_with(&spec.values);
+    let name = format!(
+        "{} stage {} run {}",
+        study.name,
+        spec.stage + 1,
+        spec.index + 1
+    );
+    let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        let file = virtual_tests::TestFile::from_table(&name, &table)?;
+        let mut progress = |phase: &str, t: f64| -> Result<(), String> {
+            if interrupted.load(Ordering::Relaxed) {
+                return Err(INTERRUPTED.into());
+            }
+            if let Some(l) = limit {
+                if start.elapsed().as_secs_f64() > l {
+                    return Err(format!(
+                        "stopped: the run took longer than run_time_limit_s = {l} s (in {phase} at t = {t:.3} s)"
+                    ));
+                }
+            }
+            report(&format!("{phase}: t = {t:.2} s"));
+            Ok(())
+        };
+        virtual_tests::run_file(&file, Some(spec.seed), Some(&dir), &mut progress)
+    }))
+    .unwrap_or_else(|panic| {
+        let msg = panic
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_default();
+        Err(format!("the simulation panicked: {msg}"))
+    });
+    if matches!(&result, Err(e) if e == INTERRUPTED) {
+        return None;
+    }
+    let (status, response, outputs, error) = match result {
+        Ok((json, _)) => match json.get(&study.target.response).and_then(|v| v.as_f64()) {
+            Some(y) if y.is_finite() => (Status::Done, Some(y), json, None),
+            _ => (
+                Status::Failed,
+                None,
+                json,
+                Some(format!(
+                    "the test gave no finite number for {}",
+                    study.target.response
+                )),
+            ),
+        },
+        Err(e) => (Status::Failed, None, serde_json::Value::Null, Some(e)),
+    };
+    Some(RunRecord {
+        stage: spec.stage,
+        stage_kind: spec.stage_kind.to_string(),
+        index: spec.index,
+        inputs: spec.inputs(study),
+        seed: spec.seed,
+        status,
+        response,
+        outputs,
+        error,
+        wall_s: start.elapsed().as_secs_f64(),
+        finished_at: now_utc(),
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        out_dir: dir.display().to_string(),
+        fingerprint: spec.fingerprint(study),
+    })
+}
+
+impl Execute for LocalExecutor<'_> {
+    fn execute(
+        &mut self,
+        study: &Study,
+        stage: &StageResult,
+        runs: &[RunSpec],
+    ) -> Result<Vec<RunRecord>, String> {
+        let cores = std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1);
+        let jobs = self.jobs.min(runs.len()).max(1);
+        let threads = (cores / jobs).max(1);
+        let stage_name = format!(
+            "stage {}/{} {}",
+            stage.index + 1,
+            study.plan.len(),
+            stage.kind
+        );
+        let bar = self.multi.add(ProgressBar::new(stage.runs.len() as u64));
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{prefix:.bold} [{bar:30.cyan/blue}] {pos}/{len} runs  {elapsed_precise}  ETA {eta}  {msg}",
+            )
+            .unwrap()
+            .progress_chars("=> "),
+        );
+        bar.set_prefix(stage_name.clone());
+        bar.set_position((stage.runs.len() - runs.len()) as u64);
+        bar.reset_eta();
+        if !self.terminal {
+            eprintln!(
+                "{stage_name}: {} runs to make ({} stored), {jobs} at a time with {threads} thread(s) each",
+                runs.len(),
+                stage.runs.len() - runs.len()
+            );
+        }
+        let queue = Mutex::new(runs.iter().cloned().collect::<VecDeque<_>>());
+        let (tx, rx) = mpsc::channel::<(RunSpec, Option<RunRecord>)>();
+        let mut finished = Vec::new();
+        let mut store_error = None;
+        let interrupted = self.interrupted.clone();
+        let multi = &self.multi;
+        let terminal = self.terminal;
+        let store = &mut *self.store;
+        std::thread::scope(|scope| {
+            for job in 0..jobs {
+                let tx = tx.clone();
+                let queue = &queue;
+                let interrupted = &*interrupted;
+                let line = multi.add(ProgressBar::new_spinner());
+                line.set_style(ProgressStyle::with_template("  {spinner} {msg}").unwrap());
+                scope.spawn(move || {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .expect("a thread pool");
+                    loop {
+                        if interrupted.load(Ordering::Relaxed) {
+                            break;
+                        }
+                        let Some(spec) = queue.lock().unwrap().pop_front() else {
+                            break;
+                        };
+                        let head =
+                            format!("job {}: run {} ({})", job + 1, spec.index + 1, spec.label);
+                        line.set_message(head.clone());
+                        let report = |m: &str| {
+                            if terminal {
+                                line.set_message(format!("{head}: {m}"));
+                                line.tick();
+                            }
+                        };
+                        let rec = pool.install(|| run_one(study, &spec, interrupted, &report));
+                        if tx.send((spec, rec)).is_err() {
+                            break;
+                        }
+                    }
+                    line.finish_and_clear();
+                });
+            }
+            drop(tx);
+            for (spec, rec) in rx {
+                let Some(rec) = rec else { continue };
+                if store_error.is_none() {
+                    if let Err(e) = store.insert(&rec) {
+                        // Without a store nothing more is worth running.
+                        store_error = Some(e);
+                        interrupted.store(true, Ordering::Relaxed);
+                    }
+                }
+                let outcome = match (&rec.status, rec.response) {
+                    (Status::Done, Some(y)) => {
+                        format!("{} = {}", study.target.response, crate::stages::sig(y))
+                    }
+                    _ => format!("failed: {}", rec.error.clone().unwrap_or_default()),
+                };
+                bar.inc(1);
+                bar.set_message(format!("last: run {} {outcome}", spec.index + 1));
+                if !terminal {
+                    eprintln!(
+                        "{stage_name}: run {} ({}) {outcome} ({:.1} s)",
+                        spec.index + 1,
+                        spec.label,
+                        rec.wall_s
+                    );
+                }
+                finished.push(rec);
+            }
+        });
+        bar.finish_and_clear();
+        if let Some(e) = store_error {
+            return Err(e);
+        }
+        if self.interrupted.load(Ordering::Relaxed) {
+            return Err(format!(
+                "interrupted: {} finished runs are stored in {}; run the same command again to go on",
+                finished.len(),
+                store.path.display()
+            ));
+        }
+        if !terminal {
+            let done = finished.iter().filter(|r| r.status == Status::Done).count();
+            eprintln!(
+                "{stage_name}: {done} done, {} failed",
+                finished.len() - done
+            );
+        }
+        Ok(finished)
+    }
+}

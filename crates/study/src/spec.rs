@@ -1,0 +1,738 @@
+//! The study file: which virtual test, which parameters over which ranges, the lab value, and the
+//! plan of stages. Every error is one line naming the file and the key.
+
+use std::path::{Path, PathBuf};
+
+use doe::{Factor, Scale};
+
+use crate::paths::ParamPath;
+
+/// A parameter to calibrate: one value written into one or more places of the test.
+#[derive(Clone, Debug)]
+pub struct Parameter {
+    pub name: String,
+    pub paths: Vec<ParamPath>,
+    pub min: f64,
+    pub max: f64,
+    pub scale: Scale,
+}
+
+impl Parameter {
+    /// The factor over `lo..hi` (actual units) in this parameter's scale.
+    pub fn factor(&self, lo: f64, hi: f64) -> Factor {
+        Factor::new(&self.name, lo, hi, self.scale).expect("checked range")
+    }
+
+    /// The value the coded level is linear in (the value, or its log10).
+    pub fn transformed(&self, actual: f64) -> f64 {
+        match self.scale {
+            Scale::Linear => actual,
+            Scale::Log => actual.log10(),
+        }
+    }
+
+    pub fn actual(&self, transformed: f64) -> f64 {
+        match self.scale {
+            Scale::Linear => transformed,
+            Scale::Log => 10f64.powf(transformed),
+        }
+    }
+
+    /// The middle of the range (geometric for a logarithmic parameter).
+    pub fn middle(&self) -> f64 {
+        self.actual(0.5 * (self.transformed(self.min) + self.transformed(self.max)))
+    }
+}
+
+/// The lab value to reproduce.
+#[derive(Clone, Debug)]
+pub struct Target {
+    /// The key of the test's outcome compared with the lab (e.g. `angle_of_repose_deg`).
+    pub response: String,
+    pub value: f64,
+    pub replicates: Vec<f64>,
+    pub unit: String,
+}
+
+impl Target {
+    pub fn relative_error_percent(&self, simulated: f64) -> f64 {
+        100.0 * (simulated - self.value).abs() / self.value.abs()
+    }
+
+    /// Standard deviation of the replicates, when there are two or more.
+    pub fn std(&self) -> Option<f64> {
+        let n = self.replicates.len();
+        (n >= 2).then(|| {
+            let m = self.replicates.iter().sum::<f64>() / n as f64;
+            (self.replicates.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+        })
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ScreeningDesign {
+    PlackettBurman { runs: Option<usize> },
+    Fractional { resolution: usize },
+    Factorial,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum RsmDesign {
+    CentralComposite { alpha: String },
+    BoxBehnken,
+}
+
+/// One stage of the plan, with its settings (defaults filled in).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Stage {
+    Screening {
+        design: ScreeningDesign,
+        center_points: usize,
+        /// Significance level for a factor to go on.
+        alpha: f64,
+        min_factors: usize,
+        max_factors: usize,
+    },
+    Steepest {
+        /// Runs along the path, from one end of the ranges to the other.
+        steps: usize,
+        /// Move every factor by the sign of its effect (`signs`) or in proportion to it.
+        proportional: bool,
+    },
+    Rsm {
+        design: RsmDesign,
+        center_points: Option<usize>,
+        /// Backward elimination of terms with p above `alpha_out`, keeping hierarchy.
+        reduce: bool,
+        alpha_out: f64,
+    },
+    Optimize {
+        solutions: usize,
+        starts: usize,
+    },
+    Validate {
+        replicates: usize,
+    },
+}
+
+pub const STAGES: &str = "screening, steepest, rsm, optimize, validate";
+
+impl Stage {
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Stage::Screening { .. } => "screening",
+            Stage::Steepest { .. } => "steepest",
+            Stage::Rsm { .. } => "rsm",
+            Stage::Optimize { .. } => "optimize",
+            Stage::Validate { .. } => "validate",
+        }
+    }
+
+    /// Whether the stage runs simulations (optimize only searches a model).
+    pub fn runs_simulations(&self) -> bool {
+        !matches!(self, Stage::Optimize { .. })
+    }
+}
+
+/// A study read and checked.
+#[derive(Clone, Debug)]
+pub struct Study {
+    pub path: PathBuf,
+    pub name: String,
+    pub seed: u64,
+    /// The test file's content, before parameters are set.
+    pub test: toml::Table,
+    /// Where the test came from: the test file's path, or "inline".
+    pub test_source: String,
+    pub parameters: Vec<Parameter>,
+    pub target: Target,
+    pub plan: Vec<Stage>,
+    /// Wall-clock limit of one simulation; a run over it is stopped and stored as failed.
+    pub run_time_limit_s: Option<f64>,
+    /// The study file's text, stored with the runs.
+    pub text: String,
+}
+
+impl Study {
+    pub fn test_kind(&self) -> &str {
+        self.test.get("test").and_then(|v| v.as_str()).unwrap_or("")
+    }
+
+    /// The folder the study lives in; the store, run outputs and report go there.
+    pub fn dir(&self) -> PathBuf {
+        self.path
+            .parent()
+            .map(Path::to_path_buf)
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or_else(|| PathBuf::from("."))
+    }
+
+    fn stem(&self) -> String {
+        self.path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "study".into())
+    }
+
+    /// The results store: `<study>.db` next to the study file.
+    pub fn store_path(&self) -> PathBuf {
+        self.dir().join(format!("{}.db", self.stem()))
+    }
+
+    /// Where each run writes its pictures and result.
+    pub fn runs_dir(&self) -> PathBuf {
+        self.dir().join(format!("{}.runs", self.stem()))
+    }
+
+    pub fn report_dir(&self) -> PathBuf {
+        self.dir().join("report")
+    }
+
+    pub fn load(path: &Path) -> Result<Study, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        Study::parse(path, &text)
+    }
+
+    pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
+        let file = path.display().to_string();
+        let err = |key: &str, msg: String| format!("{file}: {key}: {msg}");
+        let doc: toml::Table =
+            toml::from_str(text).map_err(|e| format!("{file}: {}", one_line(&e.to_string())))?;
+        const KEYS: &[&str] = &[
+            "name",
+            "seed",
+            "test",
+            "parameter",
+            "target",
+            "plan",
+            "run_time_limit_s",
+        ];
+        for k in doc.keys() {
+            if !KEYS.contains(&k.as_str()) {
+                return Err(err(
+                    k,
+                    format!("unknown key (expected {})", KEYS.join(", ")),
+                ));
+            }
+        }
+        let name = match doc.get("name") {
+            None => path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "study".into()),
+            Some(toml::Value::String(s)) => s.clone(),
+            Some(_) => return Err(err("name", "expected a string".into())),
+        };
+        let seed = match doc.get("seed") {
+            None => 1,
+            Some(toml::Value::Integer(s)) if *s >= 0 => *s as u64,
+            Some(_) => return Err(err("seed", "expected a whole number >= 0".into())),
+        };
+        let run_time_limit_s = match doc.get("run_time_limit_s") {
+            None => None,
+            Some(v) => Some(
+                number(v)
+                    .filter(|t| *t > 0.0)
+                    .ok_or_else(|| err("run_time_limit_s", "expected seconds > 0".into()))?,
+            ),
+        };
+
+        // The test: a path to a test file, or the test file's content inline.
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let (test, test_source) = match doc.get("test") {
+            None => {
+                return Err(err(
+                    "test",
+                    "missing (a test file's path, e.g. test = \"repose.toml\", or an inline [test] table)".into(),
+                ))
+            }
+            Some(toml::Value::String(p)) => {
+                let tp = dir.join(p);
+                let t = std::fs::read_to_string(&tp)
+                    .map_err(|e| err("test", format!("cannot read {}: {e}", tp.display())))?;
+                let table: toml::Table = toml::from_str(&t)
+                    .map_err(|e| format!("{}: {}", tp.display(), one_line(&e.to_string())))?;
+                (table, tp.display().to_string())
+            }
+            Some(toml::Value::Table(t)) => (t.clone(), "inline".to_string()),
+            Some(_) => {
+                return Err(err(
+                    "test",
+                    "expected a test file's path or an inline table".into(),
+                ))
+            }
+        };
+        let test_name = format!("{file}: test");
+        let base = virtual_tests::TestFile::from_table(&test_name, &test)?;
+
+        // Parameters.
+        let list = match doc.get("parameter") {
+            Some(toml::Value::Array(a)) if !a.is_empty() => a,
+            Some(_) => return Err(err("parameter", "expected [[parameter]] tables".into())),
+            None => {
+                return Err(err(
+                    "parameter",
+                    "missing: give at least one [[parameter]] with name, path, min and max".into(),
+                ))
+            }
+        };
+        let mut parameters: Vec<Parameter> = Vec::new();
+        for (i, p) in list.iter().enumerate() {
+            let key = format!("parameter[{i}]");
+            let t = p
+                .as_table()
+                .ok_or_else(|| err(&key, "expected a table".into()))?;
+            for k in t.keys() {
+                if !["name", "path", "paths", "min", "max", "scale"].contains(&k.as_str()) {
+                    return Err(err(
+                        &format!("{key}.{k}"),
+                        "unknown key (expected name, path or paths, min, max, scale)".into(),
+                    ));
+                }
+            }
+            let name = t
+                .get("name")
+                .and_then(|v| v.as_str())
+                .ok_or_else(|| err(&format!("{key}.name"), "missing (expected a string)".into()))?
+                .to_string();
+            if parameters.iter().any(|q| q.name == name) {
+                return Err(err(
+                    &format!("{key}.name"),
+                    format!("\"{name}\" is given twice"),
+                ));
+            }
+            let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
+                (Some(toml::Value::String(s)), None) => vec![s.clone()],
+                (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
+                    .iter()
+                    .map(|v| v.as_str().map(String::from))
+                    .collect::<Option<Vec<_>>>()
+                    .ok_or_else(|| {
+                        err(&format!("{key}.paths"), "expected a list of strings".into())
+                    })?,
+                (Some(_), Some(_)) => {
+                    return Err(err(
+                        &format!("{key}.path"),
+                        "give path or paths, not both".into(),
+                    ))
+                }
+                _ => {
+                    return Err(err(
+                        &format!("{key}.path"),
+                        "missing: where the value goes in the test, e.g. \"interaction[bead,bead].static_friction\"".into(),
+                    ))
+                }
+            };
+            let mut paths = Vec::new();
+            for s in &texts {
+                let pp = ParamPath::parse(s).map_err(|e| err(&format!("{key}.path"), e))?;
+                pp.check(&test)
+                    .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
+                paths.push(pp);
+            }
+            let get = |k: &str| -> Result<f64, String> {
+                number(t.get(k).ok_or_else(|| {
+                    err(&format!("{key}.{k}"), "missing (expected a number)".into())
+                })?)
+                .ok_or_else(|| err(&format!("{key}.{k}"), "expected a number".into()))
+            };
+            let (min, max) = (get("min")?, get("max")?);
+            if !(min < max) {
+                return Err(err(
+                    &format!("{key}.min"),
+                    format!("expected min < max, got min = {min} and max = {max}"),
+                ));
+            }
+            let scale = match t.get("scale").map(|v| v.as_str()) {
+                None | Some(Some("linear")) => Scale::Linear,
+                Some(Some("log")) => Scale::Log,
+                _ => {
+                    return Err(err(
+                        &format!("{key}.scale"),
+                        "expected \"linear\" or \"log\"".into(),
+                    ))
+                }
+            };
+            if scale == Scale::Log && min <= 0.0 {
+                return Err(err(
+                    &format!("{key}.min"),
+                    format!("a log-scale parameter needs min > 0, got {min}"),
+                ));
+            }
+            parameters.push(Parameter {
+                name,
+                paths,
+                min,
+                max,
+                scale,
+            });
+        }
+
+        // Target.
+        let target_table = match doc.get("target") {
+            Some(toml::Value::Table(t)) => t,
+            Some(_) => return Err(err("target", "expected a table".into())),
+            None => {
+                return Err(err(
+                    "target",
+                    "missing: the lab value to calibrate against, e.g. [target] value = 38.65"
+                        .into(),
+                ))
+            }
+        };
+        for k in target_table.keys() {
+            if !["response", "value", "replicates", "unit"].contains(&k.as_str()) {
+                return Err(err(
+                    &format!("target.{k}"),
+                    "unknown key (expected response, value, replicates, unit)".into(),
+                ));
+            }
+        }
+        let outputs = virtual_tests::responses(&base.test);
+        let response = match target_table.get("response") {
+            None => outputs[0].to_string(),
+            Some(toml::Value::String(r)) if outputs.contains(&r.as_str()) => r.clone(),
+            Some(v) => {
+                return Err(err(
+                    "target.response",
+                    format!(
+                        "{v} is not an outcome of {} (expected one of: {})",
+                        base.test,
+                        outputs.join(", ")
+                    ),
+                ))
+            }
+        };
+        let replicates: Vec<f64> = match target_table.get("replicates") {
+            None => Vec::new(),
+            Some(toml::Value::Array(a)) => a
+                .iter()
+                .map(number)
+                .collect::<Option<Vec<_>>>()
+                .ok_or_else(|| err("target.replicates", "expected a list of numbers".into()))?,
+            Some(_) => {
+                return Err(err(
+                    "target.replicates",
+                    "expected a list of numbers".into(),
+                ))
+            }
+        };
+        let value = match target_table.get("value") {
+            Some(v) => number(v).ok_or_else(|| err("target.value", "expected a number".into()))?,
+            None if !replicates.is_empty() => {
+                replicates.iter().sum::<f64>() / replicates.len() as f64
+            }
+            None => {
+                return Err(err(
+                    "target.value",
+                    "missing: give the lab value or its replicates".into(),
+                ))
+            }
+        };
+        if value == 0.0 || !value.is_finite() {
+            return Err(err(
+                "target.value",
+                format!("expected a non-zero number (relative errors divide by it), got {value}"),
+            ));
+        }
+        let unit = target_table
+            .get("unit")
+            .and_then(|v| v.as_str())
+            .unwrap_or("")
+            .to_string();
+        let target = Target {
+            response,
+            value,
+            replicates,
+            unit,
+        };
+
+        let plan = parse_plan(&doc, &err, parameters.len())?;
+
+        let study = Study {
+            path: path.to_path_buf(),
+            name,
+            seed,
+            test,
+            test_source,
+            parameters,
+            target,
+            plan,
+            run_time_limit_s,
+            text: text.to_string(),
+        };
+        // The test must read with every parameter set (middle values), so errors in the test's
+        // own settings show now rather than in the first run.
+        let middle: Vec<f64> = study.parameters.iter().map(Parameter::middle).collect();
+        let table = study.test_with(&middle);
+        virtual_tests::TestFile::from_table(&test_name, &table)?;
+        Ok(study)
+    }
+
+    /// The test's content with every parameter set to `values` (actual units).
+    pub fn test_with(&self, values: &[f64]) -> toml::Table {
+        let mut t = self.test.clone();
+        for (p, v) in self.parameters.iter().zip(values) {
+            for path in &p.paths {
+                path.set(&mut t, *v)
+                    .expect("paths checked when the study was read");
+            }
+        }
+        t
+    }
+}
+
+fn parse_plan(
+    doc: &toml::Table,
+    err: &dyn Fn(&str, String) -> String,
+    n_params: usize,
+) -> Result<Vec<Stage>, String> {
+    let items = match doc.get("plan") {
+        None => {
+            return Err(err(
+                "plan",
+                format!("missing: an ordered list of stages ({STAGES}), e.g. plan = [\"rsm\", \"optimize\", \"validate\"]"),
+            ))
+        }
+        Some(toml::Value::Array(a)) if !a.is_empty() => a,
+        Some(_) => {
+            return Err(err(
+                "plan",
+                format!("expected a non-empty list of stages ({STAGES})"),
+            ))
+        }
+    };
+    let mut plan = Vec::new();
+    for (i, item) in items.iter().enumerate() {
+        let key = format!("plan[{i}]");
+        let empty = toml::Table::new();
+        let (kind, t) = match item {
+            toml::Value::String(s) => (s.clone(), &empty),
+            toml::Value::Table(t) => (
+                t.get("stage")
+                    .and_then(|v| v.as_str())
+                    .ok_or_else(|| {
+                        err(
+                            &format!("{key}.stage"),
+                            format!("missing: which stage ({STAGES})"),
+                        )
+                    })?
+                    .to_string(),
+                t,
+            ),
+            _ => {
+                return Err(err(
+                    &key,
+                    format!("expected a stage name ({STAGES}) or a table with stage = ..."),
+                ))
+            }
+        };
+        let allowed: &[&str] = match kind.as_str() {
+            "screening" => &[
+                "design",
+                "runs",
+                "resolution",
+                "center_points",
+                "alpha",
+                "min_factors",
+                "max_factors",
+            ],
+            "steepest" => &["steps", "direction"],
+            "rsm" => &["design", "alpha", "center_points", "reduce", "alpha_out"],
+            "optimize" => &["solutions", "starts"],
+            "validate" => &["replicates"],
+            other => {
+                return Err(err(
+                    &format!("{key}.stage"),
+                    format!("unknown stage \"{other}\" (expected one of: {STAGES})"),
+                ))
+            }
+        };
+        for k in t.keys() {
+            if k != "stage" && !allowed.contains(&k.as_str()) {
+                return Err(err(
+                    &format!("{key}.{k}"),
+                    format!(
+                        "unknown key for a {kind} stage (expected {})",
+                        allowed.join(", ")
+                    ),
+                ));
+            }
+        }
+        let count = |k: &str, default: usize, min: usize| -> Result<usize, String> {
+            match t.get(k) {
+                None => Ok(default),
+                Some(toml::Value::Integer(n)) if *n >= min as i64 => Ok(*n as usize),
+                Some(_) => Err(err(
+                    &format!("{key}.{k}"),
+                    format!("expected a whole number >= {min}"),
+                )),
+            }
+        };
+        let fraction = |k: &str, default: f64| -> Result<f64, String> {
+            match t.get(k) {
+                None => Ok(default),
+                Some(v) => number(v).filter(|a| *a > 0.0 && *a < 1.0).ok_or_else(|| {
+                    err(
+                        &format!("{key}.{k}"),
+                        "expected a number between 0 and 1".into(),
+                    )
+                }),
+            }
+        };
+        let text = |k: &str, default: &str| -> Result<String, String> {
+            match t.get(k) {
+                None => Ok(default.to_string()),
+                Some(toml::Value::String(s)) => Ok(s.to_ascii_lowercase()),
+                Some(_) => Err(err(&format!("{key}.{k}"), "expected a string".into())),
+            }
+        };
+        let stage = match kind.as_str() {
+            "screening" => {
+                if n_params < 2 {
+                    return Err(err(&key, "screening needs at least two parameters".into()));
+                }
+                let design = match text("design", "plackett-burman")?.as_str() {
+                    "plackett-burman" | "pb" => ScreeningDesign::PlackettBurman {
+                        runs: t.get("runs").map(|_| count("runs", 12, 4)).transpose()?,
+                    },
+                    "fractional" | "fractional-factorial" => ScreeningDesign::Fractional {
+                        resolution: count("resolution", 4, 3)?,
+                    },
+                    "factorial" | "full-factorial" => ScreeningDesign::Factorial,
+                    other => {
+                        return Err(err(
+                            &format!("{key}.design"),
+                            format!("unknown screening design \"{other}\" (expected plackett-burman, fractional, factorial)"),
+                        ))
+                    }
+                };
+                let min_factors = count("min_factors", 2.min(n_params), 1)?;
+                let max_factors = count("max_factors", 4.min(n_params), 1)?;
+                if min_factors > max_factors {
+                    return Err(err(
+                        &format!("{key}.min_factors"),
+                        format!("expected min_factors <= max_factors ({max_factors})"),
+                    ));
+                }
+                Stage::Screening {
+                    design,
+                    center_points: count("center_points", 1, 0)?,
+                    alpha: fraction("alpha", 0.05)?,
+                    min_factors,
+                    max_factors,
+                }
+            }
+            "steepest" => Stage::Steepest {
+                steps: count("steps", 5, 3)?,
+                proportional: match text("direction", "signs")?.as_str() {
+                    "signs" => false,
+                    "coefficients" => true,
+                    _ => {
+                        return Err(err(
+                            &format!("{key}.direction"),
+                            "expected \"signs\" or \"coefficients\"".into(),
+                        ))
+                    }
+                },
+            },
+            "rsm" => {
+                let design = match text("design", "ccd")?.as_str() {
+                    "ccd" | "central-composite" => RsmDesign::CentralComposite {
+                        alpha: text("alpha", "rotatable")?,
+                    },
+                    "box-behnken" | "bbd" => {
+                        if t.contains_key("alpha") {
+                            return Err(err(
+                                &format!("{key}.alpha"),
+                                "a Box-Behnken design has no axial distance".into(),
+                            ));
+                        }
+                        RsmDesign::BoxBehnken
+                    }
+                    other => {
+                        return Err(err(
+                            &format!("{key}.design"),
+                            format!("unknown response-surface design \"{other}\" (expected ccd, box-behnken)"),
+                        ))
+                    }
+                };
+                if let RsmDesign::CentralComposite { alpha } = &design {
+                    if !["rotatable", "face", "spherical", "orthogonal"].contains(&alpha.as_str())
+                        && alpha.parse::<f64>().map_or(true, |a| a <= 0.0)
+                    {
+                        return Err(err(
+                            &format!("{key}.alpha"),
+                            format!("\"{alpha}\": expected rotatable, face, spherical, orthogonal or a positive number"),
+                        ));
+                    }
+                }
+                Stage::Rsm {
+                    design,
+                    center_points: t
+                        .get("center_points")
+                        .map(|_| count("center_points", 0, 1))
+                        .transpose()?,
+                    reduce: match t.get("reduce") {
+                        None => true,
+                        Some(toml::Value::Boolean(b)) => *b,
+                        Some(_) => {
+                            return Err(err(
+                                &format!("{key}.reduce"),
+                                "expected true or false".into(),
+                            ))
+                        }
+                    },
+                    alpha_out: fraction("alpha_out", 0.10)?,
+                }
+            }
+            "optimize" => Stage::Optimize {
+                solutions: count("solutions", 5, 1)?,
+                starts: count("starts", 40, 1)?,
+            },
+            "validate" => Stage::Validate {
+                replicates: count("replicates", 3, 1)?,
+            },
+            _ => unreachable!(),
+        };
+        // What each stage reads from the ones before it.
+        let before = |kinds: &[&str]| plan.iter().any(|s: &Stage| kinds.contains(&s.kind()));
+        match &stage {
+            Stage::Steepest { .. } if !before(&["screening"]) => {
+                return Err(err(
+                    &key,
+                    "steepest follows the effects of a screening stage; put one before it".into(),
+                ))
+            }
+            Stage::Optimize { .. } if !before(&["screening", "rsm"]) => {
+                return Err(err(
+                    &key,
+                    "optimize searches a fitted model; put a screening or rsm stage before it"
+                        .into(),
+                ))
+            }
+            _ => {}
+        }
+        plan.push(stage);
+    }
+    Ok(plan)
+}
+
+pub fn number(v: &toml::Value) -> Option<f64> {
+    match v {
+        toml::Value::Float(f) => Some(*f),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.split('\n')
+        .map(str::trim)
+        .filter(|l| {
+            !l.is_empty() && !l.starts_with('|') && !l.chars().all(|c| c == '^' || c == ' ')
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}

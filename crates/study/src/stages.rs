@@ -1,0 +1,842 @@
+//! The plan, stage by stage. [`replay`] walks the stages in order: it works out each stage's runs
+//! from the study and the outcome of the stages before it, takes the finished ones from the store,
+//! has the executor run the rest, and concludes the stage (fit, selection, best step, optimum,
+//! validation). Because every run's seed and settings follow from the study and the stored
+//! results alone, an interrupted study replays to the same point and goes on from there.
+
+use std::collections::HashMap;
+
+use doe::design::{self, CcdAlpha, Design};
+use doe::optimize::{Criterion, Goal, Problem, Solution, Subject};
+use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
+
+use crate::spec::{RsmDesign, ScreeningDesign, Stage, Study};
+use crate::store::{RunRecord, Status};
+
+/// One simulation the plan asks for.
+#[derive(Clone, Debug)]
+pub struct RunSpec {
+    pub stage: usize,
+    pub stage_kind: &'static str,
+    /// Position in the stage's (randomised) run order.
+    pub index: usize,
+    /// What the point is: factorial, center, axial, step 3, replicate 2, ...
+    pub label: String,
+    /// Settings of the stage's factors, coded.
+    pub coded: Vec<f64>,
+    /// Every parameter's value (actual units), in the study's order.
+    pub values: Vec<f64>,
+    pub seed: u64,
+}
+
+impl RunSpec {
+    /// The exact test this run simulates, and its seed.
+    pub fn fingerprint(&self, study: &Study) -> String {
+        let test = toml::to_string(&study.test_with(&self.values)).unwrap_or_default();
+        format!("{test}\n# seed = {}\n", self.seed)
+    }
+
+    pub fn inputs(&self, study: &Study) -> serde_json::Value {
+        serde_json::Value::Object(
+            study
+                .parameters
+                .iter()
+                .zip(&self.values)
+                .map(|(p, v)| (p.name.clone(), serde_json::json!(v)))
+                .collect(),
+        )
+    }
+}
+
+/// Mean, spread and error of the validation runs.
+#[derive(Clone, Debug)]
+pub struct Validation {
+    pub runs: usize,
+    pub mean: f64,
+    pub std: Option<f64>,
+    pub relative_error_percent: f64,
+}
+
+/// What a stage planned and found.
+#[derive(Clone, Debug)]
+pub struct StageResult {
+    pub index: usize,
+    pub kind: &'static str,
+    pub title: String,
+    /// The parameters the stage varies (indices into the study's parameters).
+    pub active: Vec<usize>,
+    /// The design's factors (the active parameters over the stage's ranges).
+    pub factors: Vec<Factor>,
+    pub design: Option<Design>,
+    pub runs: Vec<RunSpec>,
+    /// The stored outcome of each run, when it has finished.
+    pub records: Vec<Option<RunRecord>>,
+    /// The model the stage fitted (reduced when asked), and the full one before reduction.
+    pub fit: Option<Fit>,
+    pub full_fit: Option<Fit>,
+    /// Screening: the parameters that go on.
+    pub selected: Vec<usize>,
+    /// Steepest: the step nearest the lab value.
+    pub best_step: Option<usize>,
+    pub solutions: Vec<Solution>,
+    /// Optimize and validate: every parameter's value at the calibrated point.
+    pub calibrated: Option<Vec<f64>>,
+    pub validation: Option<Validation>,
+    pub notes: Vec<String>,
+    pub complete: bool,
+}
+
+impl StageResult {
+    fn new(index: usize, kind: &'static str) -> StageResult {
+        StageResult {
+            index,
+            kind,
+            title: String::new(),
+            active: Vec::new(),
+            factors: Vec::new(),
+            design: None,
+            runs: Vec::new(),
+            records: Vec::new(),
+            fit: None,
+            full_fit: None,
+            selected: Vec::new(),
+            best_step: None,
+            solutions: Vec::new(),
+            calibrated: None,
+            validation: None,
+            notes: Vec::new(),
+            complete: false,
+        }
+    }
+
+    pub fn done(&self) -> usize {
+        self.records
+            .iter()
+            .flatten()
+            .filter(|r| r.status == Status::Done)
+            .count()
+    }
+
+    pub fn failed(&self) -> usize {
+        self.records
+            .iter()
+            .flatten()
+            .filter(|r| r.status == Status::Failed)
+            .count()
+    }
+
+    pub fn pending(&self) -> usize {
+        self.records.iter().filter(|r| r.is_none()).count()
+    }
+
+    /// The finished runs with a response, with their specs.
+    fn successes(&self) -> Vec<(&RunSpec, f64)> {
+        self.runs
+            .iter()
+            .zip(&self.records)
+            .filter_map(|(s, r)| {
+                r.as_ref()
+                    .filter(|r| r.status == Status::Done)
+                    .and_then(|r| r.response)
+                    .map(|y| (s, y))
+            })
+            .collect()
+    }
+
+    fn first_failure(&self) -> String {
+        self.runs
+            .iter()
+            .zip(&self.records)
+            .find_map(|(s, r)| {
+                r.as_ref().filter(|r| r.status == Status::Failed).map(|r| {
+                    format!(
+                        "; run {}: {}",
+                        s.index + 1,
+                        r.error.clone().unwrap_or_default()
+                    )
+                })
+            })
+            .unwrap_or_default()
+    }
+}
+
+/// Where a replay ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum State {
+    Complete,
+    /// Runs of this stage have not been made (status and report replay without running).
+    Pending {
+        stage: usize,
+    },
+    /// The stage cannot go on (too many failed runs, a design that does not fit); why.
+    Stopped(String),
+}
+
+pub struct Replay {
+    pub stages: Vec<StageResult>,
+    pub state: State,
+}
+
+/// Runs simulations for a replay; stores each one as it finishes.
+pub trait Execute {
+    /// Runs `runs` of `stage` and returns their records (also stored). An error (an interrupt)
+    /// ends the replay; finished runs are already stored.
+    fn execute(
+        &mut self,
+        study: &Study,
+        stage: &StageResult,
+        runs: &[RunSpec],
+    ) -> Result<Vec<RunRecord>, String>;
+}
+
+/// What the stages pass on.
+struct Context {
+    active: Vec<usize>,
+    /// Every parameter's current value: fixed ones where they were fixed, active ones at the
+    /// centre of their region.
+    values: Vec<f64>,
+    /// Each parameter's current range, actual units.
+    region: Vec<(f64, f64)>,
+    model: Option<(Fit, Vec<usize>)>,
+    /// Screening: first-order coefficient of each selected parameter.
+    direction: Vec<f64>,
+    calibrated: Option<Vec<f64>>,
+}
+
+/// A run's seed: distinct for every stage and run, fixed by the study's seed.
+pub fn run_seed(study_seed: u64, stage: usize, index: usize) -> u64 {
+    let mut z = study_seed
+        .wrapping_add((stage as u64) << 32)
+        .wrapping_add(index as u64)
+        .wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    (z ^ (z >> 31)) % 1_000_000_000
+}
+
+fn point_label(d: &Design, run: &[f64]) -> String {
+    let nonzero = run.iter().filter(|v| v.abs() > 1e-12).count();
+    let label = if nonzero == 0 {
+        "center"
+    } else if d.alpha.is_some_and(|a| (a - 1.0).abs() > 1e-9) && nonzero == 1 {
+        "axial"
+    } else if nonzero == run.len() {
+        "factorial"
+    } else {
+        "edge"
+    };
+    label.to_string()
+}
+
+/// Replays the plan; with an executor, runs what is missing.
+pub fn replay(
+    study: &Study,
+    stored: &[RunRecord],
+    mut exec: Option<&mut dyn Execute>,
+) -> Result<Replay, String> {
+    let mut by_key: HashMap<(usize, usize), RunRecord> = HashMap::new();
+    for r in stored {
+        if r.stage >= study.plan.len() {
+            return Err(stale(
+                study,
+                &format!(
+                    "stage {} ({}) has stored runs, but the plan now has {} stages",
+                    r.stage + 1,
+                    r.stage_kind,
+                    study.plan.len()
+                ),
+            ));
+        }
+        by_key.insert((r.stage, r.index), r.clone());
+    }
+    let n = study.parameters.len();
+    let mut ctx = Context {
+        active: (0..n).collect(),
+        values: study.parameters.iter().map(|p| p.middle()).collect(),
+        region: study.parameters.iter().map(|p| (p.min, p.max)).collect(),
+        model: None,
+        direction: Vec::new(),
+        calibrated: None,
+    };
+    let mut stages: Vec<StageResult> = Vec::new();
+    for (si, stage) in study.plan.iter().enumerate() {
+        let mut st = plan_stage(study, si, stage, &ctx);
+        // Stored runs must be the runs the study asks for now.
+        for spec in &st.runs {
+            if let Some(r) = by_key.remove(&(si, spec.index)) {
+                if r.stage_kind != spec.stage_kind {
+                    return Err(stale(
+                        study,
+                        &format!(
+                            "stage {} was a {} stage, the plan now makes it {}",
+                            si + 1,
+                            r.stage_kind,
+                            spec.stage_kind
+                        ),
+                    ));
+                }
+                if r.fingerprint != spec.fingerprint(study) {
+                    return Err(stale(study, &describe_change(study, spec, &r)));
+                }
+                st.records.push(Some(r));
+            } else {
+                st.records.push(None);
+            }
+        }
+        if st.pending() > 0 {
+            match exec.as_deref_mut() {
+                None => {
+                    stages.push(st);
+                    return Ok(Replay {
+                        stages,
+                        state: State::Pending { stage: si },
+                    });
+                }
+                Some(ex) => {
+                    let missing: Vec<RunSpec> = st
+                        .runs
+                        .iter()
+                        .zip(&st.records)
+                        .filter(|(_, r)| r.is_none())
+                        .map(|(s, _)| s.clone())
+                        .collect();
+                    for r in ex.execute(study, &st, &missing)? {
+                        let slot = st
+                            .runs
+                            .iter()
+                            .position(|s| s.index == r.index)
+                            .expect("executor returns the runs it was given");
+                        st.records[slot] = Some(r);
+                    }
+                    if st.pending() > 0 {
+                        stages.push(st);
+                        return Ok(Replay {
+                            stages,
+                            state: State::Pending { stage: si },
+                        });
+                    }
+                }
+            }
+        }
+        if let Err(why) = conclude(study, stage, &mut st, &mut ctx) {
+            let why = format!("stage {} ({}): {why}", si + 1, stage.kind());
+            stages.push(st);
+            return Ok(Replay {
+                stages,
+                state: State::Stopped(why),
+            });
+        }
+        st.complete = true;
+        stages.push(st);
+    }
+    if let Some(((s, i), r)) = by_key.iter().next() {
+        return Err(stale(
+            study,
+            &format!(
+                "stage {} ({}) has a stored run {} that the plan no longer makes",
+                s + 1,
+                r.stage_kind,
+                i + 1
+            ),
+        ));
+    }
+    Ok(Replay {
+        stages,
+        state: State::Complete,
+    })
+}
+
+fn stale(study: &Study, what: &str) -> String {
+    format!(
+        "{}: the stored runs no longer match {}: {what}. Restore the study file, or start over with `demcal run {} --restart` (the old store is kept beside it)",
+        study.store_path().display(),
+        study.path.display(),
+        study.path.display()
+    )
+}
+
+fn describe_change(study: &Study, spec: &RunSpec, r: &RunRecord) -> String {
+    let head = format!(
+        "stage {} ({}) run {}",
+        spec.stage + 1,
+        spec.stage_kind,
+        spec.index + 1
+    );
+    for (p, v) in study.parameters.iter().zip(&spec.values) {
+        match r.inputs.get(&p.name).and_then(|x| x.as_f64()) {
+            None => {
+                return format!("{head} was simulated without the parameter {}", p.name);
+            }
+            Some(old) if (old - v).abs() > 1e-12 * v.abs().max(1e-300) => {
+                return format!(
+                    "{head} was simulated with {} = {}, the study now gives {}",
+                    p.name,
+                    sig(old),
+                    sig(*v)
+                );
+            }
+            _ => {}
+        }
+    }
+    if r.seed != spec.seed {
+        return format!(
+            "{head} was simulated with seed {}, the study now gives {}",
+            r.seed, spec.seed
+        );
+    }
+    format!("{head} was simulated with other test settings (the test's fixed settings changed)")
+}
+
+pub fn sig(v: f64) -> String {
+    doe::fit::fmt_sig(v)
+}
+
+fn factors_of(study: &Study, ctx: &Context) -> Vec<Factor> {
+    ctx.active
+        .iter()
+        .map(|&i| {
+            let (lo, hi) = ctx.region[i];
+            study.parameters[i].factor(lo, hi)
+        })
+        .collect()
+}
+
+fn specs_from_design(study: &Study, st: &mut StageResult, ctx: &Context, d: &Design) {
+    let seed = run_seed(study.seed, st.index, usize::MAX >> 1);
+    for (index, &std) in d.run_order(seed).iter().enumerate() {
+        let coded = d.runs[std].clone();
+        let mut values = ctx.values.clone();
+        for (j, &pi) in st.active.iter().enumerate() {
+            values[pi] = st.factors[j].to_actual(coded[j]);
+        }
+        st.runs.push(RunSpec {
+            stage: st.index,
+            stage_kind: st.kind,
+            index,
+            label: format!("{} (std {})", point_label(d, &coded), std + 1),
+            coded,
+            values,
+            seed: run_seed(study.seed, st.index, index),
+        });
+    }
+}
+
+fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageResult {
+    let mut st = StageResult::new(si, stage.kind());
+    st.active = ctx.active.clone();
+    st.factors = factors_of(study, ctx);
+    let k = st.active.len();
+    match stage {
+        Stage::Screening {
+            design,
+            center_points,
+            ..
+        } => {
+            let d = match design {
+                ScreeningDesign::PlackettBurman { runs } => design::plackett_burman(k, *runs, 0),
+                ScreeningDesign::Fractional { resolution } => {
+                    design::fractional_factorial_by_resolution(k, *resolution)
+                }
+                ScreeningDesign::Factorial => design::full_factorial(k),
+            };
+            match d {
+                Ok(d) => {
+                    let d = d.with_center_points(*center_points);
+                    st.title = format!("{}, {} centre point(s)", d.kind, center_points);
+                    specs_from_design(study, &mut st, ctx, &d);
+                    st.design = Some(d);
+                }
+                Err(e) => st.notes.push(format!("design: {e}")),
+            }
+        }
+        Stage::Steepest {
+            steps,
+            proportional,
+        } => {
+            let biggest = ctx.direction.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+            let dir: Vec<f64> = ctx
+                .direction
+                .iter()
+                .map(|c| {
+                    if *proportional {
+                        c / biggest.max(1e-300)
+                    } else if *c >= 0.0 {
+                        1.0
+                    } else {
+                        -1.0
+                    }
+                })
+                .collect();
+            st.title = format!(
+                "steepest path, {steps} steps across the ranges ({})",
+                if *proportional {
+                    "in proportion to the coefficients"
+                } else {
+                    "by the signs of the effects"
+                }
+            );
+            for i in 0..*steps {
+                let t = -1.0 + 2.0 * i as f64 / (*steps - 1) as f64;
+                let coded: Vec<f64> = dir.iter().map(|d| t * d).collect();
+                let mut values = ctx.values.clone();
+                for (j, &pi) in st.active.iter().enumerate() {
+                    values[pi] = st.factors[j].to_actual(coded[j]);
+                }
+                st.runs.push(RunSpec {
+                    stage: si,
+                    stage_kind: st.kind,
+                    index: i,
+                    label: format!("step {}", i + 1),
+                    coded,
+                    values,
+                    seed: run_seed(study.seed, si, i),
+                });
+            }
+        }
+        Stage::Rsm {
+            design: kind,
+            center_points,
+            ..
+        } => {
+            let d = match kind {
+                RsmDesign::CentralComposite { alpha } => {
+                    let a = match alpha.as_str() {
+                        "rotatable" => CcdAlpha::Rotatable,
+                        "face" => CcdAlpha::FaceCentred,
+                        "spherical" => CcdAlpha::Spherical,
+                        "orthogonal" => CcdAlpha::Orthogonal,
+                        v => CcdAlpha::Custom(v.parse().unwrap_or(1.0)),
+                    };
+                    let cp = center_points.unwrap_or(if k == 2 { 5 } else { 6 });
+                    design::central_composite(k, a, cp, None)
+                }
+                RsmDesign::BoxBehnken => design::box_behnken(k, center_points.unwrap_or(5)),
+            };
+            match d {
+                Ok(d) => {
+                    // Axial points must stay inside the parameters' limits: shift the region,
+                    // or shrink it, until they do.
+                    let a = d.alpha.unwrap_or(1.0);
+                    let mut factors = Vec::new();
+                    for (j, &pi) in st.active.iter().enumerate() {
+                        let p = &study.parameters[pi];
+                        let f = &st.factors[j];
+                        let (lo, hi) = (p.transformed(f.low), p.transformed(f.high));
+                        let (lim_lo, lim_hi) = (p.transformed(p.min), p.transformed(p.max));
+                        let mut h = 0.5 * (hi - lo);
+                        let mut c = 0.5 * (hi + lo);
+                        if c - a * h < lim_lo - 1e-12 || c + a * h > lim_hi + 1e-12 {
+                            h = h.min((lim_hi - lim_lo) / (2.0 * a));
+                            c = c.clamp(lim_lo + a * h, lim_hi - a * h);
+                            st.notes.push(format!(
+                                "{}: the design's ±{} points would leave {} .. {}; its ±1 range is now {} .. {}",
+                                p.name,
+                                sig(a),
+                                sig(p.min),
+                                sig(p.max),
+                                sig(p.actual(c - h)),
+                                sig(p.actual(c + h))
+                            ));
+                        }
+                        factors.push(p.factor(p.actual(c - h), p.actual(c + h)));
+                    }
+                    st.factors = factors;
+                    st.title = format!("{}, {} runs", d.kind, d.runs.len());
+                    specs_from_design(study, &mut st, ctx, &d);
+                    st.design = Some(d);
+                }
+                Err(e) => st.notes.push(format!("design: {e}")),
+            }
+        }
+        Stage::Optimize { .. } => {
+            st.title = "numerical optimisation (desirability) toward the lab value".into();
+        }
+        Stage::Validate { replicates } => {
+            let point = ctx.calibrated.clone().unwrap_or_else(|| ctx.values.clone());
+            st.title = format!("{replicates} replicate simulations at the calibrated point");
+            for i in 0..*replicates {
+                st.runs.push(RunSpec {
+                    stage: si,
+                    stage_kind: st.kind,
+                    index: i,
+                    label: format!("replicate {}", i + 1),
+                    coded: Vec::new(),
+                    values: point.clone(),
+                    seed: run_seed(study.seed, si, i),
+                });
+            }
+            st.calibrated = Some(point);
+        }
+    }
+    st
+}
+
+fn experiment(study: &Study, st: &StageResult) -> Experiment {
+    let ok = st.successes();
+    Experiment {
+        response_name: study.target.response.clone(),
+        factor_names: st.factors.iter().map(|f| f.name.clone()).collect(),
+        factors: Some(st.factors.clone()),
+        coded: ok.iter().map(|(s, _)| s.coded.clone()).collect(),
+        response: ok.iter().map(|(_, y)| *y).collect(),
+    }
+}
+
+fn enough(st: &StageResult, needed: usize, what: &str) -> Result<(), String> {
+    let ok = st.done();
+    if ok < needed {
+        return Err(format!(
+            "{ok} of {} runs finished ({} failed{}); {what} needs at least {needed}. Look at the failures, narrow the ranges or make the test more robust, then run again with --retry-failed",
+            st.runs.len(),
+            st.failed(),
+            st.first_failure()
+        ));
+    }
+    Ok(())
+}
+
+fn conclude(
+    study: &Study,
+    stage: &Stage,
+    st: &mut StageResult,
+    ctx: &mut Context,
+) -> Result<(), String> {
+    let target = study.target.value;
+    if st.runs.is_empty() && stage.runs_simulations() {
+        return Err(st.notes.join("; "));
+    }
+    if st.failed() > 0 {
+        st.notes.push(format!(
+            "{} of {} runs failed{}",
+            st.failed(),
+            st.runs.len(),
+            st.first_failure()
+        ));
+    }
+    match stage {
+        Stage::Screening {
+            alpha,
+            min_factors,
+            max_factors,
+            ..
+        } => {
+            let k = st.active.len();
+            let terms = ModelOrder::Linear.terms(k);
+            enough(
+                st,
+                terms.len() + 1,
+                "a first-order model with one residual degree of freedom",
+            )?;
+            let fit = Fit::new(&experiment(study, st), &terms, Curvature::Auto)?;
+            // p of each main effect, in factor order.
+            let p: Vec<f64> = (0..k)
+                .map(|j| {
+                    fit.terms
+                        .iter()
+                        .skip(1)
+                        .zip(&fit.anova_terms)
+                        .find(|(t, _)| t.powers[j] == 1 && t.order() == 1)
+                        .and_then(|(_, r)| r.p)
+                        .unwrap_or(1.0)
+                })
+                .collect();
+            let coef: Vec<f64> = (0..k)
+                .map(|j| {
+                    fit.terms
+                        .iter()
+                        .zip(&fit.coefficients)
+                        .find(|(t, _)| t.powers[j] == 1 && t.order() == 1)
+                        .map(|(_, c)| c.estimate)
+                        .unwrap_or(0.0)
+                })
+                .collect();
+            let mut order: Vec<usize> = (0..k).collect();
+            order.sort_by(|&a, &b| {
+                p[a].total_cmp(&p[b])
+                    .then(coef[b].abs().total_cmp(&coef[a].abs()))
+            });
+            let significant: Vec<usize> =
+                order.iter().copied().filter(|&j| p[j] < *alpha).collect();
+            let mut chosen: Vec<usize> = significant.clone();
+            if chosen.len() < *min_factors {
+                chosen = order[..(*min_factors).min(k)].to_vec();
+                st.notes.push(format!(
+                    "{} parameter(s) significant at p < {}; the {} with the smallest p go on",
+                    significant.len(),
+                    alpha,
+                    chosen.len()
+                ));
+            }
+            if chosen.len() > *max_factors {
+                chosen.truncate(*max_factors);
+                st.notes.push(format!(
+                    "{} parameters significant at p < {}; the {} with the smallest p go on (max_factors)",
+                    significant.len(),
+                    alpha,
+                    max_factors
+                ));
+            }
+            chosen.sort_unstable();
+            let selected: Vec<usize> = chosen.iter().map(|&j| st.active[j]).collect();
+            for (j, &pi) in st.active.iter().enumerate() {
+                if !chosen.contains(&j) {
+                    // Held at the middle of its range, as the published studies do.
+                    let pmid = &study.parameters[pi];
+                    let (lo, hi) = ctx.region[pi];
+                    ctx.values[pi] =
+                        pmid.actual(0.5 * (pmid.transformed(lo) + pmid.transformed(hi)));
+                }
+            }
+            ctx.direction = chosen.iter().map(|&j| coef[j]).collect();
+            ctx.model = Some((fit.clone(), st.active.clone()));
+            ctx.active = selected.clone();
+            st.selected = selected;
+            st.fit = Some(fit);
+        }
+        Stage::Steepest { .. } => {
+            enough(st, 1, "choosing the best step")?;
+            let ok = st.successes();
+            let (best_spec, best_y) = ok
+                .iter()
+                .min_by(|a, b| (a.1 - target).abs().total_cmp(&(b.1 - target).abs()))
+                .copied()
+                .unwrap();
+            let b = best_spec.index;
+            let last = st.runs.len() - 1;
+            let (lo_i, hi_i) = if b == 0 {
+                (0, 1)
+            } else if b == last {
+                (last - 1, last)
+            } else {
+                (b - 1, b + 1)
+            };
+            if b == 0 || b == last {
+                st.notes.push(format!(
+                    "the step nearest the lab value is at the end of the path (step {}): the lab value may lie outside the parameters' ranges",
+                    b + 1
+                ));
+            }
+            for &pi in &st.active {
+                let p = &study.parameters[pi];
+                let a = st.runs[lo_i].values[pi];
+                let c = st.runs[hi_i].values[pi];
+                ctx.region[pi] = (a.min(c), a.max(c));
+                ctx.values[pi] = if b == 0 || b == last {
+                    p.actual(0.5 * (p.transformed(a) + p.transformed(c)))
+                } else {
+                    st.runs[b].values[pi]
+                };
+            }
+            st.notes.push(format!(
+                "step {} gives {} against the lab's {} (relative error {:.2} %)",
+                b + 1,
+                sig(best_y),
+                sig(target),
+                study.target.relative_error_percent(best_y)
+            ));
+            st.best_step = Some(b);
+        }
+        Stage::Rsm {
+            reduce, alpha_out, ..
+        } => {
+            let k = st.active.len();
+            let terms = ModelOrder::Quadratic.terms(k);
+            enough(
+                st,
+                terms.len() + 1,
+                "a quadratic model with one residual degree of freedom",
+            )?;
+            let exp = experiment(study, st);
+            let full = Fit::new(&exp, &terms, Curvature::Off)?;
+            let fit = if *reduce {
+                Fit::reduce(&exp, &terms, Curvature::Off, *alpha_out, true)?
+            } else {
+                full.clone()
+            };
+            if !fit.removed.is_empty() {
+                st.notes.push(format!(
+                    "backward elimination (alpha out {alpha_out}) removed {}",
+                    fit.removed
+                        .iter()
+                        .map(|(n, p)| format!("{n} (p {})", doe::fit::fmt_p(*p)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+            ctx.model = Some((fit.clone(), st.active.clone()));
+            st.full_fit = Some(full);
+            st.fit = Some(fit);
+        }
+        Stage::Optimize { solutions, starts } => {
+            let (fit, active) = ctx.model.clone().expect("checked when the study was read");
+            let observed = &fit.experiment.response;
+            let lo = observed.iter().copied().fold(target, f64::min);
+            let hi = observed.iter().copied().fold(target, f64::max);
+            let problem = Problem {
+                fits: vec![&fit],
+                criteria: vec![(
+                    Subject::Response(0),
+                    Criterion {
+                        name: study.target.response.clone(),
+                        goal: Goal::Target(target),
+                        lower: lo,
+                        upper: hi,
+                        weight_lower: 1.0,
+                        weight_upper: 1.0,
+                        importance: 3,
+                    },
+                )],
+                bounds: vec![(-1.0, 1.0); active.len()],
+            };
+            let found = problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
+            let best = found.first().ok_or("the search found no solution")?.clone();
+            let mut point = ctx.values.clone();
+            for (j, &pi) in active.iter().enumerate() {
+                point[pi] = best.actual.as_ref().map(|a| a[j]).unwrap_or(point[pi]);
+            }
+            if best.desirability <= 0.0 {
+                st.notes.push("the model does not reach the lab value inside the ranges; the closest setting is taken".into());
+            }
+            st.active = active;
+            st.factors = fit.experiment.factors.clone().unwrap_or_default();
+            st.solutions = found;
+            st.fit = Some(fit);
+            ctx.calibrated = Some(point.clone());
+            st.calibrated = Some(point);
+        }
+        Stage::Validate { .. } => {
+            enough(st, 1, "validation")?;
+            let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
+            let n = ys.len();
+            let mean = ys.iter().sum::<f64>() / n as f64;
+            let std = (n >= 2).then(|| {
+                (ys.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+            });
+            st.validation = Some(Validation {
+                runs: n,
+                mean,
+                std,
+                relative_error_percent: study.target.relative_error_percent(mean),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The finished run nearest the lab value, over all stages.
+pub fn best_run<'a>(study: &Study, stages: &'a [StageResult]) -> Option<(&'a RunSpec, f64)> {
+    stages.iter().flat_map(|s| s.successes()).min_by(|a, b| {
+        (a.1 - study.target.value)
+            .abs()
+            .total_cmp(&(b.1 - study.target.value).abs())
+    })
+}
+
+/// The calibrated values: the last optimised (or validated) point, else the best run so far.
+pub fn calibrated(study: &Study, stages: &[StageResult]) -> Option<Vec<f64>> {
+    stages
+        .iter()
+        .rev()
+        .find_map(|s| s.calibrated.clone())
+        .or_else(|| best_run(study, stages).map(|(s, _)| s.values.clone()))
+}

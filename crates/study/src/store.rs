@@ -1,0 +1,267 @@
+//! The results store: one SQLite file next to the study. A run is written in one transaction when
+//! it finishes (done or failed), so killing the process at any moment loses only the runs that
+//! were still going; nothing is written for them, and the next `demcal run` starts them again.
+
+use std::path::{Path, PathBuf};
+
+use rusqlite::{params, Connection, OptionalExtension};
+
+/// How a finished run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    Done,
+    Failed,
+}
+
+impl Status {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Status::Done => "done",
+            Status::Failed => "failed",
+        }
+    }
+}
+
+/// One finished simulation.
+#[derive(Clone, Debug)]
+pub struct RunRecord {
+    pub stage: usize,
+    pub stage_kind: String,
+    pub index: usize,
+    /// Every parameter's value, by name, as JSON (for people and for checks).
+    pub inputs: serde_json::Value,
+    pub seed: u64,
+    pub status: Status,
+    pub response: Option<f64>,
+    /// The test's whole outcome as JSON (null for failed runs).
+    pub outputs: serde_json::Value,
+    pub error: Option<String>,
+    pub wall_s: f64,
+    pub finished_at: String,
+    pub version: String,
+    /// Where the run wrote its pictures.
+    pub out_dir: String,
+    /// The exact test the run simulated (TOML, parameters set) and its seed; a stored run is
+    /// reused only while the study would still give the same.
+    pub fingerprint: String,
+}
+
+pub struct Store {
+    conn: Connection,
+    pub path: PathBuf,
+}
+
+const SCHEMA: &str = "
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS runs (
+    stage INTEGER NOT NULL,
+    stage_kind TEXT NOT NULL,
+    idx INTEGER NOT NULL,
+    inputs TEXT NOT NULL,
+    seed INTEGER NOT NULL,
+    status TEXT NOT NULL CHECK (status IN ('done', 'failed')),
+    response REAL,
+    outputs TEXT NOT NULL,
+    error TEXT,
+    wall_s REAL NOT NULL,
+    finished_at TEXT NOT NULL,
+    version TEXT NOT NULL,
+    out_dir TEXT NOT NULL,
+    fingerprint TEXT NOT NULL,
+    PRIMARY KEY (stage, idx)
+);
+";
+
+fn db_err(path: &Path) -> impl Fn(rusqlite::Error) -> String + '_ {
+    move |e| format!("{}: results store: {e}", path.display())
+}
+
+impl Store {
+    /// Opens (creating when `create`) the store. Without `create` a missing file is an error.
+    pub fn open(path: &Path, create: bool) -> Result<Store, String> {
+        if !create && !path.exists() {
+            return Err(format!(
+                "{}: no results yet (run the study with demcal run first)",
+                path.display()
+            ));
+        }
+        let conn = Connection::open(path).map_err(db_err(path))?;
+        // FULL: a finished transaction survives a power cut, not just a killed process.
+        conn.execute_batch("PRAGMA journal_mode = DELETE; PRAGMA synchronous = FULL;")
+            .map_err(db_err(path))?;
+        conn.execute_batch(SCHEMA).map_err(db_err(path))?;
+        conn.busy_timeout(std::time::Duration::from_secs(10))
+            .map_err(db_err(path))?;
+        Ok(Store {
+            conn,
+            path: path.to_path_buf(),
+        })
+    }
+
+    pub fn meta(&self, key: &str) -> Result<Option<String>, String> {
+        self.conn
+            .query_row("SELECT value FROM meta WHERE key = ?1", [key], |r| r.get(0))
+            .optional()
+            .map_err(db_err(&self.path))
+    }
+
+    pub fn set_meta(&self, key: &str, value: &str) -> Result<(), String> {
+        self.conn
+            .execute(
+                "INSERT INTO meta (key, value) VALUES (?1, ?2)
+                 ON CONFLICT(key) DO UPDATE SET value = excluded.value",
+                params![key, value],
+            )
+            .map(|_| ())
+            .map_err(db_err(&self.path))
+    }
+
+    /// Stores a finished run in its own transaction.
+    pub fn insert(&mut self, r: &RunRecord) -> Result<(), String> {
+        let path = self.path.clone();
+        let tx = self.conn.transaction().map_err(db_err(&path))?;
+        tx.execute(
+            "INSERT OR REPLACE INTO runs (stage, stage_kind, idx, inputs, seed, status, response,
+                 outputs, error, wall_s, finished_at, version, out_dir, fingerprint)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)",
+            params![
+                r.stage as i64,
+                r.stage_kind,
+                r.index as i64,
+                r.inputs.to_string(),
+                r.seed as i64,
+                r.status.as_str(),
+                r.response,
+                r.outputs.to_string(),
+                r.error,
+                r.wall_s,
+                r.finished_at,
+                r.version,
+                r.out_dir,
+                r.fingerprint,
+            ],
+        )
+        .map_err(db_err(&path))?;
+        tx.commit().map_err(db_err(&path))
+    }
+
+    /// Forgets failed runs so that they run again.
+    pub fn delete_failed(&self) -> Result<usize, String> {
+        self.conn
+            .execute("DELETE FROM runs WHERE status = 'failed'", [])
+            .map_err(db_err(&self.path))
+    }
+
+    pub fn runs(&self) -> Result<Vec<RunRecord>, String> {
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT stage, stage_kind, idx, inputs, seed, status, response, outputs, error,
+                        wall_s, finished_at, version, out_dir, fingerprint
+                 FROM runs ORDER BY stage, idx",
+            )
+            .map_err(db_err(&self.path))?;
+        let rows = st
+            .query_map([], |r| {
+                let status: String = r.get(5)?;
+                Ok(RunRecord {
+                    stage: r.get::<_, i64>(0)? as usize,
+                    stage_kind: r.get(1)?,
+                    index: r.get::<_, i64>(2)? as usize,
+                    inputs: serde_json::from_str(&r.get::<_, String>(3)?)
+                        .unwrap_or(serde_json::Value::Null),
+                    seed: r.get::<_, i64>(4)? as u64,
+                    status: if status == "done" {
+                        Status::Done
+                    } else {
+                        Status::Failed
+                    },
+                    response: r.get(6)?,
+                    outputs: serde_json::from_str(&r.get::<_, String>(7)?)
+                        .unwrap_or(serde_json::Value::Null),
+                    error: r.get(8)?,
+                    wall_s: r.get(9)?,
+                    finished_at: r.get(10)?,
+                    version: r.get(11)?,
+                    out_dir: r.get(12)?,
+                    fingerprint: r.get(13)?,
+                })
+            })
+            .map_err(db_err(&self.path))?;
+        rows.collect::<Result<Vec<_>, _>>()
+            .map_err(db_err(&self.path))
+    }
+}
+
+/// The time now as `YYYY-MM-DD HH:MM:SS` UTC, without a date crate.
+pub fn now_utc() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02}",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_round_trip_and_failed_runs_can_be_retried() {
+        let dir = std::env::temp_dir().join(format!("demcal-store-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("s.db");
+        let _ = std::fs::remove_file(&path);
+        let mut s = Store::open(&path, true).unwrap();
+        let mut r = RunRecord {
+            stage: 0,
+            stage_kind: "rsm".into(),
+            index: 3,
+            inputs: serde_json::json!({"x": 0.5}),
+            seed: 7,
+            status: Status::Done,
+            response: Some(31.5),
+            outputs: serde_json::json!({"value": 31.5}),
+            error: None,
+            wall_s: 1.25,
+            finished_at: now_utc(),
+            version: "0.1.0".into(),
+            out_dir: "d".into(),
+            fingerprint: "f".into(),
+        };
+        s.insert(&r).unwrap();
+        r.index = 4;
+        r.status = Status::Failed;
+        r.response = None;
+        r.error = Some("diverged".into());
+        s.insert(&r).unwrap();
+        drop(s);
+        let s = Store::open(&path, false).unwrap();
+        let runs = s.runs().unwrap();
+        assert_eq!(runs.len(), 2);
+        assert_eq!(runs[0].response, Some(31.5));
+        assert_eq!(runs[0].inputs["x"], 0.5);
+        assert_eq!(runs[1].status, Status::Failed);
+        assert_eq!(runs[1].error.as_deref(), Some("diverged"));
+        assert_eq!(s.delete_failed().unwrap(), 1);
+        assert_eq!(s.runs().unwrap().len(), 1);
+        assert!(now_utc().starts_with("20"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

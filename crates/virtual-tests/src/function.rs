@@ -1,0 +1,128 @@
+//! The `function` test: no particles, the response is a formula of named variables plus seeded
+//! Gaussian noise. It exists so that a calibration study's logic (designs, stages, resuming,
+//! failures) can be tested quickly and against a known optimum, apart from DEM noise.
+//!
+//! ```toml
+//! test = "function"
+//! [function]
+//! expression = "30 + 8*friction - 3*friction^2 + 5*rolling"
+//! variables = { friction = 0.5, rolling = 0.1 }
+//! noise = 0.2          # standard deviation of the added noise
+//! fail_when = "friction - 0.95"   # optional: the run fails where this is > 0
+//! duration_s = 0.0     # optional: wall time each run takes, for tests of interrupted studies
+//! ```
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use exmex::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use serde::{Deserialize, Serialize};
+
+use crate::file::TestFile;
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    pub expression: String,
+    #[serde(default)]
+    pub variables: BTreeMap<String, f64>,
+    #[serde(default)]
+    pub noise: f64,
+    pub fail_when: Option<String>,
+    #[serde(default)]
+    pub duration_s: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Outcome {
+    /// The formula's value plus the noise.
+    pub value: f64,
+    /// The formula's value alone.
+    pub exact: f64,
+    pub noise: f64,
+    pub seed: u64,
+    pub wall_s: f64,
+}
+
+/// Evaluates `text` with the named variables; errors name `key`.
+fn evaluate(
+    file: &TestFile,
+    key: &str,
+    text: &str,
+    vars: &BTreeMap<String, f64>,
+) -> Result<f64, String> {
+    let expr = exmex::parse::<f64>(text)
+        .map_err(|e| format!("{}: function.{key}: cannot read \"{text}\": {e}", file.name))?;
+    let values = expr
+        .var_names()
+        .iter()
+        .map(|v| {
+            vars.get(v).copied().ok_or_else(|| {
+                format!(
+                    "{}: function.{key}: \"{v}\" is not among the variables ({})",
+                    file.name,
+                    vars.keys().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })
+        })
+        .collect::<Result<Vec<f64>, String>>()?;
+    expr.eval(&values)
+        .map_err(|e| format!("{}: function.{key}: {e}", file.name))
+}
+
+/// Evaluates the formula. `progress` hears "evaluate" and may stop the run by returning an error.
+pub fn run(
+    file: &TestFile,
+    seed_override: Option<u64>,
+    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
+) -> Result<Outcome, String> {
+    let s: Settings = file.settings()?;
+    if !(s.noise >= 0.0 && s.duration_s >= 0.0) {
+        return Err(format!(
+            "{}: function: noise and duration_s must be >= 0",
+            file.name
+        ));
+    }
+    let seed = seed_override.or(file.seed).unwrap_or(1);
+    let wall = Instant::now();
+    let exact = evaluate(file, "expression", &s.expression, &s.variables)?;
+    if let Some(cond) = &s.fail_when {
+        if evaluate(file, "fail_when", cond, &s.variables)? > 0.0 {
+            return Err(format!(
+                "{}: function: simulation failed: fail_when \"{cond}\" holds",
+                file.name
+            ));
+        }
+    }
+    // Sleep in slices so that an interrupted study stops the run promptly.
+    let end = wall + Duration::from_secs_f64(s.duration_s);
+    loop {
+        progress("evaluate", wall.elapsed().as_secs_f64())?;
+        let now = Instant::now();
+        if now >= end {
+            break;
+        }
+        std::thread::sleep((end - now).min(Duration::from_millis(20)));
+    }
+    // Box-Muller on a seeded generator: the same seed always gives the same noise.
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let (u1, u2): (f64, f64) = (rng.gen_range(f64::EPSILON..1.0), rng.gen());
+    let normal = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
+    let noise = s.noise * normal;
+    let value = exact + noise;
+    if !value.is_finite() {
+        return Err(format!(
+            "{}: function: simulation failed: the response is not finite ({value})",
+            file.name
+        ));
+    }
+    Ok(Outcome {
+        value,
+        exact,
+        noise,
+        seed,
+        wall_s: wall.elapsed().as_secs_f64(),
+    })
+}

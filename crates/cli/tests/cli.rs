@@ -442,3 +442,142 @@ fn heap_angle_measures_csv_and_liggghts_dumps_alike() {
     assert!(!out.status.success());
     assert!(err.contains("no column \"radius\""), "{err}");
 }
+
+/// The bowl study of the study crate's tests, each run taking 0.2 s so that a kill lands mid-way.
+fn slow_bowl() -> String {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../study/tests/studies.rs"
+    ))
+    .unwrap();
+    let start = text.find("r#\"").unwrap() + 3;
+    let end = start + text[start..].find("\"#;").unwrap();
+    text[start..end].replace("noise = 0.02", "noise = 0.02\nduration_s = 0.2")
+}
+
+fn results_rows(dir: &Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    r.records()
+        .map(|row| row.unwrap().iter().map(String::from).collect())
+        .collect()
+}
+
+#[test]
+fn a_killed_study_resumes_without_losing_or_repeating_runs() {
+    let study = slow_bowl();
+    // Uninterrupted, for comparison.
+    let whole = temp_dir("study-whole");
+    std::fs::write(whole.join("study.toml"), &study).unwrap();
+    run_ok(&[
+        "run".as_ref(),
+        whole.join("study.toml").as_os_str(),
+        "--jobs".as_ref(),
+        "2".as_ref(),
+    ]);
+
+    let dir = temp_dir("study-killed");
+    let path = dir.join("study.toml");
+    std::fs::write(&path, &study).unwrap();
+    let mut child = demcal()
+        .args([
+            "run".as_ref(),
+            path.as_os_str(),
+            "--jobs".as_ref(),
+            "2".as_ref(),
+        ])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Kill once a few runs are stored (status reads the store while the study writes to it).
+    let stored = |text: &str| -> usize {
+        text.split(" done")
+            .next()
+            .and_then(|h| h.rsplit(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or(0)
+    };
+    let t0 = std::time::Instant::now();
+    while t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        let out = demcal()
+            .args(["status".as_ref(), path.as_os_str()])
+            .output()
+            .unwrap();
+        if stored(&String::from_utf8_lossy(&out.stdout)) >= 4 {
+            break;
+        }
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    run_ok(&["report".as_ref(), path.as_os_str()]);
+    let before = results_rows(&dir);
+    assert!(
+        !before.is_empty() && before.len() < 34,
+        "the kill should land mid-study: {} runs stored",
+        before.len()
+    );
+    let status = run_ok(&["status".as_ref(), path.as_os_str()]);
+    assert!(status.contains("has runs to make"), "{status}");
+
+    run_ok(&[
+        "run".as_ref(),
+        path.as_os_str(),
+        "--jobs".as_ref(),
+        "2".as_ref(),
+    ]);
+    let after = results_rows(&dir);
+    assert_eq!(after.len(), 34);
+    // Every run stored before the kill is still there, untouched (same finish time and wall
+    // time: it was not run again), and no run is stored twice.
+    for row in &before {
+        assert!(after.contains(row), "run lost or re-run: {row:?}");
+    }
+    let mut keys: Vec<(String, String)> =
+        after.iter().map(|r| (r[0].clone(), r[2].clone())).collect();
+    keys.sort();
+    keys.dedup();
+    assert_eq!(keys.len(), 34);
+    // The result is the uninterrupted one.
+    let summary = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("report/summary.json")).unwrap())
+            .unwrap()
+    };
+    let (a, b) = (summary(&whole), summary(&dir));
+    assert_eq!(a["calibrated"], b["calibrated"]);
+    assert_eq!(a["validation_mean"], b["validation_mean"]);
+    assert_eq!(a["relative_error_percent"], b["relative_error_percent"]);
+    // Responses of every run agree with the uninterrupted study's.
+    let col = |rows: &[Vec<String>]| -> Vec<(String, String, String)> {
+        let mut v: Vec<_> = rows
+            .iter()
+            .map(|r| (r[0].clone(), r[2].clone(), r[9].clone()))
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(col(&results_rows(&whole)), col(&after));
+}
+
+#[test]
+fn study_errors_are_one_line() {
+    let dir = temp_dir("study-error");
+    let path = dir.join("study.toml");
+    std::fs::write(&path, slow_bowl().replace("\"rsm\",", "\"rsn\",")).unwrap();
+    let out = demcal()
+        .args(["run".as_ref(), path.as_os_str()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("plan[2].stage: unknown stage \"rsn\""),
+        "{err}"
+    );
+    let out = demcal()
+        .args(["status".as_ref(), dir.join("nothing.toml").as_os_str()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+}

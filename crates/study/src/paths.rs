@@ -152,9 +152,11 @@ impl ParamPath {
                         }
                     }
                 }
-                (None, toml::Value::Array(_)) => return Err(format!(
+                (None, toml::Value::Array(_)) => {
+                    return Err(format!(
                     "\"{walked}\" is a list: pick one with [name], [material,material] or [index]"
-                )),
+                ))
+                }
                 (Some(_), _) => return Err(format!("\"{walked}\" is not a list of tables")),
                 (None, _) => return Err(format!("\"{walked}\" is a value, not a table")),
             };

@@ -156,13 +156,15 @@ fn esc(s: &str) -> String {
 
 const STYLE: &str = "
 body { font-family: system-ui, -apple-system, 'Segoe UI', Roboto, sans-serif; margin: 0; color: #1d2330; background: #f4f6f9; }
-main { max-width: 1100px; margin: 0 auto; padding: 24px 28px 60px; background: #fff; }
+main { max-width: 1220px; margin: 0 auto; padding: 24px 28px 60px; background: #fff; }
 h1 { font-size: 1.7em; margin-bottom: 0.2em; }
 h2 { border-bottom: 2px solid #d6dde8; padding-bottom: 4px; margin-top: 2.2em; }
 h3 { margin-top: 1.6em; color: #34405a; }
 .sub { color: #5b6478; margin-top: 0; }
 table { border-collapse: collapse; margin: 0.6em 0 1em; font-size: 0.9em; }
-th, td { border: 1px solid #d6dde8; padding: 4px 9px; text-align: right; }
+th, td { border: 1px solid #d6dde8; padding: 4px 9px; text-align: right; white-space: nowrap; }
+td.wrap { white-space: normal; min-width: 16em; }
+th { white-space: normal; }
 th { background: #eef2f7; }
 td.l, th.l { text-align: left; }
 tr.failed td { color: #a12a2a; background: #fff4f4; }
@@ -370,10 +372,10 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
             }
             if let Some(fit) = &st.fit {
                 let mut row = Vec::new();
+                // Every pair of the design's factors, also those the reduction dropped: flat
+                // contours show as plainly as curved ones that a factor does not matter.
                 let k = fit.experiment.factor_names.len();
-                let mains: Vec<usize> = (0..k)
-                    .filter(|&j| fit.terms.iter().any(|t| t.powers[j] > 0))
-                    .collect();
+                let mains: Vec<usize> = (0..k).collect();
                 for a in 0..mains.len() {
                     for b in a + 1..mains.len() {
                         if row.len() < 3 {
@@ -488,10 +490,8 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
         None
     };
     h.push_str("<div class=\"scroll\"><table><tr><th>Run</th><th class=\"l\">Point</th>");
-    for &i in &st.active {
-        if st.kind != "validate" {
-            write!(h, "<th>{} (coded)</th>", esc(&study.parameters[i].name)).unwrap();
-        }
+    if st.kind != "validate" {
+        h.push_str("<th class=\"l\">Coded levels</th>");
     }
     let shown: Vec<usize> = if st.kind == "validate" {
         (0..study.parameters.len()).collect()
@@ -521,9 +521,18 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
         )
         .unwrap();
         if st.kind != "validate" {
-            for c in &spec.coded {
-                write!(h, "<td>{}</td>", sig(*c)).unwrap();
-            }
+            let levels: Vec<String> = spec
+                .coded
+                .iter()
+                .map(|c| {
+                    if c.abs() < 1e-12 {
+                        "0".to_string()
+                    } else {
+                        format!("{}{}", if *c < 0.0 { "−" } else { "+" }, sig(c.abs()))
+                    }
+                })
+                .collect();
+            write!(h, "<td class=\"l mono\">{}</td>", levels.join(" ")).unwrap();
         }
         for &i in &shown {
             write!(h, "<td>{}</td>", sig(spec.values[i])).unwrap();
@@ -542,7 +551,7 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
                 };
                 write!(
                     h,
-                    "<td>{y}</td><td>{e}</td><td>{:.1}</td><td class=\"l\">{}</td></tr>",
+                    "<td>{y}</td><td>{e}</td><td>{:.1}</td><td class=\"l wrap\">{}</td></tr>",
                     r.wall_s,
                     esc(&status)
                 )

@@ -595,6 +595,19 @@ fn enough(st: &StageResult, needed: usize, what: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// A fit's complaint, prefixed with the failed runs when they are the likely cause.
+fn with_failures(st: &StageResult, e: String) -> String {
+    if st.failed() == 0 {
+        return e;
+    }
+    format!(
+        "{} of {} runs failed{}; the finished ones cannot be modelled: {e}",
+        st.failed(),
+        st.runs.len(),
+        st.first_failure()
+    )
+}
+
 fn conclude(
     study: &Study,
     stage: &Stage,
@@ -627,7 +640,8 @@ fn conclude(
                 terms.len() + 1,
                 "a first-order model with one residual degree of freedom",
             )?;
-            let fit = Fit::new(&experiment(study, st), &terms, Curvature::Auto)?;
+            let fit = Fit::new(&experiment(study, st), &terms, Curvature::Auto)
+                .map_err(|e| with_failures(st, e))?;
             // p of each main effect, in factor order.
             let p: Vec<f64> = (0..k)
                 .map(|j| {
@@ -747,9 +761,10 @@ fn conclude(
                 "a quadratic model with one residual degree of freedom",
             )?;
             let exp = experiment(study, st);
-            let full = Fit::new(&exp, &terms, Curvature::Off)?;
+            let full = Fit::new(&exp, &terms, Curvature::Off).map_err(|e| with_failures(st, e))?;
             let fit = if *reduce {
-                Fit::reduce(&exp, &terms, Curvature::Off, *alpha_out, true)?
+                Fit::reduce(&exp, &terms, Curvature::Off, *alpha_out, true)
+                    .map_err(|e| with_failures(st, e))?
             } else {
                 full.clone()
             };

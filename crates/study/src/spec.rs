@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use doe::{Factor, Scale};
 
 use crate::paths::ParamPath;
+use virtual_tests::file::one_line;
 
 /// A parameter to calibrate: one value written into one or more places of the test.
 #[derive(Clone, Debug)]
@@ -725,14 +726,4 @@ pub fn number(v: &toml::Value) -> Option<f64> {
         toml::Value::Integer(i) => Some(*i as f64),
         _ => None,
     }
-}
-
-fn one_line(s: &str) -> String {
-    s.split('\n')
-        .map(str::trim)
-        .filter(|l| {
-            !l.is_empty() && !l.starts_with('|') && !l.chars().all(|c| c == '^' || c == ' ')
-        })
-        .collect::<Vec<_>>()
-        .join(" ")
 }

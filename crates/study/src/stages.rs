@@ -201,6 +201,14 @@ struct Context {
     /// Screening: first-order coefficient of each selected parameter.
     direction: Vec<f64>,
     calibrated: Option<Vec<f64>>,
+    /// Every parameter's value in the finished run nearest the lab value so far.
+    best: Option<Vec<f64>>,
+}
+
+/// `v` to 12 significant digits: coded-to-actual arithmetic leaves 0.29999999999999993 where the
+/// design means 0.3, and stored values, fingerprints and tables should say 0.3.
+fn tidy(v: f64) -> f64 {
+    format!("{v:.11e}").parse().unwrap_or(v)
 }
 
 /// A run's seed: distinct for every stage and run, fixed by the study's seed.
@@ -257,6 +265,7 @@ pub fn replay(
         model: None,
         direction: Vec::new(),
         calibrated: None,
+        best: None,
     };
     let mut stages: Vec<StageResult> = Vec::new();
     for (si, stage) in study.plan.iter().enumerate() {
@@ -328,6 +337,7 @@ pub fn replay(
         }
         st.complete = true;
         stages.push(st);
+        ctx.best = best_run(study, &stages).map(|(s, _)| s.values.clone());
     }
     if let Some(((s, i), r)) = by_key.iter().next() {
         return Err(stale(
@@ -407,7 +417,7 @@ fn specs_from_design(study: &Study, st: &mut StageResult, ctx: &Context, d: &Des
         let coded = d.runs[std].clone();
         let mut values = ctx.values.clone();
         for (j, &pi) in st.active.iter().enumerate() {
-            values[pi] = st.factors[j].to_actual(coded[j]);
+            values[pi] = tidy(st.factors[j].to_actual(coded[j]));
         }
         st.runs.push(RunSpec {
             stage: st.index,
@@ -480,7 +490,7 @@ fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageRe
                 let coded: Vec<f64> = dir.iter().map(|d| t * d).collect();
                 let mut values = ctx.values.clone();
                 for (j, &pi) in st.active.iter().enumerate() {
-                    values[pi] = st.factors[j].to_actual(coded[j]);
+                    values[pi] = tidy(st.factors[j].to_actual(coded[j]));
                 }
                 st.runs.push(RunSpec {
                     stage: si,
@@ -552,7 +562,12 @@ fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageRe
             st.title = "numerical optimisation (desirability) toward the lab value".into();
         }
         Stage::Validate { replicates } => {
-            let point = ctx.calibrated.clone().unwrap_or_else(|| ctx.values.clone());
+            // The optimum; without an optimisation, the best run so far; else the middle.
+            let point = ctx
+                .calibrated
+                .clone()
+                .or_else(|| ctx.best.clone())
+                .unwrap_or_else(|| ctx.values.clone());
             st.title = format!("{replicates} replicate simulations at the calibrated point");
             for i in 0..*replicates {
                 st.runs.push(RunSpec {

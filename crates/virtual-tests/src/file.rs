@@ -218,7 +218,8 @@ pub fn group(particles: &toml::Value, extra: Vec<(&str, toml::Value)>) -> toml::
     toml::Value::Table(t)
 }
 
-fn one_line(s: &str) -> String {
+/// A TOML parser message on one line (without the source excerpt and carets).
+pub fn one_line(s: &str) -> String {
     s.split('\n')
         .map(str::trim)
         .filter(|l| {

@@ -266,11 +266,12 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
     );
     h.push_str("</div>");
     let calibrated = stages::calibrated(study, &r.stages);
-    h.push_str("<table><tr><th class=\"l\">Parameter</th><th class=\"l\">Where in the test</th><th>Range</th><th class=\"l\">Scale</th><th>Calibrated value</th></tr>");
+    h.push_str("<table><tr><th>Factor</th><th class=\"l\">Parameter</th><th class=\"l\">Where in the test</th><th>Range</th><th class=\"l\">Scale</th><th>Calibrated value</th></tr>");
     for (i, p) in study.parameters.iter().enumerate() {
         write!(
             h,
-            "<tr><td class=\"l\">{}</td><td class=\"l mono\">{}</td><td>{} .. {}</td><td class=\"l\">{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td class=\"l\">{}</td><td class=\"l mono\">{}</td><td>{} .. {}</td><td class=\"l\">{}</td><td>{}</td></tr>",
+            letter(i),
             esc(&p.name),
             esc(&p.paths.iter().map(|x| x.text.clone()).collect::<Vec<_>>().join(", ")),
             sig(p.min),
@@ -303,6 +304,16 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
     h.push_str("<h2>Files</h2><p><a href=\"results.csv\">results.csv</a> (every stored run) and <a href=\"summary.json\">summary.json</a> (calibrated values and validation) lie beside this page.</p>");
     h.push_str("</main></body></html>\n");
     h
+}
+
+/// A name for a narrow column heading: it may break after its underscores.
+fn breakable(name: &str) -> String {
+    esc(name).replace('_', "_<wbr>")
+}
+
+/// The letter a parameter goes by in tables (A, B, ... without I, as Design-Expert names factors).
+fn letter(i: usize) -> String {
+    doe::design::factor_letter(i)
 }
 
 fn card(h: &mut String, value: &str, key: &str) {
@@ -408,12 +419,12 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
                 .unwrap();
                 h.push_str("<table><tr><th>#</th>");
                 for f in &st.factors {
-                    write!(h, "<th>{}</th>", esc(&f.name)).unwrap();
+                    write!(h, "<th>{}</th>", breakable(&f.name)).unwrap();
                 }
                 write!(
                     h,
                     "<th>predicted {}</th><th>desirability</th></tr>",
-                    esc(&fit.experiment.response_name)
+                    breakable(&fit.experiment.response_name)
                 )
                 .unwrap();
                 for (i, s) in st.solutions.iter().enumerate() {
@@ -491,20 +502,32 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
     };
     h.push_str("<div class=\"scroll\"><table><tr><th>Run</th><th class=\"l\">Point</th>");
     if st.kind != "validate" {
-        h.push_str("<th class=\"l\">Coded levels</th>");
+        write!(
+            h,
+            "<th class=\"l\">Coded levels ({})</th>",
+            st.active.iter().map(|&i| letter(i)).collect::<String>()
+        )
+        .unwrap();
     }
     let shown: Vec<usize> = if st.kind == "validate" {
         (0..study.parameters.len()).collect()
     } else {
         st.active.clone()
     };
+    // Factor letters keep wide designs readable; the summary's table and the tooltip name them.
     for &i in &shown {
-        write!(h, "<th>{}</th>", esc(&study.parameters[i].name)).unwrap();
+        write!(
+            h,
+            "<th title=\"{}\">{}</th>",
+            esc(&study.parameters[i].name),
+            letter(i)
+        )
+        .unwrap();
     }
     write!(
         h,
         "<th>Seed</th><th>{}</th><th>Rel. error %</th><th>Wall s</th><th class=\"l\">Status</th></tr>",
-        esc(&study.target.response)
+        breakable(&study.target.response)
     )
     .unwrap();
     for (spec, rec) in st.runs.iter().zip(&st.records) {
@@ -527,8 +550,10 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
                 .map(|c| {
                     if c.abs() < 1e-12 {
                         "0".to_string()
+                    } else if (c.abs() - c.abs().round()).abs() < 1e-9 {
+                        format!("{}{}", if *c < 0.0 { "−" } else { "+" }, c.abs().round())
                     } else {
-                        format!("{}{}", if *c < 0.0 { "−" } else { "+" }, sig(c.abs()))
+                        format!("{}{:.3}", if *c < 0.0 { "−" } else { "+" }, c.abs())
                     }
                 })
                 .collect();

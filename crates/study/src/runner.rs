@@ -67,12 +67,12 @@ fn run_one(
     let _ = std::fs::remove_dir_all(&dir);
     let limit = study.run_time_limit_s;
     let table = study.test_with(&spec.values);
-    let name = format!(
-        "{} stage {} run {}",
-        study.name,
-        spec.stage + 1,
-        spec.index + 1
-    );
+    // Errors name the test (the run is named by the row they are stored in).
+    let name = if study.test_source == "inline" {
+        format!("{} [test]", study.path.display())
+    } else {
+        study.test_source.clone()
+    };
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
         let file = virtual_tests::TestFile::from_table(&name, &table)?;
         let mut progress = |phase: &str, t: f64| -> Result<(), String> {
@@ -232,7 +232,8 @@ impl Execute for LocalExecutor<'_> {
                     _ => format!("failed: {}", rec.error.clone().unwrap_or_default()),
                 };
                 bar.inc(1);
-                bar.set_message(format!("last: run {} {outcome}", spec.index + 1));
+                let short: String = outcome.chars().take(70).collect();
+                bar.set_message(format!("last: run {} {short}", spec.index + 1));
                 if !terminal {
                     eprintln!(
                         "{stage_name}: run {} ({}) {outcome} ({:.1} s)",

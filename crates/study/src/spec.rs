@@ -339,7 +339,7 @@ impl Study {
                 .ok_or_else(|| err(&format!("{key}.{k}"), "expected a number".into()))
             };
             let (min, max) = (get("min")?, get("max")?);
-            if !(min < max) {
+            if min.is_nan() || max.is_nan() || min >= max {
                 return Err(err(
                     &format!("{key}.min"),
                     format!("expected min < max, got min = {min} and max = {max}"),

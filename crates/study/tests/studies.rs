@@ -277,3 +277,41 @@ fn invalid_study_files_name_the_key() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn runs_over_the_time_limit_fail_and_an_interrupt_stores_nothing() {
+    let dir = fresh_dir("limits");
+    let text = BOWL
+        .replace(
+            "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+            "plan = [{ stage = \"validate\", replicates = 2 }]\nrun_time_limit_s = 0.05",
+        )
+        .replace("noise = 0.02", "noise = 0.02\nduration_s = 5.0");
+    let path = write_study(&dir, &text);
+    // Ctrl-C before anything ran: nothing is stored, and the message says how to go on.
+    let e = study::run(
+        &path,
+        &RunOptions {
+            jobs: 2,
+            ..Default::default()
+        },
+        Arc::new(AtomicBool::new(true)),
+    )
+    .unwrap_err();
+    assert!(e.contains("interrupted: 0 finished runs"), "{e}");
+    assert!(study::status(&path)
+        .unwrap()
+        .contains("2 runs: 0 done, 0 failed, 2 pending"));
+    // Each run passes its 0.05 s limit long before its 5 s are up and is stored as failed.
+    let t = std::time::Instant::now();
+    let e = run(&path, 2).unwrap_err();
+    assert!(t.elapsed().as_secs_f64() < 2.0);
+    assert!(
+        e.contains("run_time_limit_s = 0.05 s") && e.contains("validation needs at least 1"),
+        "{e}"
+    );
+    assert!(study::status(&path)
+        .unwrap()
+        .contains("2 runs: 0 done, 2 failed, 0 pending"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -14,11 +14,13 @@ const POSITIVE: RGBColor = RGBColor(230, 120, 20);
 const NEGATIVE: RGBColor = RGBColor(40, 100, 200);
 const POINT: RGBColor = RGBColor(200, 30, 30);
 
-fn err<E: std::fmt::Debug>(e: E) -> String {
+/// A plotters error as text.
+pub fn err<E: std::fmt::Debug>(e: E) -> String {
     format!("plot: {e:?}")
 }
 
-fn render(
+/// Draws an SVG of the plots' common size on a white background.
+pub fn render(
     draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<(), String>,
 ) -> Result<String, String> {
     let mut svg = String::new();

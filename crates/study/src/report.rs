@@ -724,12 +724,7 @@ fn heap_pictures(h: &mut String, st: &StageResult) {
     }
 }
 
-const SIZE: (u32, u32) = (720, 480);
 const FONT: &str = "sans-serif";
-
-fn plot_err<E: std::fmt::Debug>(e: E) -> String {
-    format!("plot: {e:?}")
-}
 
 /// Response along the steepest path with the lab value, the best step marked.
 fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
@@ -750,11 +745,8 @@ fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
         .fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
     let pad = 0.1 * (hi - lo).max(1e-9 * hi.abs().max(1.0));
     let n = st.runs.len() as f64;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let mut chart = ChartBuilder::on(&root)
+    plots::render(|root| {
+        let mut chart = ChartBuilder::on(root)
             .caption(
                 format!("Steepest path: {}", study.target.response),
                 (FONT, 22),
@@ -763,7 +755,7 @@ fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
             .x_label_area_size(44)
             .y_label_area_size(64)
             .build_cartesian_2d(0.5..n + 0.5, (lo - pad)..(hi + pad))
-            .map_err(plot_err)?;
+            .map_err(plots::err)?;
         chart
             .configure_mesh()
             .x_desc("step")
@@ -777,13 +769,13 @@ fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
                 }
             })
             .draw()
-            .map_err(plot_err)?;
+            .map_err(plots::err)?;
         chart
             .draw_series(LineSeries::new(
                 [(0.5, target), (n + 0.5, target)],
                 RGBColor(200, 30, 30).stroke_width(2),
             ))
-            .map_err(plot_err)?
+            .map_err(plots::err)?
             .label(format!("lab value {}", sig(target)))
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RGBColor(200, 30, 30)));
         chart
@@ -791,7 +783,7 @@ fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
                 pts.clone(),
                 RGBColor(40, 100, 200).stroke_width(2),
             ))
-            .map_err(plot_err)?
+            .map_err(plots::err)?
             .label("simulated")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RGBColor(40, 100, 200)));
         chart
@@ -799,12 +791,12 @@ fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
                 pts.iter()
                     .map(|p| Circle::new(*p, 5, RGBColor(40, 100, 200).filled())),
             )
-            .map_err(plot_err)?;
+            .map_err(plots::err)?;
         if let Some(b) = st.best_step {
             if let Some(p) = pts.iter().find(|p| p.0 == (b + 1) as f64) {
                 chart
                     .draw_series([Circle::new(*p, 9, RGBColor(30, 150, 60).stroke_width(3))])
-                    .map_err(plot_err)?;
+                    .map_err(plots::err)?;
             }
         }
         chart
@@ -814,10 +806,9 @@ fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
             .label_font((FONT, 14))
             .position(SeriesLabelPosition::UpperLeft)
             .draw()
-            .map_err(plot_err)?;
-        root.present().map_err(plot_err)?;
-    }
-    Ok(svg)
+            .map_err(plots::err)?;
+        Ok(())
+    })
 }
 
 /// Validation runs against the lab value and its replicates' spread.
@@ -842,17 +833,14 @@ fn validation_plot(study: &Study, st: &StageResult) -> Result<String, String> {
         .fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(*y), b.max(*y)));
     let pad = 0.15 * (hi - lo).max(0.02 * hi.abs().max(1e-9));
     let mean = sims.iter().sum::<f64>() / sims.len() as f64;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let mut chart = ChartBuilder::on(&root)
+    plots::render(|root| {
+        let mut chart = ChartBuilder::on(root)
             .caption(format!("Validation: {}", t.response), (FONT, 22))
             .margin(14)
             .x_label_area_size(44)
             .y_label_area_size(64)
             .build_cartesian_2d(0.0..3.0, (lo - pad)..(hi + pad))
-            .map_err(plot_err)?;
+            .map_err(plots::err)?;
         chart
             .configure_mesh()
             .disable_x_mesh()
@@ -868,7 +856,7 @@ fn validation_plot(study: &Study, st: &StageResult) -> Result<String, String> {
             })
             .y_desc(t.response.as_str())
             .draw()
-            .map_err(plot_err)?;
+            .map_err(plots::err)?;
         let red = RGBColor(200, 30, 30);
         let blue = RGBColor(40, 100, 200);
         let spread = |v: &[f64], i: usize| 0.9 + 0.2 * (i as f64 + 0.5) / v.len() as f64;
@@ -878,23 +866,22 @@ fn validation_plot(study: &Study, st: &StageResult) -> Result<String, String> {
                     .enumerate()
                     .map(|(i, y)| Circle::new((spread(&labs, i), *y), 5, red.filled())),
             )
-            .map_err(plot_err)?;
+            .map_err(plots::err)?;
         chart
             .draw_series(
                 sims.iter()
                     .enumerate()
                     .map(|(i, y)| Circle::new((1.0 + spread(&sims, i), *y), 5, blue.filled())),
             )
-            .map_err(plot_err)?;
+            .map_err(plots::err)?;
         for (x, y, c) in [(1.0, t.value, red), (2.0, mean, blue)] {
             chart
                 .draw_series(LineSeries::new(
                     [(x - 0.25, y), (x + 0.25, y)],
                     c.stroke_width(3),
                 ))
-                .map_err(plot_err)?;
+                .map_err(plots::err)?;
         }
-        root.present().map_err(plot_err)?;
-    }
-    Ok(svg)
+        Ok(())
+    })
 }

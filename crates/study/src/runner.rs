@@ -59,7 +59,7 @@ fn run_one(
     study: &Study,
     spec: &RunSpec,
     interrupted: &AtomicBool,
-    report: &dyn Fn(&str),
+    report: &dyn Fn(&str, f64),
 ) -> Option<RunRecord> {
     let start = Instant::now();
     let dir = run_dir(study, spec);
@@ -86,7 +86,7 @@ fn run_one(
                     ));
                 }
             }
-            report(&format!("{phase}: t = {t:.2} s"));
+            report(phase, t);
             Ok(())
         };
         virtual_tests::run_file(&file, Some(spec.seed), Some(&dir), &mut progress)
@@ -201,9 +201,10 @@ impl Execute for LocalExecutor<'_> {
                         let head =
                             format!("job {}: run {} ({})", job + 1, spec.index + 1, spec.label);
                         line.set_message(head.clone());
-                        let report = |m: &str| {
+                        // Called every few hundred steps: format only when it is shown.
+                        let report = |phase: &str, t: f64| {
                             if terminal {
-                                line.set_message(format!("{head}: {m}"));
+                                line.set_message(format!("{head}: {phase}: t = {t:.2} s"));
                                 line.tick();
                             }
                         };

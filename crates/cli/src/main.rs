@@ -515,10 +515,10 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     for n in &notes {
         eprintln!("{n}");
     }
-    if !simulation.factories.is_empty() {
+    if simulation.factories().next().is_some() {
         eprintln!(
             "{} factories create particles during the run",
-            simulation.factories.len()
+            simulation.factories().count()
         );
     }
     for w in &warnings {

@@ -8,6 +8,8 @@
 //! face is too small for it.
 
 use crate::mixture::{random_orientation, Drawn, FillTarget, Item, Mixture};
+use crate::sim::walls::visit_elements;
+use crate::sim::{SimError, Simulation, StepExtension};
 use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -219,4 +221,76 @@ pub fn perpendicular_axes(n: DVec3) -> (DVec3, DVec3) {
     let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
     let e1 = n.cross(helper).normalize();
     (e1, n.cross(e1))
+}
+
+/// A factory is a per-step extension: when a batch is due it places what its rate owes by now.
+impl StepExtension for Factory {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn after_step(&mut self, sim: &mut Simulation) -> Result<(), SimError> {
+        let time = sim.time;
+        if !self.due(time) {
+            return Ok(());
+        }
+        let (lo, hi) = self.bounds();
+        let pad = DVec3::splat(2.0 * sim.prepared_radius());
+        let (lo, hi) = (lo - pad, hi + pad);
+        let p = &sim.particles;
+        let near: Vec<(DVec3, f64)> = (0..p.len())
+            .filter(|&k| p.position[k].cmpge(lo).all() && p.position[k].cmple(hi).all())
+            .map(|k| (p.position[k], p.radius[k]))
+            .collect();
+        let items = self.batch(time, |x, r| spot_is_free(sim, &near, x, r));
+        sim.add_items(&self.mixture, &items, self.velocity);
+        Ok(())
+    }
+
+    fn finished(&self) -> bool {
+        self.done()
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// Whether a sphere at `x` of radius `r` touches a particle among `near` or any geometry.
+fn spot_is_free(sim: &Simulation, near: &[(DVec3, f64)], x: DVec3, r: f64) -> bool {
+    if near
+        .iter()
+        .any(|(y, q)| (x - *y).length_squared() < (r + q) * (r + q))
+    {
+        return false;
+    }
+    let mut clear = true;
+    for geo in &sim.geometries {
+        visit_elements(geo, x, |e| {
+            if clear {
+                if let Some(c) = geo.elements[e].closest(x, r) {
+                    clear = c.distance >= r;
+                }
+            }
+        });
+    }
+    clear
+}
+
+impl Simulation {
+    /// Adds a particle factory (as a per-step extension).
+    pub fn add_factory(&mut self, factory: Factory) {
+        self.prepare_radius(factory.mixture.max_sphere_radius());
+        self.add_extension(Box::new(factory));
+    }
+
+    /// The simulation's factories, in the order they were added.
+    pub fn factories(&self) -> impl Iterator<Item = &Factory> {
+        self.extensions_of::<Factory>()
+    }
+
+    /// Whether every factory has created all it should.
+    pub fn factories_done(&self) -> bool {
+        self.factories().all(|f| f.done())
+    }
 }

@@ -11,7 +11,7 @@ use std::path::Path;
 /// Where on a primitive the closest point lies: a face contact is preferred over an edge or vertex
 /// contact at the same place, so a sphere on a flat patch of triangles is not pushed twice.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Region {
+pub enum Feature {
     Face,
     Edge,
 }
@@ -55,10 +55,10 @@ pub struct Closest {
     pub normal: DVec3,
     /// Signed distance along `normal` from the surface to the centre.
     pub distance: f64,
-    pub region: Region,
+    pub feature: Feature,
 }
 
-fn closest_from_vector(point: DVec3, x: DVec3, region: Region) -> Option<Closest> {
+fn closest_from_vector(point: DVec3, x: DVec3, feature: Feature) -> Option<Closest> {
     let d = x - point;
     let dist = d.length();
     if dist <= 0.0 {
@@ -68,7 +68,7 @@ fn closest_from_vector(point: DVec3, x: DVec3, region: Region) -> Option<Closest
         point,
         normal: d / dist,
         distance: dist,
-        region,
+        feature,
     })
 }
 
@@ -86,7 +86,7 @@ impl Element {
                     point: x - s * normal,
                     normal,
                     distance: s,
-                    region: Region::Face,
+                    feature: Feature::Face,
                 })
             }
             Element::Rect {
@@ -105,11 +105,11 @@ impl Element {
                         point: x - s * normal,
                         normal: side * normal,
                         distance: s.abs(),
-                        region: Region::Face,
+                        feature: Feature::Face,
                     })
                 } else {
                     let q = center + pu.clamp(-half_u, half_u) * u + pv.clamp(-half_v, half_v) * v;
-                    closest_from_vector(q, x, Region::Edge)
+                    closest_from_vector(q, x, Feature::Edge)
                 }
             }
             Element::Disc {
@@ -127,10 +127,10 @@ impl Element {
                         point: x - s * normal,
                         normal: side * normal,
                         distance: s.abs(),
-                        region: Region::Face,
+                        feature: Feature::Face,
                     })
                 } else {
-                    closest_from_vector(center + inplane * (radius / rho), x, Region::Edge)
+                    closest_from_vector(center + inplane * (radius / rho), x, Feature::Edge)
                 }
             }
             Element::CylinderShell {
@@ -153,11 +153,11 @@ impl Element {
                         point: base + h * axis + radius * e,
                         normal: side * e,
                         distance: (rho - radius).abs(),
-                        region: Region::Face,
+                        feature: Feature::Face,
                     })
                 } else {
                     let q = base + h.clamp(0.0, length) * axis + radius * e;
-                    closest_from_vector(q, x, Region::Edge)
+                    closest_from_vector(q, x, Feature::Edge)
                 }
             }
             Element::Triangle { a, b, c } => closest_on_triangle(a, b, c, x),
@@ -274,34 +274,34 @@ pub fn closest_on_triangle(a: DVec3, b: DVec3, c: DVec3, x: DVec3) -> Option<Clo
     let d1 = ab.dot(ap);
     let d2 = ac.dot(ap);
     if d1 <= 0.0 && d2 <= 0.0 {
-        return closest_from_vector(a, x, Region::Edge);
+        return closest_from_vector(a, x, Feature::Edge);
     }
     let bp = x - b;
     let d3 = ab.dot(bp);
     let d4 = ac.dot(bp);
     if d3 >= 0.0 && d4 <= d3 {
-        return closest_from_vector(b, x, Region::Edge);
+        return closest_from_vector(b, x, Feature::Edge);
     }
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
         let t = d1 / (d1 - d3);
-        return closest_from_vector(a + t * ab, x, Region::Edge);
+        return closest_from_vector(a + t * ab, x, Feature::Edge);
     }
     let cp = x - c;
     let d5 = ab.dot(cp);
     let d6 = ac.dot(cp);
     if d6 >= 0.0 && d5 <= d6 {
-        return closest_from_vector(c, x, Region::Edge);
+        return closest_from_vector(c, x, Feature::Edge);
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
         let t = d2 / (d2 - d6);
-        return closest_from_vector(a + t * ac, x, Region::Edge);
+        return closest_from_vector(a + t * ac, x, Feature::Edge);
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
         let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return closest_from_vector(b + t * (c - b), x, Region::Edge);
+        return closest_from_vector(b + t * (c - b), x, Feature::Edge);
     }
     let denom = 1.0 / (va + vb + vc);
     let v = vb * denom;
@@ -314,7 +314,7 @@ pub fn closest_on_triangle(a: DVec3, b: DVec3, c: DVec3, x: DVec3) -> Option<Clo
         point: q,
         normal: side * nrm,
         distance: s.abs(),
-        region: Region::Face,
+        feature: Feature::Face,
     })
 }
 
@@ -663,10 +663,10 @@ mod tests {
     fn triangle_regions() {
         let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
         let f = closest_on_triangle(a, b, c, DVec3::new(0.2, 0.2, 0.5)).unwrap();
-        assert_eq!(f.region, Region::Face);
+        assert_eq!(f.feature, Feature::Face);
         assert!((f.distance - 0.5).abs() < 1e-12);
         let e = closest_on_triangle(a, b, c, DVec3::new(0.5, -0.3, 0.4)).unwrap();
-        assert_eq!(e.region, Region::Edge);
+        assert_eq!(e.feature, Feature::Edge);
         assert!((e.point - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-12);
         assert!((e.distance - 0.5).abs() < 1e-12);
         let v = closest_on_triangle(a, b, c, DVec3::new(-1.0, -1.0, 0.0)).unwrap();

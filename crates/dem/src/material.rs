@@ -3,8 +3,9 @@
 //! Users enter EDEM-style values: per material density, Poisson ratio and shear modulus (or Young's
 //! modulus); per material pair restitution, static friction and rolling friction. The contact kernel
 //! never looks at those raw numbers: [`MaterialTable::pair`] hands it the effective moduli and the
-//! damping factor, computed once when the table is built.
+//! damping ratio ([`PairParams`]), computed once when the table is built.
 
+pub use crate::contact::PairParams;
 use std::f64::consts::PI;
 
 /// One material as the user enters it.
@@ -37,22 +38,6 @@ pub struct Interaction {
     /// Also called "dynamic" or "kinetic" friction in many calibration papers.
     pub rolling_friction: f64,
     /// JKR surface energy gamma (J/m^2); 0 for no cohesion.
-    pub surface_energy: f64,
-}
-
-/// Everything the contact kernel needs for one material pair, precomputed.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PairParams {
-    /// Effective Young's modulus E*.
-    pub e_star: f64,
-    /// Effective shear modulus G*.
-    pub g_star: f64,
-    /// -2 sqrt(5/6) beta: multiply by sqrt(S m*) to get a damping coefficient (>= 0).
-    pub damping_factor: f64,
-    pub static_friction: f64,
-    pub rolling_friction: f64,
-    pub restitution: f64,
-    /// JKR surface energy gamma (J/m^2); 0: plain Hertz-Mindlin.
     pub surface_energy: f64,
 }
 
@@ -134,14 +119,9 @@ impl MaterialTable {
         &self.pairs[a * self.materials.len() + b]
     }
 
-    /// How far beyond touching any cohesive (JKR) pair still attracts, for bodies of effective
-    /// radius up to `max_r_eff`: the neighbour search must reach this much further. 0 without JKR.
-    pub fn cohesive_reach(&self, max_r_eff: f64) -> f64 {
-        self.pairs
-            .iter()
-            .filter(|p| p.surface_energy > 0.0)
-            .map(|p| -crate::contact::jkr_cutoff_overlap(p.surface_energy, p.e_star, max_r_eff))
-            .fold(0.0, f64::max)
+    /// Every pair's parameters (for laws that look over all of them, e.g. the cohesive reach).
+    pub fn pairs(&self) -> &[PairParams] {
+        &self.pairs
     }
 
     fn rebuild(&mut self) {
@@ -162,10 +142,10 @@ impl MaterialTable {
                     ..Default::default()
                 };
                 if let Some(i) = &self.interactions[a * n + b] {
-                    p.damping_factor = -2.0 * (5.0f64 / 6.0).sqrt() * damping_beta(i.restitution);
+                    p.damping_ratio = -damping_beta(i.restitution);
+                    p.hertz_damping = 2.0 * (5.0f64 / 6.0).sqrt() * p.damping_ratio;
                     p.static_friction = i.static_friction;
                     p.rolling_friction = i.rolling_friction;
-                    p.restitution = i.restitution;
                     p.surface_energy = i.surface_energy;
                 }
                 self.pairs[a * n + b] = p;
@@ -202,6 +182,7 @@ mod tests {
         assert!((p.g_star - 20e9 / (2.0 * 1.8)).abs() / p.g_star < 1e-12);
         // beta(0.5) = ln 0.5 / sqrt(ln^2 0.5 + pi^2)
         let beta = 0.5f64.ln() / (0.5f64.ln().powi(2) + PI * PI).sqrt();
-        assert!((p.damping_factor + 2.0 * (5.0f64 / 6.0).sqrt() * beta).abs() < 1e-12);
+        assert!((p.damping_ratio + beta).abs() < 1e-15);
+        assert!((p.hertz_damping + 2.0 * (5.0f64 / 6.0).sqrt() * beta).abs() < 1e-12);
     }
 }

@@ -6,6 +6,7 @@
 //! which lets the contact history move from the old list to the new one by a merge. A reverse index
 //! (pairs in which a particle is j) lets forces be summed per particle without atomics.
 
+use crate::contact::ContactHistory;
 use crate::particles::Particles;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -15,17 +16,8 @@ use rayon::prelude::*;
 pub struct Pair {
     pub i: u32,
     pub j: u32,
-    /// Tangential spring (relative to i).
-    pub shear: DVec3,
-    /// Rolling moment history (epsd).
-    pub rolling: DVec3,
-}
-
-impl Pair {
-    #[inline(always)]
-    pub fn has_history(&self) -> bool {
-        self.shear != DVec3::ZERO || self.rolling != DVec3::ZERO
-    }
+    /// Whatever the contact law keeps from step to step, seen from i.
+    pub history: ContactHistory,
 }
 
 /// What one pair contributes this step, written by the pair phase and summed by the particle phase.
@@ -59,7 +51,7 @@ pub struct NeighbourList {
     order: Vec<u32>,
     inverse: Vec<u32>,
     scratch: Vec<u8>,
-    carried: Vec<(u64, DVec3, DVec3)>,
+    carried: Vec<(u64, ContactHistory)>,
     grid: Grid,
 }
 
@@ -168,14 +160,13 @@ impl NeighbourList {
         // Old history, renamed to the new indices and sorted like the new list will be.
         self.carried.clear();
         for p in &self.pairs {
-            if p.has_history() {
+            if !p.history.is_empty() {
                 let (a, b) = (self.inverse[p.i as usize], self.inverse[p.j as usize]);
                 if a < b {
-                    self.carried
-                        .push((((a as u64) << 32) | b as u64, p.shear, p.rolling));
+                    self.carried.push((((a as u64) << 32) | b as u64, p.history));
                 } else {
                     self.carried
-                        .push((((b as u64) << 32) | a as u64, -p.shear, -p.rolling));
+                        .push((((b as u64) << 32) | a as u64, p.history.reversed()));
                 }
             }
         }
@@ -261,8 +252,7 @@ impl NeighbourList {
                 c += 1;
             }
             if c < self.carried.len() && self.carried[c].0 == key {
-                p.shear = self.carried[c].1;
-                p.rolling = self.carried[c].2;
+                p.history = self.carried[c].1;
                 c += 1;
             }
         }
@@ -311,9 +301,9 @@ mod tests {
             })
             .expect("pair listed");
         if p.id[pair.i as usize] == a {
-            pair.shear
+            pair.history.tangential
         } else {
-            -pair.shear
+            -pair.history.tangential
         }
     }
 
@@ -332,7 +322,7 @@ mod tests {
         } else {
             -1.0
         };
-        nl.pairs[k].shear = sign * DVec3::new(0.0, 1e-6, 0.0);
+        nl.pairs[k].history.tangential = sign * DVec3::new(0.0, 1e-6, 0.0);
         assert_eq!(history_of(&nl, &p, 0, 1), DVec3::new(0.0, 1e-6, 0.0));
 
         // Move particle 1 to the other side of 0 and particle 2 far to the left: the cell sort

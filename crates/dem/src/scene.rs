@@ -6,7 +6,7 @@
 //! expected.
 
 use crate::clump::ClumpTemplate;
-use crate::contact::{NormalModel, RollingModel};
+use crate::contact::{ContactModel, RollingModel};
 use crate::factory::{perpendicular_axes, Factory, FactoryShape, Rate};
 use crate::fill::{self, Lattice, Region, SizeDistribution};
 use crate::geometry::{self, shapes, Element, Geometry, Motion};
@@ -482,10 +482,13 @@ impl Scene {
         // Simulation settings that the particles and walls need.
         let s = &f.simulation;
         let contact_model = s.contact_model.as_deref().unwrap_or("hertz_mindlin");
-        NormalModel::from_name(contact_model).ok_or_else(|| {
+        let contact_model = ContactModel::from_name(contact_model).ok_or_else(|| {
             ctx.err(
                 "simulation.contact_model",
-                format!("unknown model \"{contact_model}\" (expected: hertz_mindlin)"),
+                format!(
+                    "unknown model \"{contact_model}\" (expected one of: {})",
+                    ContactModel::NAMES.join(", ")
+                ),
             )
         })?;
         let rolling_name = s.rolling_friction_model.as_deref().unwrap_or("cdt");
@@ -798,13 +801,20 @@ impl Scene {
             None => initial_speed.max(fall_speed).max(0.1),
         };
         let hertz =
-            timestep::shortest_collision_time(&smallest, &table, &geometry_materials, speed);
+            timestep::shortest_collision_time(
+            &contact_model,
+            &smallest,
+            &table,
+            &geometry_materials,
+            speed,
+        );
         let mut warnings = Vec::new();
         if hertz / dt < 10.0 {
             warnings.push(format!(
-                "only {:.1} time steps fit in the Hertz collision time {hertz:.3e} s at {speed:.2} m/s; \
+                "only {:.1} time steps fit in the {} collision time {hertz:.3e} s at {speed:.2} m/s; \
                  contacts may be poorly resolved (aim for at least 10)",
-                hertz / dt
+                hertz / dt,
+                contact_model.name()
             ));
         }
 
@@ -827,9 +837,11 @@ impl Scene {
         let params = SimulationParams {
             time_step: dt,
             gravity,
+            contact_model,
             rolling_model,
             skin,
             domain,
+            ..Default::default()
         };
 
         // Place the particles group by group, each avoiding those before it.
@@ -900,7 +912,7 @@ impl Scene {
         }
         if simulation.params.domain.is_none() {
             let mut d = default_domain(&simulation.particles, &simulation.geometries);
-            for f in &simulation.factories {
+            for f in simulation.factories() {
                 let (lo, hi) = f.bounds();
                 let ext = (hi - lo).max_element();
                 d = (

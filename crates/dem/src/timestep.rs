@@ -1,5 +1,7 @@
-//! Critical time steps: the Rayleigh step users size dt against, and the Hertz collision time.
+//! Critical time steps: the Rayleigh step users size dt against, and the contact law's collision
+//! time (each law knows its own, [`crate::contact::ContactLaw::collision_time`]).
 
+use crate::contact::ContactModel;
 use crate::material::MaterialTable;
 
 /// Rayleigh time step for the smallest radius each material can have (its size distribution's lower
@@ -12,15 +14,12 @@ pub fn rayleigh_time_step_for(materials: &MaterialTable, smallest: &[(usize, f64
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Hertz collision time T_H = 2.87 (m*^2 / (R* E*^2 v))^(1/5).
-pub fn hertz_collision_time(m_eff: f64, r_eff: f64, e_star: f64, speed: f64) -> f64 {
-    2.87 * (m_eff * m_eff / (r_eff * e_star * e_star * speed)).powf(0.2)
-}
-
-/// Shortest Hertz collision time at impact speed `speed` over the pairs that can meet. `smallest`
-/// lists (material, radius, mass) of the smallest particle each particle type can produce (a
-/// clump sphere's mass is its body's); each meets every other and each geometry material.
+/// Shortest collision time of the contact law at impact speed `speed` over the pairs that can
+/// meet (Hertz-Mindlin: T_H = 2.87 (m*^2 / (R* E*^2 v))^(1/5)). `smallest` lists (material, radius,
+/// mass) of the smallest particle each particle type can produce (a clump sphere's mass is its
+/// body's); each meets every other and each geometry material.
 pub fn shortest_collision_time(
+    model: &ContactModel,
     smallest: &[(usize, f64, f64)],
     materials: &MaterialTable,
     geometry_materials: &[usize],
@@ -29,17 +28,11 @@ pub fn shortest_collision_time(
     let mut best = f64::INFINITY;
     for &(a, ra, ma) in smallest {
         for &(b, rb, mb) in smallest {
-            let e = materials.pair(a, b).e_star;
-            best = best.min(hertz_collision_time(
-                ma * mb / (ma + mb),
-                ra * rb / (ra + rb),
-                e,
-                speed,
-            ));
+            let p = materials.pair(a, b);
+            best = best.min(model.collision_time(p, ma * mb / (ma + mb), ra * rb / (ra + rb), speed));
         }
         for &g in geometry_materials {
-            let e = materials.pair(a, g).e_star;
-            best = best.min(hertz_collision_time(ma, ra, e, speed));
+            best = best.min(model.collision_time(materials.pair(a, g), ma, ra, speed));
         }
     }
     best

@@ -166,15 +166,15 @@ fill = {{ type = "factory", mass = 0.004, mass_rate = 0.04, start = 0.05 }}
             }
         }
         if (sim.time - 0.1).abs() < 0.5 * dt {
-            created_at_01 = sim.factories[0].created;
+            created_at_01 = sim.factories().next().unwrap().created;
         }
     }
     assert!(worst <= 0.0, "overlap at creation {worst}");
     // 1000 per second: 100 by 0.1 s, to within one batch (4 ms: 4 particles).
     assert!((created_at_01 as i64 - 100).abs() <= 5, "{created_at_01}");
     assert!(sim.factories_done());
-    assert_eq!(sim.factories[0].created, 200);
-    let rods = &sim.factories[1];
+    assert_eq!(sim.factories().next().unwrap().created, 200);
+    let rods = sim.factories().nth(1).unwrap();
     assert!(rods.created_mass >= 0.004, "{}", rods.created_mass);
     assert_eq!(sim.bodies.len(), rods.created);
     assert_eq!(sim.particles.len(), 200 + 5 * rods.created);

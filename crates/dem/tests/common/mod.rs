@@ -70,7 +70,7 @@ pub fn simulation(
             gravity,
             rolling_model: rolling,
             skin: 0.2 * min_r,
-            domain: None,
+            ..Default::default()
         },
     )
 }

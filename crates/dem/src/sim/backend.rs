@@ -1,0 +1,69 @@
+//! The boundary between the step pipeline and the code that does the per-particle and per-contact
+//! work. The pipeline ([`super::Simulation::step`]) decides what runs when (list rebuilds, clumps,
+//! extensions, timers); a [`Backend`] does the arithmetic over the struct-of-arrays layout below.
+//! The CPU back end ([`super::cpu::CpuBackend`]) runs it with rayon; a GPU back end implements the
+//! same four stages over the same arrays (copied to the device), which is why every input is plain
+//! data: particle arrays, pair and wall-candidate lists with their [`ContactHistory`] and output
+//! slots, the material pair table, the geometry elements.
+//!
+//! Determinism: each contact writes its own output slot and each particle sums its slots in a
+//! fixed order, so results are bit-identical run to run for any thread count. A back end must keep
+//! that property.
+//!
+//! [`ContactHistory`]: crate::contact::ContactHistory
+
+use super::walls::WallLists;
+use super::SimulationParams;
+use crate::geometry::Geometry;
+use crate::material::MaterialTable;
+use crate::neighbour::NeighbourList;
+use crate::particles::Particles;
+use glam::DVec3;
+
+/// What every force stage reads besides the particles and lists.
+pub struct StepInputs<'a> {
+    pub materials: &'a MaterialTable,
+    pub geometries: &'a [Geometry],
+    pub params: &'a SimulationParams,
+    /// Whether any particle belongs to a clump (members of one clump do not touch each other, and
+    /// are moved by their body rather than integrated).
+    pub clumps: bool,
+    /// Whether any pair attracts beyond touching (JKR): then candidates that do not touch must
+    /// still be checked against the law's cut-off.
+    pub cohesive: bool,
+}
+
+/// The per-step arithmetic, in the order the pipeline calls it.
+pub trait Backend: Send + Sync {
+    fn name(&self) -> &'static str;
+
+    /// Half kick (from the forces of the last step) and drift of every sphere that is not a clump
+    /// member. Returns the largest displacement since `built_at` (the positions at the last list
+    /// build), or the index of the first particle that is not finite or outside
+    /// `params.domain`.
+    fn integrate(
+        &self,
+        particles: &mut Particles,
+        built_at: &[DVec3],
+        params: &SimulationParams,
+        clumps: bool,
+    ) -> Result<f64, usize>;
+
+    /// Every candidate pair computes its contact once, into its own output slot, updating its
+    /// history.
+    fn pair_forces(&self, particles: &Particles, lists: &mut NeighbourList, inputs: &StepInputs);
+
+    /// Every particle's geometry candidates compute their contacts into their output slots.
+    fn wall_forces(&self, particles: &Particles, walls: &mut WallLists, inputs: &StepInputs);
+
+    /// Each particle sums gravity, its pair slots (as i and as j) and its wall slots into its force,
+    /// torque and rolling-resistance limit; with `kick`, free spheres then get the second half kick.
+    fn particle_sums(
+        &self,
+        particles: &mut Particles,
+        lists: &NeighbourList,
+        walls: &WallLists,
+        inputs: &StepInputs,
+        kick: bool,
+    );
+}

@@ -1,0 +1,330 @@
+//! The CPU back end: each stage a rayon loop over blocks of particles or pairs. No atomics, no
+//! locks, no allocation; every contact writes its own slot and every particle sums its slots in a
+//! fixed order, so results do not depend on the number of threads.
+
+use super::backend::{Backend, StepInputs};
+use super::walls::{wall_contacts, WallBody, WallLists};
+use super::{SimulationParams, BLOCK};
+use crate::contact::{evaluate, ContactLaw, ContactPoint, LawVisitor};
+use crate::neighbour::{NeighbourList, PairOutput};
+use crate::particles::{Particles, NO_BODY};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Runs the stages on this machine's cores (in the rayon pool the caller installs).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CpuBackend;
+
+impl Backend for CpuBackend {
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn integrate(
+        &self,
+        p: &mut Particles,
+        built: &[DVec3],
+        params: &SimulationParams,
+        clumps: bool,
+    ) -> Result<f64, usize> {
+        let dt = params.time_step;
+        let half = 0.5 * dt;
+        let domain = params.domain;
+        let (inv_mass, inv_inertia, force, torque, limit, body) = (
+            &p.inv_mass,
+            &p.inv_inertia,
+            &p.force,
+            &p.torque,
+            &p.rolling_torque_limit,
+            &p.body,
+        );
+        let (max_d2, bad) = p
+            .position
+            .par_chunks_mut(BLOCK)
+            .zip(p.velocity.par_chunks_mut(BLOCK))
+            .zip(p.angular_velocity.par_chunks_mut(BLOCK))
+            .enumerate()
+            .map(|(b, ((xs, vs), ws))| {
+                let base = b * BLOCK;
+                let mut worst: f64 = 0.0;
+                let mut bad: Option<usize> = None;
+                for k in 0..xs.len() {
+                    let i = base + k;
+                    // Clump members were moved with their bodies.
+                    if !clumps || body[i] == NO_BODY {
+                        vs[k] += force[i] * (inv_mass[i] * half);
+                        ws[k] = kick_spin(ws[k], torque[i], limit[i], inv_inertia[i] * half);
+                        xs[k] += vs[k] * dt;
+                    }
+                    let d2 = (xs[k] - built[i]).length_squared();
+                    if d2.is_finite() {
+                        worst = worst.max(d2);
+                    } else if bad.is_none() {
+                        bad = Some(i);
+                    }
+                    if let Some((lo, hi)) = domain {
+                        let x = xs[k];
+                        if bad.is_none() && (x.cmplt(lo).any() || x.cmpgt(hi).any()) {
+                            bad = Some(i);
+                        }
+                    }
+                }
+                (worst, bad)
+            })
+            .reduce(
+                || (0.0, None),
+                |a, b| (a.0.max(b.0), a.1.min(b.1).or(a.1).or(b.1)),
+            );
+        match bad {
+            Some(i) => Err(i),
+            None => Ok(max_d2.sqrt()),
+        }
+    }
+
+    fn pair_forces(&self, particles: &Particles, lists: &mut NeighbourList, inputs: &StepInputs) {
+        inputs.params.contact_model.dispatch(PairStage {
+            p: particles,
+            nl: lists,
+            inputs,
+        });
+    }
+
+    fn wall_forces(&self, particles: &Particles, walls: &mut WallLists, inputs: &StepInputs) {
+        if walls.candidates.is_empty() {
+            return;
+        }
+        inputs.params.contact_model.dispatch(WallStage {
+            p: particles,
+            walls,
+            inputs,
+        });
+    }
+
+    fn particle_sums(
+        &self,
+        p: &mut Particles,
+        nl: &NeighbourList,
+        walls: &WallLists,
+        inputs: &StepInputs,
+        kick: bool,
+    ) {
+        let half = 0.5 * inputs.params.time_step;
+        let gravity = inputs.params.gravity;
+        let clumps = inputs.clumps;
+        let (mass, inv_mass, inv_inertia, body) = (&p.mass, &p.inv_mass, &p.inv_inertia, &p.body);
+        p.force
+            .par_chunks_mut(BLOCK)
+            .zip(p.torque.par_chunks_mut(BLOCK))
+            .zip(p.rolling_torque_limit.par_chunks_mut(BLOCK))
+            .zip(p.velocity.par_chunks_mut(BLOCK))
+            .zip(p.angular_velocity.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each(|(b, ((((fs, ts), ls), vs), ws))| {
+                for k in 0..fs.len() {
+                    let i = b * BLOCK + k;
+                    let mut f = gravity * mass[i];
+                    let mut t = DVec3::ZERO;
+                    let mut lim = 0.0;
+                    for o in &nl.output[nl.row_start[i] as usize..nl.row_start[i + 1] as usize] {
+                        f += o.force;
+                        t += o.torque_i;
+                        lim += o.rolling_i;
+                    }
+                    for &q in
+                        &nl.reverse[nl.reverse_start[i] as usize..nl.reverse_start[i + 1] as usize]
+                    {
+                        let o = &nl.output[q as usize];
+                        f -= o.force;
+                        t += o.torque_j;
+                        lim += o.rolling_j;
+                    }
+                    for o in &walls.output[walls.row(i)] {
+                        f -= o.force;
+                        t += o.particle_torque;
+                        lim += o.rolling;
+                    }
+                    fs[k] = f;
+                    ts[k] = t;
+                    ls[k] = lim;
+                    if kick && (!clumps || body[i] == NO_BODY) {
+                        vs[k] += f * (inv_mass[i] * half);
+                        ws[k] = kick_spin(ws[k], t, lim, inv_inertia[i] * half);
+                    }
+                }
+            });
+    }
+}
+
+/// The pair stage compiled for one contact law.
+struct PairStage<'a> {
+    p: &'a Particles,
+    nl: &'a mut NeighbourList,
+    inputs: &'a StepInputs<'a>,
+}
+
+impl LawVisitor for PairStage<'_> {
+    type Output = ();
+
+    fn visit<L: ContactLaw>(self, law: &L) {
+        let p = self.p;
+        let materials = self.inputs.materials;
+        let dt = self.inputs.params.time_step;
+        let rolling = self.inputs.params.rolling_model;
+        let cohesive = self.inputs.cohesive;
+        let clumps = self.inputs.clumps;
+        let nl = self.nl;
+        nl.pairs
+            .par_chunks_mut(BLOCK * 4)
+            .zip(nl.output.par_chunks_mut(BLOCK * 4))
+            .for_each(|(pairs, outs)| {
+                for (pair, out) in pairs.iter_mut().zip(outs.iter_mut()) {
+                    let (i, j) = (pair.i as usize, pair.j as usize);
+                    if clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
+                        // Members of one clump overlap by design.
+                        *out = PairOutput::default();
+                        continue;
+                    }
+                    let delta = p.position[i] - p.position[j];
+                    let (ri, rj) = (p.radius[i], p.radius[j]);
+                    let sum = ri + rj;
+                    let dist2 = delta.length_squared();
+                    let r_eff = ri * rj / sum;
+                    // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off.
+                    // Without any cohesion, non-touching candidates leave before the lookup.
+                    let reach = if cohesive {
+                        let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
+                        sum - law.cutoff_overlap(q, r_eff)
+                    } else {
+                        sum
+                    };
+                    if dist2 >= reach * reach {
+                        pair.history = Default::default();
+                        *out = PairOutput::default();
+                        continue;
+                    }
+                    let dist = dist2.sqrt();
+                    let n = delta / dist;
+                    let d = sum - dist;
+                    let (ci, cj) = (ri - 0.5 * d, rj - 0.5 * d);
+                    let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
+                    let m_eff = 1.0 / (p.inv_mass[i] + p.inv_mass[j]);
+                    let params = materials.pair(p.material[i] as usize, p.material[j] as usize);
+                    let cp = ContactPoint {
+                        normal: n,
+                        overlap: d,
+                        r_eff,
+                        m_eff,
+                        v_rel: p.velocity[i] - p.velocity[j],
+                        spin_lever: ci * wi + cj * wj,
+                    };
+                    let inertia = || {
+                        let ai = p.mass[i] * ri * ri;
+                        let aj = p.mass[j] * rj * rj;
+                        1.4 * ai * aj / (ai + aj)
+                    };
+                    let c = evaluate(
+                        law,
+                        rolling,
+                        params,
+                        &cp,
+                        wi - wj,
+                        inertia,
+                        &mut pair.history,
+                        dt,
+                    );
+                    let nxf = n.cross(c.law.tangential);
+                    *out = PairOutput {
+                        force: c.force,
+                        torque_i: -ci * nxf + c.rolling_torque,
+                        torque_j: -cj * nxf - c.rolling_torque,
+                        rolling_i: c.rolling_resistance * ci,
+                        rolling_j: c.rolling_resistance * cj,
+                    };
+                }
+            });
+    }
+}
+
+/// The wall stage compiled for one contact law.
+struct WallStage<'a> {
+    p: &'a Particles,
+    walls: &'a mut WallLists,
+    inputs: &'a StepInputs<'a>,
+}
+
+impl LawVisitor for WallStage<'_> {
+    type Output = ();
+
+    fn visit<L: ContactLaw>(self, law: &L) {
+        let p = self.p;
+        let inputs = self.inputs;
+        let rolling = inputs.params.rolling_model;
+        let dt = inputs.params.time_step;
+        let start = &self.walls.start;
+        let cands = Shared(self.walls.candidates.as_mut_ptr());
+        let outs = Shared(self.walls.output.as_mut_ptr());
+        (0..p.len().div_ceil(BLOCK)).into_par_iter().for_each(|b| {
+            for i in b * BLOCK..((b + 1) * BLOCK).min(p.len()) {
+                let (w0, w1) = (start[i] as usize, start[i + 1] as usize);
+                if w1 == w0 {
+                    continue;
+                }
+                // SAFETY: candidate rows of different particles are disjoint, and each particle is
+                // handled by exactly one task.
+                let cands = unsafe { std::slice::from_raw_parts_mut(cands.ptr().add(w0), w1 - w0) };
+                let outs = unsafe { std::slice::from_raw_parts_mut(outs.ptr().add(w0), w1 - w0) };
+                let body = WallBody {
+                    x: p.position[i],
+                    v: p.velocity[i],
+                    w: p.angular_velocity[i],
+                    r: p.radius[i],
+                    m: p.mass[i],
+                    material: p.material[i] as usize,
+                };
+                wall_contacts(
+                    law,
+                    rolling,
+                    &body,
+                    cands,
+                    outs,
+                    inputs.geometries,
+                    inputs.materials,
+                    dt,
+                );
+            }
+        });
+    }
+}
+
+/// Half kick of the spin with the constant-directional rolling torque applied implicitly: it opposes
+/// the spin with magnitude `limit` but can at most bring the spin to rest, so particles at rest do not
+/// jitter and a rolling resistance larger than the driving torque holds them exactly.
+#[inline(always)]
+pub fn kick_spin(w: DVec3, torque: DVec3, limit: f64, inv_inertia_half_dt: f64) -> DVec3 {
+    let w = w + torque * inv_inertia_half_dt;
+    if limit <= 0.0 {
+        return w;
+    }
+    let brake = limit * inv_inertia_half_dt;
+    let s2 = w.length_squared();
+    if s2 <= brake * brake {
+        DVec3::ZERO
+    } else {
+        w * (1.0 - brake / s2.sqrt())
+    }
+}
+
+/// Raw pointer that may be shared between rayon tasks that write disjoint slots.
+#[derive(Clone, Copy)]
+struct Shared<T>(*mut T);
+unsafe impl<T> Send for Shared<T> {}
+unsafe impl<T> Sync for Shared<T> {}
+
+impl<T> Shared<T> {
+    /// Going through a method makes closures capture the whole wrapper (which is Send), not the
+    /// raw pointer field.
+    #[inline(always)]
+    fn ptr(self) -> *mut T {
+        self.0
+    }
+}

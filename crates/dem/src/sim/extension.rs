@@ -1,0 +1,70 @@
+//! Per-step extensions: what plugs into the step without the step knowing it, in the manner of
+//! rapier's physics hooks and LAMMPS fixes. Factories are one ([`crate::factory`]); bonds,
+//! recorders and servo-controlled plates come next.
+
+use super::cpu::kick_spin;
+use super::{SimError, Simulation, SimulationParams};
+use crate::particles::{Particles, NO_BODY};
+use std::any::Any;
+
+/// Something that runs with every step.
+pub trait StepExtension: Send + Any {
+    /// What the stage timers and messages call it.
+    fn name(&self) -> &str;
+
+    /// Whether [`Self::add_forces`] is to be called: then the second half kick waits for it.
+    fn adds_forces(&self) -> bool {
+        false
+    }
+
+    /// Adds forces and torques to `particles` after the contacts and before the second half kick
+    /// (bonds, springs). `index_of[id]` is the current index of the particle with stable id `id`
+    /// (particles are reordered when the lists are rebuilt).
+    fn add_forces(&mut self, particles: &mut Particles, index_of: &[u32], time: f64, dt: f64) {
+        let _ = (particles, index_of, time, dt);
+    }
+
+    /// Runs at the end of each step with the whole simulation: create particles, move a plate,
+    /// record a curve. An error stops the run.
+    fn after_step(&mut self, sim: &mut Simulation) -> Result<(), SimError> {
+        let _ = sim;
+        Ok(())
+    }
+
+    /// Whether the extension has done all it was set up to do (a factory that has created
+    /// everything); a test waits for this before it judges the particles settled.
+    fn finished(&self) -> bool {
+        true
+    }
+
+    /// For finding extensions of one type (`Simulation::factories`).
+    fn as_any(&self) -> &dyn Any;
+}
+
+impl Simulation {
+    /// Whether every extension has finished (see [`StepExtension::finished`]).
+    pub fn extensions_finished(&self) -> bool {
+        self.extensions.iter().all(|e| e.finished())
+    }
+
+    /// The extensions of type `T`, in order.
+    pub fn extensions_of<T: StepExtension>(&self) -> impl Iterator<Item = &T> {
+        self.extensions.iter().filter_map(|e| e.as_any().downcast_ref::<T>())
+    }
+}
+
+/// The second half kick on its own, for steps where extensions added forces after the sums.
+pub(super) fn kick(p: &mut Particles, params: &SimulationParams, clumps: bool) {
+    let half = 0.5 * params.time_step;
+    for i in 0..p.len() {
+        if !clumps || p.body[i] == NO_BODY {
+            p.velocity[i] += p.force[i] * (p.inv_mass[i] * half);
+            p.angular_velocity[i] = kick_spin(
+                p.angular_velocity[i],
+                p.torque[i],
+                p.rolling_torque_limit[i],
+                p.inv_inertia[i] * half,
+            );
+        }
+    }
+}

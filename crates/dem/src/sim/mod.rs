@@ -1,0 +1,503 @@
+//! The simulation: its state, and the pipeline of stages run once per time step.
+//!
+//! A step is velocity Verlet split around the force computation. Each stage is timed
+//! ([`StageTimers`]); the arithmetic of the particle and contact stages is done by a [`Backend`]
+//! (the CPU one by default), over the struct-of-arrays state kept here:
+//! 1. **integrate**: half kick, drift, and the largest displacement since the last list build
+//!    (clump bodies first, **bodies**, then their members follow).
+//! 2. **geometry motion**: geometries advance their pose.
+//! 3. **neighbour**: the pair and wall-candidate lists are rebuilt when some particle (or
+//!    geometry) has moved more than half the skin.
+//! 4. **pair forces**: every candidate pair evaluates its contact once, into its own slot.
+//! 5. **wall forces**: every particle's geometry candidates evaluate their contacts into theirs.
+//! 6. **particle sums**: every particle sums gravity and its slots, then the second half kick
+//!    (extensions that add forces, e.g. bonds, come in before the kick; clumps gather their
+//!    members' forces and are kicked as bodies).
+//! 7. **geometry loads**: each geometry's force and torque, summed from its wall slots.
+//! 8. **extensions**: per-step extensions ([`StepExtension`]): factories creating particles now,
+//!    recorders and servo-controlled plates next.
+//!
+//! No stage uses atomics or locks and every sum runs in a fixed order, so results are bit-identical
+//! run to run for any thread count.
+
+mod backend;
+mod bodies;
+mod cpu;
+mod extension;
+mod params;
+pub mod walls;
+
+pub use backend::{Backend, StepInputs};
+pub use cpu::{kick_spin, CpuBackend};
+pub use extension::StepExtension;
+pub use params::{SimError, SimulationParams, StageTimers};
+
+use crate::clump::Bodies;
+use crate::geometry::{ElementGrid, Geometry, Load};
+use crate::material::MaterialTable;
+use crate::mixture::{Item, Mixture, Shape};
+use crate::neighbour::NeighbourList;
+use crate::particles::{Particles, NO_BODY};
+use glam::{DMat3, DVec3};
+use std::time::Instant;
+use walls::WallLists;
+
+/// Particles per parallel task in the per-particle stages.
+pub(crate) const BLOCK: usize = 256;
+
+pub struct Simulation {
+    pub particles: Particles,
+    pub materials: MaterialTable,
+    pub geometries: Vec<Geometry>,
+    pub params: SimulationParams,
+    pub time: f64,
+    pub steps: u64,
+    pub timers: StageTimers,
+    /// Clumps (rigid multi-sphere bodies); their members are particles flagged with `body`.
+    pub bodies: Bodies,
+    /// Per-step extensions, run in order at the end of each step.
+    pub extensions: Vec<Box<dyn StepExtension>>,
+    neighbours: NeighbourList,
+    walls: WallLists,
+    backend: Box<dyn Backend>,
+    /// Geometry poses and the particle bounds at the last build, for the geometry displacement check.
+    poses_at_build: Vec<(DMat3, DVec3)>,
+    bounds_at_build: (DVec3, DVec3),
+    forces_ready: bool,
+    /// Extra neighbour-search reach for attraction beyond touching (0 without cohesion).
+    cohesive_reach: f64,
+    /// Current index of each particle by stable id (particles are reordered at rebuilds).
+    index_of: Vec<u32>,
+    /// Largest sphere radius the wall grids and cohesive reach were sized for.
+    prepared_radius: f64,
+}
+
+impl Simulation {
+    pub fn new(
+        particles: Particles,
+        materials: MaterialTable,
+        geometries: Vec<Geometry>,
+        params: SimulationParams,
+    ) -> Self {
+        let skin = params.skin;
+        let mut sim = Simulation {
+            particles,
+            materials,
+            geometries,
+            params,
+            time: 0.0,
+            steps: 0,
+            timers: StageTimers::default(),
+            bodies: Bodies::default(),
+            extensions: Vec::new(),
+            neighbours: NeighbourList::new(skin),
+            walls: WallLists::default(),
+            backend: Box::new(CpuBackend),
+            poses_at_build: Vec::new(),
+            bounds_at_build: (DVec3::ZERO, DVec3::ZERO),
+            forces_ready: false,
+            cohesive_reach: 0.0,
+            index_of: Vec::new(),
+            prepared_radius: -1.0,
+        };
+        let max_r = sim.particles.radius.iter().cloned().fold(0.0, f64::max);
+        sim.prepare_radius(max_r);
+        sim
+    }
+
+    /// Runs the particle and contact stages on another back end.
+    pub fn with_backend(mut self, backend: Box<dyn Backend>) -> Self {
+        self.backend = backend;
+        self
+    }
+
+    pub fn backend_name(&self) -> &'static str {
+        self.backend.name()
+    }
+
+    /// Adds clumps whose member spheres are already among the particles (see [`Bodies::add`]).
+    pub fn with_bodies(mut self, bodies: Bodies) -> Self {
+        self.bodies = bodies;
+        self.forces_ready = false;
+        self
+    }
+
+    /// Sizes the cohesive reach and the wall search grids for spheres up to `radius` (needed
+    /// before particles larger than any present are added).
+    pub fn prepare_radius(&mut self, radius: f64) {
+        if radius <= self.prepared_radius {
+            return;
+        }
+        self.prepared_radius = radius;
+        // A wall contact has R* = r, the largest any contact of these particles can have.
+        self.cohesive_reach = self
+            .params
+            .contact_model
+            .reach(self.materials.pairs(), radius);
+        let reach = radius + self.params.skin + self.cohesive_reach;
+        for g in &mut self.geometries {
+            if g.reference.len() > 16 {
+                g.grid = ElementGrid::build(&g.reference, reach);
+            }
+        }
+        self.forces_ready = false;
+    }
+
+    /// Largest sphere radius prepared for (see [`Self::prepare_radius`]).
+    pub fn prepared_radius(&self) -> f64 {
+        self.prepared_radius
+    }
+
+    /// Adds a per-step extension.
+    pub fn add_extension(&mut self, extension: Box<dyn StepExtension>) {
+        self.extensions.push(extension);
+    }
+
+    /// Index of the geometry with this name.
+    pub fn geometry_index(&self, name: &str) -> Option<usize> {
+        self.geometries.iter().position(|g| g.name == name)
+    }
+
+    /// The geometry with this name.
+    pub fn geometry(&self, name: &str) -> Option<&Geometry> {
+        self.geometries.iter().find(|g| g.name == name)
+    }
+
+    /// The geometry with this name, to change its motion.
+    pub fn geometry_mut(&mut self, name: &str) -> Option<&mut Geometry> {
+        self.geometries.iter_mut().find(|g| g.name == name)
+    }
+
+    /// Moves every particle and clump by `delta` (placing a specimen where a test wants it).
+    pub fn shift(&mut self, delta: DVec3) {
+        for x in &mut self.particles.position {
+            *x += delta;
+        }
+        for x in &mut self.bodies.position {
+            *x += delta;
+        }
+        self.rebuild();
+        self.forces_ready = false;
+    }
+
+    /// Adds particles of a mixture (spheres, or clumps as bodies) with a common velocity. Their
+    /// force starts as their weight: they are placed free of contacts.
+    pub fn add_items(&mut self, mixture: &Mixture, items: &[Item], velocity: DVec3) {
+        if items.is_empty() {
+            return;
+        }
+        self.prepare_radius(mixture.max_sphere_radius());
+        let g = self.params.gravity;
+        for it in items {
+            let t = &mixture.types[it.kind];
+            let first = self.particles.len();
+            match &t.shape {
+                Shape::Sphere => {
+                    self.particles
+                        .push(it.position, velocity, it.size, t.density, t.material);
+                }
+                Shape::Clump { .. } => {
+                    let (template, props) = t.scaled_clump(it.size).unwrap();
+                    let b = self.bodies.add(
+                        &mut self.particles,
+                        &template,
+                        &props,
+                        t.density,
+                        t.material,
+                        it.position,
+                        it.orientation,
+                        velocity,
+                    );
+                    self.bodies.force[b] = g * self.bodies.mass[b];
+                }
+            }
+            let p = &mut self.particles;
+            for k in first..p.len() {
+                p.force[k] = g * p.mass[k];
+            }
+        }
+        if self.forces_ready {
+            self.rebuild();
+        }
+    }
+
+    pub fn neighbour_rebuilds(&self) -> u64 {
+        self.neighbours.rebuilds
+    }
+
+    /// Largest overlap between two particles divided by the smaller radius, and the pair's stable ids.
+    pub fn largest_relative_overlap(&mut self) -> Option<(f64, u32, u32)> {
+        self.ensure_lists();
+        let p = &self.particles;
+        let mut worst: Option<(f64, u32, u32)> = None;
+        for pair in &self.neighbours.pairs {
+            let (i, j) = (pair.i as usize, pair.j as usize);
+            if p.body[i] != NO_BODY && p.body[i] == p.body[j] {
+                continue; // Members of one clump overlap by design.
+            }
+            let d = p.radius[i] + p.radius[j] - (p.position[i] - p.position[j]).length();
+            let rel = d / p.radius[i].min(p.radius[j]);
+            if rel > 0.0 && worst.is_none_or(|w| rel > w.0) {
+                worst = Some((rel, p.id[i], p.id[j]));
+            }
+        }
+        worst
+    }
+
+    /// Largest particle-geometry overlap divided by the particle radius: (value, particle id, geometry name).
+    pub fn largest_wall_overlap(&mut self) -> Option<(f64, u32, String)> {
+        self.ensure_lists();
+        let p = &self.particles;
+        let mut worst: Option<(f64, u32, String)> = None;
+        for k in 0..p.len() {
+            for c in &self.walls.candidates[self.walls.row(k)] {
+                let g = &self.geometries[c.geometry as usize];
+                if let Some(cl) = g.elements[c.element as usize].closest(p.position[k], p.radius[k])
+                {
+                    let rel = (p.radius[k] - cl.distance) / p.radius[k];
+                    if rel > 0.0 && worst.as_ref().is_none_or(|w| rel > w.0) {
+                        worst = Some((rel, p.id[k], g.name.clone()));
+                    }
+                }
+            }
+        }
+        worst
+    }
+
+    fn ensure_lists(&mut self) {
+        if self.neighbours.built_at.len() != self.particles.len() || self.neighbours.rebuilds == 0 {
+            self.rebuild();
+        }
+    }
+
+    /// Advances `n` steps.
+    pub fn run(&mut self, n: u64) -> Result<(), SimError> {
+        for _ in 0..n {
+            self.step()?;
+        }
+        Ok(())
+    }
+
+    /// Kinetic energy of free spheres and clumps.
+    pub fn kinetic_energy(&self) -> f64 {
+        self.particles.kinetic_energy() + self.bodies.kinetic_energy()
+    }
+
+    /// Particles as a user counts them: free spheres plus clumps.
+    pub fn particle_count(&self) -> usize {
+        let free = self
+            .particles
+            .body
+            .iter()
+            .filter(|&&b| b == NO_BODY)
+            .count();
+        free + self.bodies.len()
+    }
+
+    /// Mass of free spheres and clumps.
+    pub fn total_mass(&self) -> f64 {
+        self.particles.total_mass() + self.bodies.mass.iter().sum::<f64>()
+    }
+
+    /// Root-mean-square speed of the free spheres and clump bodies (0 without particles): what
+    /// "settled" is judged by.
+    pub fn rms_speed(&self) -> f64 {
+        let p = &self.particles;
+        let mut sum = 0.0;
+        let mut count = 0usize;
+        for k in 0..p.len() {
+            if p.body[k] == NO_BODY {
+                sum += p.velocity[k].length_squared();
+                count += 1;
+            }
+        }
+        for v in &self.bodies.velocity {
+            sum += v.length_squared();
+            count += 1;
+        }
+        if count == 0 {
+            0.0
+        } else {
+            (sum / count as f64).sqrt()
+        }
+    }
+
+    /// One velocity-Verlet step through the pipeline (see the module documentation).
+    pub fn step(&mut self) -> Result<(), SimError> {
+        if !self.forces_ready {
+            self.ensure_lists();
+            self.compute_forces(false);
+            self.forces_ready = true;
+        }
+        let dt = self.params.time_step;
+
+        let t0 = Instant::now();
+        if !self.bodies.is_empty() {
+            self.bodies_first_half(dt);
+        }
+        let t1 = Instant::now();
+        self.timers.bodies += t1 - t0;
+        let clumps = !self.bodies.is_empty();
+        let max_disp = self
+            .backend
+            .integrate(
+                &mut self.particles,
+                &self.neighbours.built_at,
+                &self.params,
+                clumps,
+            )
+            .map_err(|i| self.failure(i, self.time + dt))?;
+        let t2 = Instant::now();
+        self.timers.integrate += t2 - t1;
+
+        let mut geometry_disp: f64 = 0.0;
+        let (blo, bhi) = self.bounds_at_build;
+        for (g, (rot0, trans0)) in self.geometries.iter_mut().zip(&self.poses_at_build) {
+            if g.advance(self.time, dt) {
+                geometry_disp = geometry_disp.max(g.displacement_since(rot0, *trans0, blo, bhi));
+            }
+        }
+        let t3 = Instant::now();
+        self.timers.geometry_motion += t3 - t2;
+
+        let half_skin = 0.5 * self.params.skin;
+        if max_disp > half_skin || max_disp + geometry_disp > self.params.skin {
+            self.rebuild();
+        }
+        self.timers.neighbour += t3.elapsed();
+
+        self.compute_forces(true);
+        self.time = (self.steps + 1) as f64 * dt;
+        self.steps += 1;
+        if !self.extensions.is_empty() {
+            let t = Instant::now();
+            let result = self.run_extensions();
+            self.timers.extensions += t.elapsed();
+            result?;
+        }
+        Ok(())
+    }
+
+    /// Why particle `i` stopped the run.
+    fn failure(&self, i: usize, time: f64) -> SimError {
+        let p = &self.particles;
+        let x = p.position[i];
+        if x.is_finite() && p.velocity[i].is_finite() {
+            SimError::LeftDomain {
+                time,
+                particle: p.id[i],
+                position: x,
+            }
+        } else {
+            SimError::NotFinite {
+                time,
+                particle: p.id[i],
+            }
+        }
+    }
+
+    fn run_extensions(&mut self) -> Result<(), SimError> {
+        let mut extensions = std::mem::take(&mut self.extensions);
+        let mut result = Ok(());
+        for e in extensions.iter_mut() {
+            result = e.after_step(self);
+            if result.is_err() {
+                break;
+            }
+        }
+        // Extensions added by an extension during the step run from the next step on.
+        extensions.append(&mut self.extensions);
+        self.extensions = extensions;
+        result
+    }
+
+    fn compute_forces(&mut self, kick: bool) {
+        let clumps = !self.bodies.is_empty();
+        let force_hooks = self.extensions.iter().any(|e| e.adds_forces());
+        let inputs = StepInputs {
+            materials: &self.materials,
+            geometries: &self.geometries,
+            params: &self.params,
+            clumps,
+            cohesive: self.cohesive_reach > 0.0,
+        };
+        let t0 = Instant::now();
+        self.backend
+            .pair_forces(&self.particles, &mut self.neighbours, &inputs);
+        let t1 = Instant::now();
+        self.timers.pair_forces += t1 - t0;
+        self.backend
+            .wall_forces(&self.particles, &mut self.walls, &inputs);
+        let t2 = Instant::now();
+        self.timers.wall_forces += t2 - t1;
+        self.backend.particle_sums(
+            &mut self.particles,
+            &self.neighbours,
+            &self.walls,
+            &inputs,
+            kick && !force_hooks,
+        );
+        if force_hooks {
+            let (time, dt) = (self.time, self.params.time_step);
+            for e in self.extensions.iter_mut().filter(|e| e.adds_forces()) {
+                e.add_forces(&mut self.particles, &self.index_of, time, dt);
+            }
+            if kick {
+                extension::kick(&mut self.particles, &self.params, clumps);
+            }
+        }
+        let t3 = Instant::now();
+        self.timers.particle_sums += t3 - t2;
+        if clumps {
+            self.gather_bodies();
+            if kick {
+                let half = 0.5 * self.params.time_step;
+                for b in 0..self.bodies.len() {
+                    self.bodies.kick(b, half);
+                }
+                self.place_members(false);
+            }
+        }
+        let t4 = Instant::now();
+        self.timers.bodies += t4 - t3;
+        self.geometry_loads();
+        self.timers.geometry_loads += t4.elapsed();
+    }
+
+    fn rebuild(&mut self) {
+        let reorder = self
+            .neighbours
+            .rebuild(&mut self.particles, self.cohesive_reach);
+        let order = reorder.order;
+        self.index_of.resize(self.particles.len(), 0);
+        for (k, &id) in self.particles.id.iter().enumerate() {
+            self.index_of[id as usize] = k as u32;
+        }
+        let skin = self.params.skin + self.cohesive_reach;
+        self.walls
+            .rebuild(&self.particles, order, &self.geometries, skin);
+        self.poses_at_build = self
+            .geometries
+            .iter()
+            .map(|g| (g.rotation, g.translation))
+            .collect();
+        self.bounds_at_build = self.particles.bounds(true);
+    }
+
+    fn geometry_loads(&mut self) {
+        for g in &mut self.geometries {
+            g.load = Load::default();
+        }
+        for (c, o) in self.walls.candidates.iter().zip(&self.walls.output) {
+            if o.force != DVec3::ZERO {
+                let l = &mut self.geometries[c.geometry as usize].load;
+                l.force += o.force;
+                l.torque += o.torque;
+            }
+        }
+        for g in &mut self.geometries {
+            let p = g.to_world(g.torque_point);
+            g.load.torque -= p.cross(g.load.force);
+        }
+    }
+}

@@ -1,0 +1,136 @@
+//! The parameters of a simulation (one struct, with `Default` the single home of the defaults),
+//! why a run stops, and the per-stage timers.
+
+use crate::contact::{ContactModel, RollingModel};
+use glam::DVec3;
+use std::time::Duration;
+
+/// Parameters of a simulation. Scene files fill it; every default lives in [`Default`] below.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulationParams {
+    /// Time step (s). The scene builder sets it from `time_step_fraction` when the scene gives
+    /// none.
+    pub time_step: f64,
+    /// Fraction of the Rayleigh time step used when none is given. Default 0.2 (EDEM users pick
+    /// 10-40 %).
+    pub time_step_fraction: f64,
+    /// Default [0, 0, -9.81] m/s^2.
+    pub gravity: DVec3,
+    /// The contact law. Default Hertz-Mindlin (no slip).
+    pub contact_model: ContactModel,
+    /// Rolling resistance. Default constant directional torque (EDEM's standard).
+    pub rolling_model: RollingModel,
+    /// Viscous damping of the epsd rolling model when a scene chooses it without one. Default 0.3.
+    pub rolling_viscous_damping: f64,
+    /// Neighbour-list skin (m). The scene builder sets it from `skin_fraction` when none is given.
+    pub skin: f64,
+    /// Skin as a fraction of the smallest sphere radius. Default 0.3.
+    pub skin_fraction: f64,
+    /// Particles outside this box stop the run (an exploding simulation). Default: none here;
+    /// the scene builder puts a box around the set-up.
+    pub domain: Option<(DVec3, DVec3)>,
+    /// Largest overlap at the start, as a fraction of the smaller radius. Default 0.01.
+    pub max_initial_overlap: f64,
+}
+
+impl Default for SimulationParams {
+    fn default() -> Self {
+        SimulationParams {
+            time_step: 0.0,
+            time_step_fraction: 0.2,
+            gravity: DVec3::new(0.0, 0.0, -9.81),
+            contact_model: ContactModel::default(),
+            rolling_model: RollingModel::default(),
+            rolling_viscous_damping: 0.3,
+            skin: 0.0,
+            skin_fraction: 0.3,
+            domain: None,
+            max_initial_overlap: 0.01,
+        }
+    }
+}
+
+/// Why a running simulation was stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimError {
+    NotFinite {
+        time: f64,
+        particle: u32,
+    },
+    LeftDomain {
+        time: f64,
+        particle: u32,
+        position: DVec3,
+    },
+}
+
+impl std::fmt::Display for SimError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SimError::NotFinite { time, particle } => write!(
+                f,
+                "simulation diverged at t = {time:.6} s: particle {particle} has a non-finite position or \
+                 velocity (time step too large for the stiffness, or overlapping start)"
+            ),
+            SimError::LeftDomain {
+                time,
+                particle,
+                position,
+            } => write!(
+                f,
+                "particle {particle} left the simulation domain at t = {time:.6} s (at [{:.4}, {:.4}, {:.4}] m)",
+                position.x, position.y, position.z
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+/// Wall time spent in each stage of the step, LAMMPS-style.
+#[derive(Clone, Debug, Default)]
+pub struct StageTimers {
+    /// Half kick and drift of spheres.
+    pub integrate: Duration,
+    /// Clumps: kicks, drift, members placed and gathered.
+    pub bodies: Duration,
+    pub geometry_motion: Duration,
+    pub neighbour: Duration,
+    pub pair_forces: Duration,
+    pub wall_forces: Duration,
+    /// Summing each particle's contacts, gravity, and the second half kick.
+    pub particle_sums: Duration,
+    pub geometry_loads: Duration,
+    /// Per-step extensions (factories, ...).
+    pub extensions: Duration,
+}
+
+impl StageTimers {
+    fn stages(&self) -> [(&'static str, Duration); 9] {
+        [
+            ("integrate", self.integrate),
+            ("bodies", self.bodies),
+            ("geometry motion", self.geometry_motion),
+            ("neighbour", self.neighbour),
+            ("pair forces", self.pair_forces),
+            ("wall forces", self.wall_forces),
+            ("particle sums", self.particle_sums),
+            ("geometry loads", self.geometry_loads),
+            ("extensions", self.extensions),
+        ]
+    }
+
+    pub fn total(&self) -> Duration {
+        self.stages().iter().map(|s| s.1).sum()
+    }
+
+    /// One line with each stage's share of the time.
+    pub fn breakdown(&self) -> String {
+        let t = self.total().as_secs_f64().max(1e-12);
+        self.stages()
+            .iter()
+            .map(|(name, d)| format!("{name} {:.1}%", 100.0 * d.as_secs_f64() / t))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}

@@ -163,7 +163,8 @@ impl NeighbourList {
             if !p.history.is_empty() {
                 let (a, b) = (self.inverse[p.i as usize], self.inverse[p.j as usize]);
                 if a < b {
-                    self.carried.push((((a as u64) << 32) | b as u64, p.history));
+                    self.carried
+                        .push((((a as u64) << 32) | b as u64, p.history));
                 } else {
                     self.carried
                         .push((((b as u64) << 32) | a as u64, p.history.reversed()));

@@ -800,8 +800,7 @@ impl Scene {
             Some(v) => ctx.positive(v, "simulation.expected_max_speed".into())?,
             None => initial_speed.max(fall_speed).max(0.1),
         };
-        let hertz =
-            timestep::shortest_collision_time(
+        let hertz = timestep::shortest_collision_time(
             &contact_model,
             &smallest,
             &table,

@@ -29,7 +29,8 @@ pub fn shortest_collision_time(
     for &(a, ra, ma) in smallest {
         for &(b, rb, mb) in smallest {
             let p = materials.pair(a, b);
-            best = best.min(model.collision_time(p, ma * mb / (ma + mb), ra * rb / (ra + rb), speed));
+            best =
+                best.min(model.collision_time(p, ma * mb / (ma + mb), ra * rb / (ra + rb), speed));
         }
         for &g in geometry_materials {
             best = best.min(model.collision_time(materials.pair(a, g), ma, ra, speed));

@@ -316,7 +316,11 @@ impl Default for ContactModel {
 impl ContactModel {
     /// How far beyond touching any pair of `pairs` still attracts, for bodies of effective radius
     /// up to `max_r_eff`: the neighbour search must reach this much further. 0 without cohesion.
-    pub fn reach<'a>(&self, pairs: impl IntoIterator<Item = &'a PairParams>, max_r_eff: f64) -> f64 {
+    pub fn reach<'a>(
+        &self,
+        pairs: impl IntoIterator<Item = &'a PairParams>,
+        max_r_eff: f64,
+    ) -> f64 {
         pairs
             .into_iter()
             .map(|p| -self.cutoff_overlap(p, max_r_eff))

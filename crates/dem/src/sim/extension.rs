@@ -49,7 +49,9 @@ impl Simulation {
 
     /// The extensions of type `T`, in order.
     pub fn extensions_of<T: StepExtension>(&self) -> impl Iterator<Item = &T> {
-        self.extensions.iter().filter_map(|e| e.as_any().downcast_ref::<T>())
+        self.extensions
+            .iter()
+            .filter_map(|e| e.as_any().downcast_ref::<T>())
     }
 }
 

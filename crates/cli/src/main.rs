@@ -1,6 +1,8 @@
 //! `demcal`: the command-line front end. Each subcommand parses its arguments and hands the work to
 //! a library crate; nothing here knows physics.
 
+mod progress;
+
 use clap::{Parser, Subcommand};
 use dem::output::{write_vtk, LoadWriter};
 use dem::scene::Scene;
@@ -10,6 +12,8 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
+
+use progress::{check_count, LogLine};
 
 #[derive(Parser)]
 #[command(
@@ -323,9 +327,16 @@ fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> R
         ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}")
             .map_err(|e| e.to_string())?,
     );
+    let mut log = LogLine::new();
     let mut progress = |phase: &str, t: f64| {
         bar.set_message(format!("{phase}: t = {t:.2} s"));
         bar.tick();
+        if let Some(elapsed) = log.due() {
+            eprintln!(
+                "{}: {phase}: t = {t:.2} s, {elapsed:.0} s elapsed",
+                path.display()
+            );
+        }
         Ok(())
     };
     let result = virtual_tests::run_file(&file, seed, out, &mut progress);
@@ -353,10 +364,43 @@ fn heap_angle(
     if planes == 0 {
         return Err("--planes: expected at least 1".into());
     }
+    // Each plane scans every sphere; beyond one plane per degree nothing more is learnt.
+    if planes > 180 {
+        return Err(format!("--planes {planes}: at most 180 (one per degree)"));
+    }
     if axis.len() != 2 {
         return Err(format!("--axis: expected X,Y, got {} numbers", axis.len()));
     }
+    if axis.iter().any(|v| !v.is_finite()) {
+        return Err(format!(
+            "--axis {},{}: expected two finite numbers X,Y (m)",
+            axis[0], axis[1]
+        ));
+    }
+    if !base.is_finite() {
+        return Err(format!("--base {base}: expected a finite height (m)"));
+    }
     let (positions, radii) = read_spheres(path)?;
+    // A heap from another engine may hold anything; the measurement needs real spheres.
+    for (k, (p, r)) in positions.iter().zip(&radii).enumerate() {
+        if !(r.is_finite() && *r > 0.0) {
+            return Err(format!(
+                "{}: sphere {}: radius {r}: expected a positive number (m)",
+                path.display(),
+                k + 1
+            ));
+        }
+        if !p.is_finite() {
+            return Err(format!(
+                "{}: sphere {}: position ({}, {}, {}): expected finite numbers (m)",
+                path.display(),
+                k + 1,
+                p.x,
+                p.y,
+                p.z
+            ));
+        }
+    }
     let m = ReposeMeasurement {
         axis: (axis[0], axis[1]),
         base_z: base,
@@ -399,9 +443,7 @@ fn heap_angle(
 
 fn set_threads(threads: Option<usize>) -> Result<(), String> {
     if let Some(t) = threads {
-        if t == 0 {
-            return Err("--threads: expected at least 1".into());
-        }
+        check_count("--threads", t)?;
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build_global()
@@ -460,6 +502,7 @@ fn main() -> ExitCode {
 }
 
 fn run_study(path: &Path, jobs: usize, restart: bool, retry_failed: bool) -> Result<(), String> {
+    check_count("--jobs", jobs)?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
     // The first Ctrl-C stops the running simulations and keeps every finished one; the store is
@@ -552,6 +595,7 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     let mut next_snapshot = output.snapshot_interval.unwrap_or(f64::INFINITY);
     let mut last_snapshot_step = 0;
     let bar = progress_bar(steps);
+    let mut log = LogLine::new();
     let start = Instant::now();
     let mut failure = None;
     while simulation.steps < steps {
@@ -572,6 +616,13 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
         if s % 200 == 0 {
             bar.set_position(s);
             bar.set_message(format!("t = {t:.4} s"));
+            if let Some(elapsed) = log.due() {
+                eprintln!(
+                    "{}: {}",
+                    path.display(),
+                    LogLine::steps(s, steps, &format!(", t = {t:.4} s"), elapsed)
+                );
+            }
         }
     }
     bar.finish_and_clear();
@@ -601,7 +652,13 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
 fn bench_settle(steps: Option<u64>) -> Result<(), String> {
     let total = steps.unwrap_or(50_000);
     let bar = progress_bar(total);
-    let r = dem::bench::settle(steps, |done| bar.set_position(done))?;
+    let mut log = LogLine::new();
+    let r = dem::bench::settle(steps, |done| {
+        bar.set_position(done);
+        if let Some(elapsed) = log.due() {
+            eprintln!("settle: {}", LogLine::steps(done, total, "", elapsed));
+        }
+    })?;
     bar.finish_and_clear();
     println!("stages: {}", r.stages);
     println!(

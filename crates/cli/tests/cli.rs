@@ -508,8 +508,27 @@ fn a_killed_study_resumes_without_losing_or_repeating_runs() {
             break;
         }
     }
+    // A second `demcal run` of the same study while the first runs is refused, naming the
+    // process that holds the store, and runs nothing.
+    let second = demcal()
+        .args(["run".as_ref(), path.as_os_str()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        format!(
+            "error: {}: the study is being run by process {} (lock file {}); wait for it to end, or stop it",
+            dir.join("study.db").display(),
+            child.id(),
+            dir.join("study.db.lock").display()
+        )
+    );
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
+    // The killed process left its lock behind; the next run sees that its process is gone.
+    assert!(dir.join("study.db.lock").exists());
     run_ok(&["report".as_ref(), path.as_os_str()]);
     let before = results_rows(&dir);
     assert!(
@@ -580,4 +599,251 @@ fn study_errors_are_one_line() {
         .output()
         .unwrap();
     assert!(!out.status.success());
+}
+
+/// Runs `cmd`, killing it (and failing) if it takes longer than `secs`: a refused value must not
+/// hang first.
+fn output_within(mut cmd: Command, secs: f64) -> std::process::Output {
+    let mut child = cmd
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed().as_secs_f64() > secs {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("still running after {secs} s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// Exit status 1 and one line on standard error, which is returned.
+fn one_line_error(out: &std::process::Output) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    err.trim_end().to_string()
+}
+
+#[test]
+fn absurd_thread_and_job_counts_are_refused_at_once() {
+    let dir = temp_dir("threads");
+    let scene = write(&dir, SCENE);
+    let cores = std::thread::available_parallelism().unwrap().get();
+    let limit = format!("at most {} (4 per core, {cores} cores here)", 4 * cores);
+    for cmd in ["simulate", "test", "bench"] {
+        let mut c = demcal();
+        match cmd {
+            "bench" => c.args(["bench", "settle"]),
+            _ => c.arg(cmd).arg(&scene),
+        };
+        c.args(["--threads", "100000"]);
+        let err = one_line_error(&output_within(c, 20.0));
+        assert_eq!(err, format!("error: --threads 100000: {limit}"), "{cmd}");
+    }
+    let study = dir.join("study.toml");
+    std::fs::write(&study, slow_bowl()).unwrap();
+    let mut c = demcal();
+    c.arg("run").arg(&study).args(["--jobs", "0"]);
+    let err = one_line_error(&output_within(c, 20.0));
+    assert_eq!(err, "error: --jobs 0: expected at least 1");
+    let mut c = demcal();
+    c.arg("run").arg(&study).args(["--jobs", "100000"]);
+    let err = one_line_error(&output_within(c, 20.0));
+    assert_eq!(err, format!("error: --jobs 100000: {limit}"));
+    // Nothing ran: no store was made.
+    assert!(!dir.join("study.db").exists());
+}
+
+#[test]
+fn heap_angle_refuses_radii_and_axes_that_are_not_positive_numbers() {
+    let dir = temp_dir("heap-angle-bad");
+    let csv = dir.join("heap.csv");
+    for (radius, want) in [("-0.001", "-0.001"), ("nan", "NaN"), ("0", "0")] {
+        std::fs::write(
+            &csv,
+            format!("x,y,z,radius\n0,0,0,0.001\n0.002,0,0,{radius}\n"),
+        )
+        .unwrap();
+        let out = demcal().arg("heap-angle").arg(&csv).output().unwrap();
+        assert_eq!(
+            one_line_error(&out),
+            format!(
+                "error: {}: sphere 2: radius {want}: expected a positive number (m)",
+                csv.display()
+            )
+        );
+    }
+    std::fs::write(&csv, "x,y,z,radius\n0,0,0,0.001\ninf,0,0,0.001\n").unwrap();
+    let out = demcal().arg("heap-angle").arg(&csv).output().unwrap();
+    assert_eq!(
+        one_line_error(&out),
+        format!(
+            "error: {}: sphere 2: position (inf, 0, 0): expected finite numbers (m)",
+            csv.display()
+        )
+    );
+    std::fs::write(&csv, "x,y,z,radius\n0,0,0,0.001\n").unwrap();
+    let out = demcal()
+        .arg("heap-angle")
+        .arg(&csv)
+        .args(["--base", "nan"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        one_line_error(&out),
+        "error: --base NaN: expected a finite height (m)"
+    );
+    let mut c = demcal();
+    c.arg("heap-angle")
+        .arg(&csv)
+        .args(["--planes", "1000000000"]);
+    assert_eq!(
+        one_line_error(&output_within(c, 20.0)),
+        "error: --planes 1000000000: at most 180 (one per degree)"
+    );
+    let out = demcal()
+        .arg("heap-angle")
+        .arg(&csv)
+        .args(["--axis", "0,inf"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        one_line_error(&out),
+        "error: --axis 0,inf: expected two finite numbers X,Y (m)"
+    );
+}
+
+#[test]
+fn doe_optimize_refuses_zero_solutions_and_a_nan_target() {
+    let dir = temp_dir("doe-opt-bad");
+    let data = dir.join("data.csv");
+    std::fs::write(
+        &data,
+        "A,B,y\n-1,-1,1\n1,-1,2\n-1,1,3\n1,1,5\n0,0,3\n0,0,3.2\n",
+    )
+    .unwrap();
+    let run = |extra: &[&str]| {
+        let out = demcal()
+            .args(["doe", "optimize"])
+            .arg(&data)
+            .args(["--response", "y", "--model", "linear"])
+            .args(extra)
+            .output()
+            .unwrap();
+        one_line_error(&out)
+    };
+    assert_eq!(
+        run(&["--goal", "max", "--solutions", "0"]),
+        "error: --solutions 0: expected at least 1"
+    );
+    assert_eq!(
+        run(&["--goal", "target=nan"]),
+        "error: --goal 'target=nan': target value is not a finite number"
+    );
+    assert_eq!(
+        run(&["--goal", "max", "--starts", "100000000"]),
+        "error: --starts 100000000: at most 10000 random starts"
+    );
+    let out = output_within(
+        {
+            let mut c = demcal();
+            c.args([
+                "doe",
+                "design",
+                "lhs",
+                "--factors",
+                "3",
+                "--runs",
+                "1000000000",
+            ]);
+            c
+        },
+        20.0,
+    );
+    assert_eq!(
+        one_line_error(&out),
+        "error: --runs 1000000000: at most 100000 runs"
+    );
+}
+
+/// Without a terminal (a log file, a batch job), long runs still say how far they are: a plain
+/// line every DEMCAL_PROGRESS_S seconds (default 5).
+#[test]
+fn long_runs_log_progress_when_not_on_a_terminal() {
+    let dir = temp_dir("progress");
+    let scene = write(&dir, SCENE);
+    let out = demcal()
+        .arg("simulate")
+        .arg(&scene)
+        .env("DEMCAL_PROGRESS_S", "0")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let head = format!("{}: step ", scene.display());
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with(&head)).collect();
+    assert!(lines.len() >= 2, "{err}");
+    assert!(
+        lines[0].contains(" %), t = ") && lines[0].contains(" s elapsed"),
+        "{}",
+        lines[0]
+    );
+    // The test command: the function test takes 0.3 s and reports as it goes.
+    let test = dir.join("f.toml");
+    std::fs::write(
+        &test,
+        "test = \"function\"\n[function]\nexpression = \"2*x\"\nvariables = { x = 1.0 }\nduration_s = 0.3\n",
+    )
+    .unwrap();
+    let out = demcal()
+        .arg("test")
+        .arg(&test)
+        .env("DEMCAL_PROGRESS_S", "0.05")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let head = format!("{}: evaluate: t = ", test.display());
+    assert!(
+        err.lines().filter(|l| l.starts_with(&head)).count() >= 2,
+        "{err}"
+    );
+    // A study: each running job reports, not only the finished runs.
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        slow_bowl()
+            .replace(
+                "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+                "plan = [{ stage = \"validate\", replicates = 1 }]",
+            )
+            .replace("duration_s = 0.2", "duration_s = 0.3"),
+    )
+    .unwrap();
+    let out = demcal()
+        .arg("run")
+        .arg(&study)
+        .env("DEMCAL_PROGRESS_S", "0.05")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.lines()
+            .filter(
+                |l| l.starts_with("stage 1/1 validate: job 1: run 1 (replicate 1): evaluate: t = ")
+            )
+            .count()
+            >= 2,
+        "{err}"
+    );
 }

@@ -4,8 +4,10 @@ use crate::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
 
-/// The settle scene, built into the binary so `demcal bench settle` runs from anywhere.
-pub const SETTLE_SCENE: &str = include_str!("../../../examples/scenes/settle.toml");
+/// The settle scene, built into the binary so `demcal bench settle` runs from anywhere. The crate
+/// keeps its own copy (a packaged crate has no `examples/`); `examples/scenes/settle.toml` is the
+/// same file, which a test checks.
+pub const SETTLE_SCENE: &str = include_str!("../data/settle.toml");
 
 /// Result of one benchmark run.
 #[derive(Clone, Debug)]
@@ -43,7 +45,11 @@ pub fn bed_height(particles: &crate::Particles) -> f64 {
     let mut tops: Vec<f64> = (0..particles.len())
         .map(|k| particles.position[k].z + particles.radius[k])
         .collect();
-    tops.sort_unstable_by(|a, b| b.partial_cmp(a).unwrap());
+    // A diverged state has no bed height (NaN of either sign would sort to one end or the other).
+    if tops.iter().any(|t| t.is_nan()) {
+        return f64::NAN;
+    }
+    tops.sort_unstable_by(|a, b| b.total_cmp(a));
     let k = (tops.len() / 100).max(1);
     tops[..k].iter().sum::<f64>() / k as f64
 }
@@ -74,4 +80,39 @@ pub fn settle(steps: Option<u64>, mut progress: impl FnMut(u64)) -> Result<Bench
         stages: sim.timers.breakdown(),
         neighbour_rebuilds: sim.neighbour_rebuilds(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    /// The bed height of a state with a NaN position (a diverged run) is NaN, not a panic.
+    #[test]
+    fn bed_height_of_a_diverged_state_is_nan() {
+        let mut p = crate::Particles::default();
+        for z in [0.01, f64::NAN, 0.03] {
+            p.push(DVec3::new(0.0, 0.0, z), DVec3::ZERO, 0.002, 2500.0, 0);
+        }
+        assert!(bed_height(&p).is_nan());
+        // Finite states: the mean top of the highest 1 % (here the one highest sphere).
+        p.position[1].z = 0.02;
+        assert!((bed_height(&p) - 0.032).abs() < 1e-15);
+    }
+
+    /// The scene built into the crate is the example users run and LIGGGHTS compares against.
+    #[test]
+    fn the_built_in_scene_is_the_example() {
+        let example =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/settle.toml");
+        // The crate alone (packaged) has no examples folder to compare with.
+        if let Ok(text) = std::fs::read_to_string(&example) {
+            assert_eq!(
+                text,
+                SETTLE_SCENE,
+                "{} and the built-in copy differ",
+                example.display()
+            );
+        }
+    }
 }

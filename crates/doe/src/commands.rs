@@ -20,6 +20,9 @@ pub fn parse_factor_list(spec: &str) -> Result<Vec<Factor>, String> {
         if k == 0 {
             return Err("--factors: expected at least one factor".into());
         }
+        if k > MAX_FACTORS {
+            return Err(format!("--factors {k}: at most {MAX_FACTORS} factors"));
+        }
         return Ok((0..k)
             .map(|i| Factor::new(&design::factor_letter(i), -1.0, 1.0, Scale::Linear).unwrap())
             .collect());
@@ -41,6 +44,9 @@ pub fn parse_factor_list(spec: &str) -> Result<Vec<Factor>, String> {
     }
     Ok(factors)
 }
+
+/// Most factors a design may have.
+pub const MAX_FACTORS: usize = 1000;
 
 /// Options of `demcal doe design`.
 #[derive(Clone, Debug, Default)]
@@ -66,8 +72,21 @@ pub const DESIGN_KINDS: &str =
 
 /// Builds the requested design; returns it with its factors.
 pub fn make_design(req: &DesignRequest) -> Result<(Design, Vec<Factor>), String> {
+    // Sizes first: nothing is allocated for a request that cannot be met.
+    if let Some(n) = req.runs.filter(|&n| n > design::MAX_RUNS) {
+        return Err(format!("--runs {n}: at most {} runs", design::MAX_RUNS));
+    }
+    if let Some(n) = req.center_points.filter(|&n| n > design::MAX_RUNS) {
+        return Err(format!(
+            "--centers {n}: at most {} centre points",
+            design::MAX_RUNS
+        ));
+    }
     let factors = parse_factor_list(&req.factors)?;
     let k = factors.len();
+    if k > MAX_FACTORS {
+        return Err(format!("--factors: {k} factors, at most {MAX_FACTORS}"));
+    }
     let centres = |default: usize| req.center_points.unwrap_or(default);
     let d = match req.kind.to_ascii_lowercase().as_str() {
         "pb" | "plackett-burman" | "plackett_burman" => {
@@ -122,13 +141,19 @@ pub fn make_design(req: &DesignRequest) -> Result<(Design, Vec<Factor>), String>
             let n = req
                 .runs
                 .ok_or("lhs: give the number of runs with --runs N")?;
+            if kind == LhsKind::Maximin && n > design::MAX_MAXIMIN_RUNS {
+                return Err(format!(
+                    "--lhs maximin: at most {} runs (the search compares every pair of runs); use --lhs random or centred for more",
+                    design::MAX_MAXIMIN_RUNS
+                ));
+            }
             design::latin_hypercube(k, n, kind, req.seed)?
         }
         "random" => {
             let n = req
                 .runs
                 .ok_or("random: give the number of runs with --runs N")?;
-            design::random_design(k, n, req.seed)
+            design::random_design(k, n, req.seed)?
         }
         "steepest" | "steepest-ascent" | "steepest-descent" => {
             let dir = req.direction.as_deref().ok_or(
@@ -148,7 +173,7 @@ pub fn make_design(req: &DesignRequest) -> Result<(Design, Vec<Factor>), String>
                 ));
             }
             let step = req.step.unwrap_or(0.5);
-            if step.is_nan() || step <= 0.0 {
+            if !step.is_finite() || step <= 0.0 {
                 return Err(format!("--step {step}: expected a positive coded distance"));
             }
             design::steepest_path(&coef, step, req.runs.unwrap_or(6))?
@@ -343,6 +368,12 @@ fn model_terms(spec: Option<&str>, exp: &Experiment) -> Result<Vec<Term>, String
 
 /// Fits one response as requested.
 pub fn fit_response(req: &ModelRequest, table: &DataTable, response: &str) -> Result<Fit, String> {
+    if req.reduce && !(req.alpha_out > 0.0 && req.alpha_out < 1.0) {
+        return Err(format!(
+            "--alpha-out {}: expected a number between 0 and 1",
+            req.alpha_out
+        ));
+    }
     let exp = Experiment::from_table(table, response, &factor_columns(&req.factors)?)?;
     let mut terms = model_terms(req.model.as_deref(), &exp)?;
     // "Cubic where estimable": leave out the cubic terms the design aliases.
@@ -435,9 +466,12 @@ pub fn parse_goal(spec: &str, sole_response: Option<&str>) -> Result<(String, Cr
         ));
     };
     let goal = match goal_part.split_once('=') {
-        Some(("target", v)) => {
-            Goal::Target(v.parse().map_err(|_| bad("target value is not a number"))?)
-        }
+        Some(("target", v)) => Goal::Target(
+            v.parse::<f64>()
+                .ok()
+                .filter(|t| t.is_finite())
+                .ok_or_else(|| bad("target value is not a finite number"))?,
+        ),
         None if matches!(*goal_part, "maximize" | "max") => Goal::Maximize,
         None if matches!(*goal_part, "minimize" | "min") => Goal::Minimize,
         None if matches!(*goal_part, "range" | "in_range") => Goal::InRange,
@@ -462,7 +496,9 @@ pub fn parse_goal(spec: &str, sole_response: Option<&str>) -> Result<(String, Cr
             .ok_or_else(|| bad(&format!("'{opt}' is not key=value")))?;
         let num: f64 = v
             .parse()
-            .map_err(|_| bad(&format!("{k}: '{v}' is not a number")))?;
+            .ok()
+            .filter(|x: &f64| x.is_finite())
+            .ok_or_else(|| bad(&format!("{k}: '{v}' is not a finite number")))?;
         match k {
             "lower" => c.lower = num,
             "upper" => c.upper = num,
@@ -496,6 +532,16 @@ pub struct OptimizeRequest {
 
 /// `demcal doe optimize`: fits each response, then searches the desirability.
 pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result<String, String> {
+    if opt.solutions == 0 {
+        return Err("--solutions 0: expected at least 1".into());
+    }
+    if opt.starts > crate::optimize::MAX_STARTS {
+        return Err(format!(
+            "--starts {}: at most {} random starts",
+            opt.starts,
+            crate::optimize::MAX_STARTS
+        ));
+    }
     let table = DataTable::read(&req.data)?;
     if req.responses.is_empty() {
         return Err("--response: name at least one response column".into());

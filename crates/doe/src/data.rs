@@ -3,6 +3,10 @@
 
 use std::path::Path;
 
+/// Largest magnitude a cell may hold: squares of larger values summed over the runs overflow
+/// (1e150 squared is 1e300, and doubles end near 1.8e308).
+pub const MAX_MAGNITUDE: f64 = 1e150;
+
 /// A table of columns read from a CSV file (header row required).
 #[derive(Clone, Debug)]
 pub struct DataTable {
@@ -70,16 +74,19 @@ impl DataTable {
             .enumerate()
             .map(|(i, r)| {
                 let cell = r.get(j).map(String::as_str).unwrap_or("");
-                cell.parse::<f64>()
+                let at = || format!("{}: row {}, column '{name}'", self.source, i + 2);
+                let v = cell
+                    .parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())
-                    .ok_or_else(|| {
-                        format!(
-                            "{}: row {}, column '{name}': '{cell}' is not a number",
-                            self.source,
-                            i + 2
-                        )
-                    })
+                    .ok_or_else(|| format!("{}: '{cell}' is not a number", at()))?;
+                if v.abs() > MAX_MAGNITUDE {
+                    return Err(format!(
+                        "{}: {cell} is too large (values beyond ±1e150 overflow the sums of squares)",
+                        at()
+                    ));
+                }
+                Ok(v)
             })
             .collect()
     }

@@ -5,6 +5,17 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
+/// Most runs a design may have (centre points included): a hundred thousand simulations is
+/// beyond any calibration, and the check comes before anything is allocated.
+pub const MAX_RUNS: usize = 100_000;
+/// Most runs of a Plackett-Burman design (its construction holds a runs x runs matrix).
+pub const MAX_PB_RUNS: usize = 1024;
+/// Most runs of a maximin Latin hypercube: its search compares every pair of runs.
+pub const MAX_MAXIMIN_RUNS: usize = 10_000;
+/// Pair-distance terms (pairs x factors) the maximin search may evaluate in full rescans, so that
+/// large hypercubes end in seconds; smaller ones never reach it.
+const MAXIMIN_WORK: usize = 2_000_000_000;
+
 /// A generated design in coded units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Design {
@@ -409,12 +420,24 @@ pub fn plackett_burman(
     if k == 0 {
         return Err("Plackett-Burman: expected at least one factor".into());
     }
+    if k >= MAX_PB_RUNS {
+        return Err(format!(
+            "Plackett-Burman: {k} factors, at most {}",
+            MAX_PB_RUNS - 1
+        ));
+    }
     let n = match runs {
         Some(n) => n,
+        // Powers of two always qualify, so the search ends by 2 * MAX_PB_RUNS.
         None => (12.max(k + 1)..)
             .find(|&n| n % 4 == 0 && pb_construction(n).is_some())
-            .unwrap(),
+            .unwrap_or(usize::MAX),
     };
+    if n > MAX_PB_RUNS {
+        return Err(format!(
+            "Plackett-Burman: {n} runs asked, at most {MAX_PB_RUNS}"
+        ));
+    }
     if n < k + 1 {
         return Err(format!(
             "Plackett-Burman: {n} runs hold at most {} factors, got {k}",
@@ -578,6 +601,12 @@ pub fn latin_hypercube(k: usize, n: usize, kind: LhsKind, seed: u64) -> Result<D
             "Latin hypercube: expected at least 1 factor and 2 runs, got {k} and {n}"
         ));
     }
+    check_size("Latin hypercube", k, n)?;
+    if kind == LhsKind::Maximin && n > MAX_MAXIMIN_RUNS {
+        return Err(format!(
+            "Latin hypercube (maximin): {n} runs asked, at most {MAX_MAXIMIN_RUNS} (the search compares every pair of runs)"
+        ));
+    }
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut perms: Vec<Vec<usize>> = (0..k)
         .map(|_| {
@@ -587,29 +616,68 @@ pub fn latin_hypercube(k: usize, n: usize, kind: LhsKind, seed: u64) -> Result<D
         })
         .collect();
     if kind == LhsKind::Maximin {
-        let min_dist = |perms: &Vec<Vec<usize>>| -> f64 {
-            let mut best = f64::INFINITY;
+        let pair = |perms: &Vec<Vec<usize>>, a: usize, b: usize| -> f64 {
+            (0..k)
+                .map(|j| (perms[j][a] as f64 - perms[j][b] as f64).powi(2))
+                .sum()
+        };
+        // The smallest pair distance, and how many pairs have it.
+        let min_dist = |perms: &Vec<Vec<usize>>| -> (f64, usize) {
+            let (mut best, mut count) = (f64::INFINITY, 0);
             for a in 0..n {
                 for b in a + 1..n {
-                    let d: f64 = (0..k)
-                        .map(|j| (perms[j][a] as f64 - perms[j][b] as f64).powi(2))
-                        .sum();
-                    best = best.min(d);
+                    let d = pair(perms, a, b);
+                    if d < best {
+                        (best, count) = (d, 1);
+                    } else if d == best {
+                        count += 1;
+                    }
                 }
             }
-            best
+            (best, count)
         };
-        let mut current = min_dist(&perms);
+        // The pairs holding row a or b, each once: all a swap of a and b changes.
+        let changed = |perms: &Vec<Vec<usize>>, a: usize, b: usize, f: &mut dyn FnMut(f64)| {
+            for x in 0..n {
+                if x != a {
+                    f(pair(perms, a, x));
+                }
+                if x != a && x != b {
+                    f(pair(perms, b, x));
+                }
+            }
+        };
+        // A swap is kept when the smallest distance does not fall. The pairs it leaves alone
+        // are at least the current minimum, so that is decided by the changed pairs alone (2n
+        // distances); and the minimum stays while some pair still has it, so a full rescan is
+        // needed only when the last such pair goes. Same choices as rescanning every time, far
+        // fewer distances. A work cap ends the search of very large hypercubes.
+        let scan = (n * (n - 1) / 2 * k).max(1);
+        let mut rescans_left = (MAXIMIN_WORK / scan).max(1);
+        let (mut current, mut at_min) = min_dist(&perms);
         for _ in 0..(200 * n * k).min(20_000) {
             let j = rng.gen_range(0..k);
             let (a, b) = (rng.gen_range(0..n), rng.gen_range(0..n));
             if a == b {
                 continue;
             }
+            let mut before = 0;
+            changed(&perms, a, b, &mut |d| before += usize::from(d == current));
             perms[j].swap(a, b);
-            let trial = min_dist(&perms);
-            if trial >= current {
-                current = trial;
+            let (mut keeps, mut after) = (true, 0);
+            changed(&perms, a, b, &mut |d| {
+                keeps &= d >= current;
+                after += usize::from(d == current);
+            });
+            if keeps {
+                at_min = at_min - before + after;
+                if at_min == 0 {
+                    (current, at_min) = min_dist(&perms);
+                    rescans_left -= 1;
+                    if rescans_left == 0 {
+                        break;
+                    }
+                }
             } else {
                 perms[j].swap(a, b);
             }
@@ -640,13 +708,28 @@ pub fn latin_hypercube(k: usize, n: usize, kind: LhsKind, seed: u64) -> Result<D
     ))
 }
 
+/// Refuses a design of `n` runs of `k` factors beyond [`MAX_RUNS`] runs or ten million values.
+fn check_size(what: &str, k: usize, n: usize) -> Result<(), String> {
+    if n > MAX_RUNS {
+        return Err(format!("{what}: {n} runs asked, at most {MAX_RUNS}"));
+    }
+    if n.saturating_mul(k) > 10_000_000 {
+        return Err(format!(
+            "{what}: {n} runs of {k} factors are {} values, at most 10000000",
+            n.saturating_mul(k)
+        ));
+    }
+    Ok(())
+}
+
 /// Uniform random points in the coded box, for comparison with space-filling designs.
-pub fn random_design(k: usize, n: usize, seed: u64) -> Design {
+pub fn random_design(k: usize, n: usize, seed: u64) -> Result<Design, String> {
+    check_size("random design", k, n)?;
     let mut rng = Pcg64::seed_from_u64(seed);
     let runs = (0..n)
         .map(|_| (0..k).map(|_| rng.gen_range(-1.0..=1.0)).collect())
         .collect();
-    Design::new(format!("random, {n} runs"), k, runs)
+    Ok(Design::new(format!("random, {n} runs"), k, runs))
 }
 
 /// Steepest ascent (or descent) path from the centre: step `i` moves every factor by
@@ -657,6 +740,10 @@ pub fn steepest_path(coefficients: &[f64], step: f64, steps: usize) -> Result<De
     if biggest == 0.0 {
         return Err("steepest path: every coefficient is zero, there is no direction".into());
     }
+    if coefficients.iter().any(|c| !c.is_finite()) || !step.is_finite() {
+        return Err("steepest path: the coefficients and the step must be finite numbers".into());
+    }
+    check_size("steepest path", coefficients.len(), steps.saturating_add(1))?;
     let runs = (0..=steps)
         .map(|i| {
             coefficients

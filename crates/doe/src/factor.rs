@@ -26,6 +26,11 @@ impl Factor {
                 "factor {name}: expected low < high, got {low} and {high}"
             ));
         }
+        if !(high - low).is_finite() {
+            return Err(format!(
+                "factor {name}: expected finite numbers, got {low:e} and {high:e}"
+            ));
+        }
         if scale == Scale::Log && low <= 0.0 {
             return Err(format!(
                 "factor {name}: a logarithmic factor needs low > 0, got {low}"
@@ -111,5 +116,18 @@ mod tests {
         assert!((k.to_coded(1e9) + 1.0).abs() < 1e-12);
         assert!(Factor::new("x", 1.0, 1.0, Scale::Linear).is_err());
         assert!(Factor::new("x", 0.0, 1.0, Scale::Log).is_err());
+    }
+
+    /// A range with an infinite end (or one too wide to subtract) has no centre to code around.
+    #[test]
+    fn infinite_ranges_are_refused() {
+        assert_eq!(
+            Factor::parse("x:-inf:inf").unwrap_err(),
+            "factor x: expected finite numbers, got -inf and inf"
+        );
+        assert_eq!(
+            Factor::new("x", -1e308, 1e308, Scale::Linear).unwrap_err(),
+            "factor x: expected finite numbers, got -1e308 and 1e308"
+        );
     }
 }

@@ -227,6 +227,15 @@ fn aliasing_message(x: &DMatrix<f64>, names: &[String]) -> Option<String> {
     None
 }
 
+/// Why a fit of finite data came out non-finite: the values are too large to square and sum.
+fn overflow_message(exp: &Experiment) -> String {
+    let biggest = exp.response.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    format!(
+        "response '{}': the sums of squares are not finite (values up to {biggest:e}); rescale the response or the factors",
+        exp.response_name
+    )
+}
+
 impl Fit {
     /// Fits `terms` (the intercept must be the first) by least squares on the coded factors.
     pub fn new(
@@ -242,8 +251,31 @@ impl Fit {
             terms.first().is_some_and(Term::is_intercept),
             "intercept first"
         );
+        // Simulated responses can be anything; the tables below must be numbers.
+        if let Some(i) = y.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "response '{}': run {} is {}, not a finite number",
+                exp.response_name,
+                i + 1,
+                y[i]
+            ));
+        }
+        if let Some(i) = exp
+            .coded
+            .iter()
+            .position(|r| r.iter().any(|v| !v.is_finite()))
+        {
+            return Err(format!(
+                "response '{}': run {} has a factor setting that is not a finite number",
+                exp.response_name,
+                i + 1
+            ));
+        }
         let mean = y.iter().sum::<f64>() / n as f64;
         let total_sum_sq: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+        if !total_sum_sq.is_finite() {
+            return Err(overflow_message(exp));
+        }
         let spread = y.iter().fold(0.0f64, |m, v| m.max((v - mean).abs()));
         if spread <= 1e-12 * mean.abs().max(1e-300) {
             return Err(format!(
@@ -295,6 +327,9 @@ impl Fit {
         let fitted_all = &x * &b;
         let residuals: Vec<f64> = (0..n).map(|i| y[i] - fitted_all[i]).collect();
         let ss_res: f64 = residuals.iter().map(|e| e * e).sum();
+        if !ss_res.is_finite() || b.iter().any(|v| !v.is_finite()) {
+            return Err(overflow_message(exp));
+        }
         let df_res = n - p;
         let ms_res = ss_res / df_res as f64;
         let error_ms = (ms_res > 1e-14 * total_sum_sq / (n - 1) as f64).then_some(ms_res);

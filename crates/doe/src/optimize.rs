@@ -9,6 +9,10 @@ use serde::Serialize;
 
 use crate::fit::Fit;
 
+/// Most random starts of a search: each is a Nelder-Mead run of up to 600 steps, and all are
+/// held at once before the ranking.
+pub const MAX_STARTS: usize = 10_000;
+
 /// What a criterion asks of a response (or factor).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -100,7 +104,21 @@ impl Criterion {
     }
 
     pub fn validate(&self) -> Result<(), String> {
-        if self.lower.is_nan() || self.upper.is_nan() || self.lower > self.upper {
+        if let Goal::Target(t) = self.goal {
+            if !t.is_finite() {
+                return Err(format!(
+                    "goal on '{}': target {t} is not a finite number",
+                    self.name
+                ));
+            }
+        }
+        if !self.lower.is_finite() || !self.upper.is_finite() {
+            return Err(format!(
+                "goal on '{}': limits must be finite numbers, got {} and {}",
+                self.name, self.lower, self.upper
+            ));
+        }
+        if self.lower > self.upper {
             return Err(format!(
                 "goal on '{}': expected lower <= upper, got {} and {}",
                 self.name, self.lower, self.upper
@@ -120,7 +138,11 @@ impl Criterion {
                 self.name, self.importance
             ));
         }
-        if !(self.weight_lower > 0.0 && self.weight_upper > 0.0) {
+        if !(self.weight_lower > 0.0
+            && self.weight_upper > 0.0
+            && self.weight_lower.is_finite()
+            && self.weight_upper.is_finite())
+        {
             return Err(format!("goal on '{}': weights must be positive", self.name));
         }
         Ok(())
@@ -254,6 +276,14 @@ impl Problem<'_> {
     ) -> Result<Vec<Solution>, String> {
         if self.fits.is_empty() {
             return Err("optimise: no fitted response".into());
+        }
+        if starts > MAX_STARTS {
+            return Err(format!(
+                "optimise: {starts} random starts asked, at most {MAX_STARTS}"
+            ));
+        }
+        if max_solutions == 0 {
+            return Err("optimise: asked for no solutions (expected at least 1)".into());
         }
         for (_, c) in &self.criteria {
             c.validate()?;

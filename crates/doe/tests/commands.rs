@@ -252,6 +252,20 @@ fn errors_say_what_is_wrong() {
     assert!(e.contains("term CD is aliased (CD = AB)"), "{e}");
     let e = analyze_error(&csv, "y", Some("A,B,Q"));
     assert!(e.contains("'Q' is not a factor"), "{e}");
+    // Backward elimination needs a significance level.
+    let p = temp_file("alpha-out.csv", &csv);
+    let req = ModelRequest {
+        data: p,
+        responses: vec!["y".into()],
+        model: Some("linear".into()),
+        reduce: true,
+        alpha_out: f64::NAN,
+        ..Default::default()
+    };
+    assert_eq!(
+        commands::analyze(&req, false, None).unwrap_err(),
+        "--alpha-out NaN: expected a number between 0 and 1"
+    );
 }
 
 #[test]
@@ -277,4 +291,166 @@ fn steepest_path_is_written_in_order() {
     assert!(commands::make_design(&bad)
         .unwrap_err()
         .contains("2 numbers for 3 factors"));
+}
+
+fn design_error(req: DesignRequest) -> String {
+    commands::make_design(&req).unwrap_err()
+}
+
+/// Sizes are checked before anything is allocated: a billion-run Latin hypercube (7.8 GB) and
+/// its friends are refused at once with the limit.
+#[test]
+fn absurd_design_sizes_are_refused_with_the_limit() {
+    let lhs = DesignRequest {
+        kind: "lhs".into(),
+        factors: "3".into(),
+        runs: Some(1_000_000_000),
+        ..Default::default()
+    };
+    assert_eq!(
+        design_error(lhs.clone()),
+        "--runs 1000000000: at most 100000 runs"
+    );
+    assert_eq!(
+        design_error(DesignRequest {
+            kind: "random".into(),
+            ..lhs.clone()
+        }),
+        "--runs 1000000000: at most 100000 runs"
+    );
+    assert_eq!(
+        design_error(DesignRequest {
+            kind: "ccd".into(),
+            runs: None,
+            center_points: Some(1_000_000_000),
+            ..lhs.clone()
+        }),
+        "--centers 1000000000: at most 100000 centre points"
+    );
+    assert_eq!(
+        design_error(DesignRequest {
+            kind: "pb".into(),
+            runs: Some(2048),
+            ..lhs.clone()
+        }),
+        "Plackett-Burman: 2048 runs asked, at most 1024"
+    );
+    assert_eq!(
+        design_error(DesignRequest {
+            kind: "steepest".into(),
+            direction: Some("1,1,1".into()),
+            ..lhs.clone()
+        }),
+        "--runs 1000000000: at most 100000 runs"
+    );
+    // The maximin search compares every pair of runs; beyond 10 000 runs it would not end.
+    assert_eq!(
+        design_error(DesignRequest {
+            runs: Some(20_000),
+            ..lhs.clone()
+        }),
+        "--lhs maximin: at most 10000 runs (the search compares every pair of runs); use --lhs random or centred for more"
+    );
+    // Within the limits these are quick: 20 000 random-order runs.
+    let (d, _) = commands::make_design(&DesignRequest {
+        runs: Some(20_000),
+        lhs: Some("centred".into()),
+        ..lhs
+    })
+    .unwrap();
+    assert_eq!(d.runs.len(), 20_000);
+}
+
+/// A maximin hypercube of thousands of runs ends in seconds (before, each of its 20 000 trial
+/// swaps rescanned every pair of runs: minutes).
+#[test]
+fn maximin_hypercubes_end_in_bounded_time() {
+    let t = std::time::Instant::now();
+    let d = doe::design::latin_hypercube(3, 2000, doe::design::LhsKind::Maximin, 1).unwrap();
+    assert_eq!(d.runs.len(), 2000);
+    assert!(t.elapsed().as_secs_f64() < 20.0, "{:?}", t.elapsed());
+}
+
+fn optimize_error(goals: &[&str], solutions: usize, starts: usize) -> String {
+    let p = temp_file(
+        "ccd-opt-err.csv",
+        include_str!("data/silage-repose-ccd.csv"),
+    );
+    let req = ModelRequest {
+        data: p,
+        responses: vec!["angle_deg".into()],
+        model: Some("quadratic".into()),
+        alpha_out: 0.1,
+        ..Default::default()
+    };
+    let opt = OptimizeRequest {
+        goals: goals.iter().map(|g| g.to_string()).collect(),
+        solutions,
+        starts,
+        seed: 1,
+    };
+    commands::optimize(&req, &opt, false).unwrap_err()
+}
+
+#[test]
+fn optimize_refuses_nonsense_goals_and_counts() {
+    // A hundred million starts would take 5.9 GB before the search began.
+    assert_eq!(
+        optimize_error(&["target=38"], 5, 100_000_000),
+        "--starts 100000000: at most 10000 random starts"
+    );
+    assert_eq!(
+        optimize_error(&["target=38"], 0, 40),
+        "--solutions 0: expected at least 1"
+    );
+    assert_eq!(
+        optimize_error(&["target=nan"], 5, 40),
+        "--goal 'target=nan': target value is not a finite number"
+    );
+    assert_eq!(
+        optimize_error(&["angle_deg:target=38:upper=inf"], 5, 40),
+        "--goal 'angle_deg:target=38:upper=inf': upper: 'inf' is not a finite number"
+    );
+    assert_eq!(
+        optimize_error(&["maximize:weight=nan"], 5, 40),
+        "--goal 'maximize:weight=nan': weight: 'nan' is not a finite number"
+    );
+}
+
+/// A cell too large to square and sum (1e300) is refused with its file, row and column, and a
+/// fit that still comes out non-finite says so instead of printing NaN.
+#[test]
+fn overflowing_data_is_refused_with_file_row_and_column() {
+    let e = analyze_error(
+        "A,B,y\n-1,-1,1\n1,-1,2\n-1,1,1e300\n1,1,5\n0,0,3\n",
+        "y",
+        Some("linear"),
+    );
+    assert!(
+        e.ends_with("row 4, column 'y': 1e300 is too large (values beyond ±1e150 overflow the sums of squares)"),
+        "{e}"
+    );
+    let e = analyze_error(
+        "A,B,y\n-1,-1,1\n1,-1,2\n-1,1e200,1\n1,1,5\n0,0,3\n",
+        "y",
+        Some("linear"),
+    );
+    assert!(e.ends_with("row 4, column 'B': 1e200 is too large (values beyond ±1e150 overflow the sums of squares)"), "{e}");
+    // Through the library (a study's responses come from simulations, not a file): values whose
+    // squares overflow, and values that are not numbers, are refused by the fit itself.
+    let mut exp = Experiment {
+        response_name: "y".into(),
+        factor_names: vec!["A".into()],
+        factors: None,
+        coded: vec![vec![-1.0], vec![1.0], vec![0.0], vec![0.5]],
+        response: vec![1e200, -1e200, 1e200, 3.0],
+    };
+    let e = Fit::new(&exp, &ModelOrder::Linear.terms(1), doe::Curvature::Off).unwrap_err();
+    assert_eq!(
+        e,
+        "response 'y': the sums of squares are not finite (values up to 1e200); rescale the response or the factors"
+    );
+    exp.response[2] = f64::NAN;
+    let e = Fit::new(&exp, &ModelOrder::Linear.terms(1), doe::Curvature::Off).unwrap_err();
+    assert_eq!(e, "response 'y': run 3 is NaN, not a finite number");
 }

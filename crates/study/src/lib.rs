@@ -37,6 +37,8 @@ pub struct RunOptions {
 pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
     let study = Study::load(path)?;
     let db = study.store_path();
+    // One `demcal run` per study at a time, held until the report is written.
+    let _lock = store::StoreLock::acquire(&db)?;
     if opts.restart && db.exists() {
         let aside = db.with_extension(format!(
             "db.old-{}",

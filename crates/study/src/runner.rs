@@ -1,20 +1,32 @@
 //! Running simulations on this machine: `jobs` runs at once, each in its own rayon pool holding
 //! its share of the cores, with a progress bar per stage (and a line per job) on a terminal and
-//! one log line per finished run otherwise. Finished runs go to the store one transaction each,
-//! from this thread only, so the store never sees two writers.
+//! otherwise plain log lines: one per finished run, and one per running job every
+//! [`log_interval`]. Finished runs go to the store one transaction each, from this thread only,
+//! so the store never sees two writers.
 
 use std::collections::VecDeque;
 use std::io::IsTerminal;
 use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::spec::Study;
 use crate::stages::{Execute, RunSpec, StageResult};
 use crate::store::{now_utc, RunRecord, Status, Store};
+
+/// How often a long run logs how far it is when standard error is not a terminal (a log file, a
+/// batch job): `DEMCAL_PROGRESS_S` seconds, default 5.
+pub fn log_interval() -> Duration {
+    std::env::var("DEMCAL_PROGRESS_S")
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .map(|s| Duration::from_secs_f64(s.min(1e6)))
+        .unwrap_or(Duration::from_secs(5))
+}
 
 /// The error text a run returns when the study is interrupted; such runs are not stored.
 const INTERRUPTED: &str = "interrupted";
@@ -171,6 +183,11 @@ impl Execute for LocalExecutor<'_> {
                 stage.runs.len() - runs.len()
             );
         }
+        let pools = (0..jobs)
+            .map(|_| rayon::ThreadPoolBuilder::new().num_threads(threads).build())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| format!("cannot start {jobs} job(s) of {threads} thread(s): {e}"))?;
+        let every = log_interval();
         let queue = Mutex::new(runs.iter().cloned().collect::<VecDeque<_>>());
         let (tx, rx) = mpsc::channel::<(RunSpec, Option<RunRecord>)>();
         let mut finished = Vec::new();
@@ -179,33 +196,43 @@ impl Execute for LocalExecutor<'_> {
         let multi = &self.multi;
         let terminal = self.terminal;
         let store = &mut *self.store;
+        let stage_name = &stage_name;
         std::thread::scope(|scope| {
-            for job in 0..jobs {
+            for (job, pool) in pools.into_iter().enumerate() {
                 let tx = tx.clone();
                 let queue = &queue;
                 let interrupted = &*interrupted;
                 let line = multi.add(ProgressBar::new_spinner());
                 line.set_style(ProgressStyle::with_template("  {spinner} {msg}").unwrap());
                 scope.spawn(move || {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .expect("a thread pool");
                     loop {
                         if interrupted.load(Ordering::Relaxed) {
                             break;
                         }
-                        let Some(spec) = queue.lock().unwrap().pop_front() else {
+                        // Nothing panics while holding the queue, so a poisoned lock is whole.
+                        let next = queue.lock().unwrap_or_else(|e| e.into_inner()).pop_front();
+                        let Some(spec) = next else {
                             break;
                         };
                         let head =
                             format!("job {}: run {} ({})", job + 1, spec.index + 1, spec.label);
                         line.set_message(head.clone());
+                        let started = Instant::now();
+                        let last_log = Mutex::new(started);
                         // Called every few hundred steps: format only when it is shown.
                         let report = |phase: &str, t: f64| {
                             if terminal {
                                 line.set_message(format!("{head}: {phase}: t = {t:.2} s"));
                                 line.tick();
+                            } else {
+                                let mut last = last_log.lock().unwrap_or_else(|e| e.into_inner());
+                                if last.elapsed() >= every {
+                                    *last = Instant::now();
+                                    eprintln!(
+                                        "{stage_name}: {head}: {phase}: t = {t:.2} s ({:.0} s running)",
+                                        started.elapsed().as_secs_f64()
+                                    );
+                                }
                             }
                         };
                         let rec = pool.install(|| run_one(study, &spec, interrupted, &report));

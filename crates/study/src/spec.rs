@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use doe::design::CcdAlpha;
 use doe::{Factor, Scale};
 
 use crate::paths::ParamPath;
@@ -19,9 +20,16 @@ pub struct Parameter {
 }
 
 impl Parameter {
-    /// The factor over `lo..hi` (actual units) in this parameter's scale.
-    pub fn factor(&self, lo: f64, hi: f64) -> Factor {
-        Factor::new(&self.name, lo, hi, self.scale).expect("checked range")
+    /// The factor over `lo..hi` (actual units) in this parameter's scale. A stage can narrow a
+    /// range until its ends meet (a steepest path through a tiny range); that is an error naming
+    /// the parameter, for the stage to report.
+    pub fn factor(&self, lo: f64, hi: f64) -> Result<Factor, String> {
+        Factor::new(&self.name, lo, hi, self.scale).map_err(|_| {
+            format!(
+                "parameter {}: its range has shrunk to {lo} .. {hi}, too narrow for a design",
+                self.name
+            )
+        })
     }
 
     /// The value the coded level is linear in (the value, or its log10).
@@ -79,9 +87,15 @@ pub enum ScreeningDesign {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum RsmDesign {
-    CentralComposite { alpha: String },
+    CentralComposite { alpha: CcdAlpha },
     BoxBehnken,
 }
+
+/// Largest counts a plan may ask for: beyond them a stage would only eat memory and time.
+pub const MAX_CENTER_POINTS: usize = 1000;
+pub const MAX_STEPS: usize = 1000;
+pub const MAX_REPLICATES: usize = 1000;
+pub const MAX_SOLUTIONS: usize = 1000;
 
 /// One stage of the plan, with its settings (defaults filled in).
 #[derive(Clone, Debug, PartialEq)]
@@ -345,6 +359,20 @@ impl Study {
                     format!("expected min < max, got min = {min} and max = {max}"),
                 ));
             }
+            if !(max - min).is_finite() {
+                return Err(err(
+                    &format!("{key}.min"),
+                    format!("expected finite numbers, got min = {min} and max = {max}"),
+                ));
+            }
+            // Run values are stored to 12 significant digits; a narrower range would collapse
+            // to one value on the way through the stages.
+            if max - min <= 1e-6 * min.abs().max(max.abs()) {
+                return Err(err(
+                    &format!("{key}.max"),
+                    format!("the range {min} .. {max} is too narrow: values are kept to 12 significant digits, so give a range wider than a millionth of its values"),
+                ));
+            }
             let scale = match t.get("scale").map(|v| v.as_str()) {
                 None | Some(Some("linear")) => Scale::Linear,
                 Some(Some("log")) => Scale::Log,
@@ -392,7 +420,15 @@ impl Study {
         }
         let outputs = virtual_tests::responses(&base.test);
         let response = match target_table.get("response") {
-            None => outputs[0].to_string(),
+            None => outputs
+                .first()
+                .ok_or_else(|| {
+                    err(
+                        "test",
+                        format!("{} has no outcome to calibrate against", base.test),
+                    )
+                })?
+                .to_string(),
             Some(toml::Value::String(r)) if outputs.contains(&r.as_str()) => r.clone(),
             Some(v) => {
                 return Err(err(
@@ -409,9 +445,14 @@ impl Study {
             None => Vec::new(),
             Some(toml::Value::Array(a)) => a
                 .iter()
-                .map(number)
+                .map(|v| number(v).filter(|x| x.is_finite()))
                 .collect::<Option<Vec<_>>>()
-                .ok_or_else(|| err("target.replicates", "expected a list of numbers".into()))?,
+                .ok_or_else(|| {
+                    err(
+                        "target.replicates",
+                        "expected a list of finite numbers".into(),
+                    )
+                })?,
             Some(_) => {
                 return Err(err(
                     "target.replicates",
@@ -561,16 +602,25 @@ fn parse_plan(
                 ));
             }
         }
-        let count = |k: &str, default: usize, min: usize| -> Result<usize, String> {
-            match t.get(k) {
-                None => Ok(default),
-                Some(toml::Value::Integer(n)) if *n >= min as i64 => Ok(*n as usize),
-                Some(_) => Err(err(
-                    &format!("{key}.{k}"),
-                    format!("expected a whole number >= {min}"),
-                )),
-            }
-        };
+        // A whole number from `min` to `max` (None: no upper limit).
+        let count =
+            |k: &str, default: usize, min: usize, max: Option<usize>| -> Result<usize, String> {
+                match t.get(k) {
+                    None => Ok(default),
+                    Some(toml::Value::Integer(n))
+                        if *n >= min as i64 && max.is_none_or(|m| *n <= m as i64) =>
+                    {
+                        Ok(*n as usize)
+                    }
+                    Some(_) => Err(err(
+                        &format!("{key}.{k}"),
+                        match max {
+                            Some(m) => format!("expected a whole number from {min} to {m}"),
+                            None => format!("expected a whole number >= {min}"),
+                        },
+                    )),
+                }
+            };
         let fraction = |k: &str, default: f64| -> Result<f64, String> {
             match t.get(k) {
                 None => Ok(default),
@@ -596,10 +646,13 @@ fn parse_plan(
                 }
                 let design = match text("design", "plackett-burman")?.as_str() {
                     "plackett-burman" | "pb" => ScreeningDesign::PlackettBurman {
-                        runs: t.get("runs").map(|_| count("runs", 12, 4)).transpose()?,
+                        runs: t
+                            .get("runs")
+                            .map(|_| count("runs", 12, 4, Some(doe::design::MAX_PB_RUNS)))
+                            .transpose()?,
                     },
                     "fractional" | "fractional-factorial" => ScreeningDesign::Fractional {
-                        resolution: count("resolution", 4, 3)?,
+                        resolution: count("resolution", 4, 3, None)?,
                     },
                     "factorial" | "full-factorial" => ScreeningDesign::Factorial,
                     other => {
@@ -609,8 +662,8 @@ fn parse_plan(
                         ))
                     }
                 };
-                let min_factors = count("min_factors", 2.min(n_params), 1)?;
-                let max_factors = count("max_factors", 4.min(n_params), 1)?;
+                let min_factors = count("min_factors", 2.min(n_params), 1, None)?;
+                let max_factors = count("max_factors", 4.min(n_params), 1, None)?;
                 if min_factors > max_factors {
                     return Err(err(
                         &format!("{key}.min_factors"),
@@ -619,14 +672,14 @@ fn parse_plan(
                 }
                 Stage::Screening {
                     design,
-                    center_points: count("center_points", 1, 0)?,
+                    center_points: count("center_points", 1, 0, Some(MAX_CENTER_POINTS))?,
                     alpha: fraction("alpha", 0.05)?,
                     min_factors,
                     max_factors,
                 }
             }
             "steepest" => Stage::Steepest {
-                steps: count("steps", 5, 3)?,
+                steps: count("steps", 5, 3, Some(MAX_STEPS))?,
                 proportional: match text("direction", "signs")?.as_str() {
                     "signs" => false,
                     "coefficients" => true,
@@ -641,7 +694,8 @@ fn parse_plan(
             "rsm" => {
                 let design = match text("design", "ccd")?.as_str() {
                     "ccd" | "central-composite" => RsmDesign::CentralComposite {
-                        alpha: text("alpha", "rotatable")?,
+                        alpha: ccd_alpha(t.get("alpha"))
+                            .map_err(|e| err(&format!("{key}.alpha"), e))?,
                     },
                     "box-behnken" | "bbd" => {
                         if t.contains_key("alpha") {
@@ -659,21 +713,11 @@ fn parse_plan(
                         ))
                     }
                 };
-                if let RsmDesign::CentralComposite { alpha } = &design {
-                    if !["rotatable", "face", "spherical", "orthogonal"].contains(&alpha.as_str())
-                        && alpha.parse::<f64>().map_or(true, |a| a <= 0.0)
-                    {
-                        return Err(err(
-                            &format!("{key}.alpha"),
-                            format!("\"{alpha}\": expected rotatable, face, spherical, orthogonal or a positive number"),
-                        ));
-                    }
-                }
                 Stage::Rsm {
                     design,
                     center_points: t
                         .get("center_points")
-                        .map(|_| count("center_points", 0, 1))
+                        .map(|_| count("center_points", 0, 1, Some(MAX_CENTER_POINTS)))
                         .transpose()?,
                     reduce: match t.get("reduce") {
                         None => true,
@@ -689,11 +733,11 @@ fn parse_plan(
                 }
             }
             "optimize" => Stage::Optimize {
-                solutions: count("solutions", 5, 1)?,
-                starts: count("starts", 40, 1)?,
+                solutions: count("solutions", 5, 1, Some(MAX_SOLUTIONS))?,
+                starts: count("starts", 40, 1, Some(doe::optimize::MAX_STARTS))?,
             },
             "validate" => Stage::Validate {
-                replicates: count("replicates", 3, 1)?,
+                replicates: count("replicates", 3, 1, Some(MAX_REPLICATES))?,
             },
             _ => unreachable!(),
         };
@@ -718,6 +762,34 @@ fn parse_plan(
         plan.push(stage);
     }
     Ok(plan)
+}
+
+/// The axial distance of a CCD: `rotatable`, `face`, `spherical`, `orthogonal`, or a positive
+/// number (written as a number or as text).
+fn ccd_alpha(v: Option<&toml::Value>) -> Result<CcdAlpha, String> {
+    const EXPECTED: &str = "expected rotatable, face, spherical, orthogonal or a positive number";
+    let positive = |a: f64| {
+        (a.is_finite() && a > 0.0)
+            .then_some(CcdAlpha::Custom(a))
+            .ok_or_else(|| format!("{a}: {EXPECTED}"))
+    };
+    match v {
+        None => Ok(CcdAlpha::Rotatable),
+        Some(toml::Value::String(s)) => match s.to_ascii_lowercase().as_str() {
+            "rotatable" => Ok(CcdAlpha::Rotatable),
+            "face" => Ok(CcdAlpha::FaceCentred),
+            "spherical" => Ok(CcdAlpha::Spherical),
+            "orthogonal" => Ok(CcdAlpha::Orthogonal),
+            other => match other.parse::<f64>() {
+                Ok(a) if a.is_finite() && a > 0.0 => Ok(CcdAlpha::Custom(a)),
+                _ => Err(format!("\"{s}\": {EXPECTED}")),
+            },
+        },
+        Some(v) => match number(v) {
+            Some(a) => positive(a),
+            None => Err(format!("{v}: {EXPECTED}")),
+        },
+    }
 }
 
 pub fn number(v: &toml::Value) -> Option<f64> {

@@ -6,7 +6,7 @@
 
 use std::collections::HashMap;
 
-use doe::design::{self, CcdAlpha, Design};
+use doe::design::{self, Design};
 use doe::optimize::{Criterion, Goal, Problem, Solution, Subject};
 use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 
@@ -143,6 +143,11 @@ impl StageResult {
             .collect()
     }
 
+    /// Finished runs that gave a response: what a stage can model.
+    fn usable(&self) -> usize {
+        self.successes().len()
+    }
+
     fn first_failure(&self) -> String {
         self.runs
             .iter()
@@ -269,7 +274,15 @@ pub fn replay(
     };
     let mut stages: Vec<StageResult> = Vec::new();
     for (si, stage) in study.plan.iter().enumerate() {
-        let mut st = plan_stage(study, si, stage, &ctx);
+        let mut st = match plan_stage(study, si, stage, &ctx) {
+            Ok(st) => st,
+            Err(why) => {
+                return Ok(Replay {
+                    stages,
+                    state: State::Stopped(format!("stage {} ({}): {why}", si + 1, stage.kind())),
+                })
+            }
+        };
         // Stored runs must be the runs the study asks for now.
         for spec in &st.runs {
             if let Some(r) = by_key.remove(&(si, spec.index)) {
@@ -313,8 +326,16 @@ pub fn replay(
                         let slot = st
                             .runs
                             .iter()
-                            .position(|s| s.index == r.index)
-                            .expect("executor returns the runs it was given");
+                            .position(|s| s.index == r.index && r.stage == si)
+                            .ok_or_else(|| {
+                                format!(
+                                    "stage {} ({}): the executor returned run {}, which the stage does not have (it has runs 1 to {})",
+                                    si + 1,
+                                    stage.kind(),
+                                    r.index + 1,
+                                    st.runs.len()
+                                )
+                            })?;
                         st.records[slot] = Some(r);
                     }
                     if st.pending() > 0 {
@@ -401,7 +422,7 @@ pub fn sig(v: f64) -> String {
     doe::fit::fmt_sig(v)
 }
 
-fn factors_of(study: &Study, ctx: &Context) -> Vec<Factor> {
+fn factors_of(study: &Study, ctx: &Context) -> Result<Vec<Factor>, String> {
     ctx.active
         .iter()
         .map(|&i| {
@@ -431,10 +452,17 @@ fn specs_from_design(study: &Study, st: &mut StageResult, ctx: &Context, d: &Des
     }
 }
 
-fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageResult {
+/// The runs of a stage. An error (a parameter whose range has shrunk to nothing) stops the
+/// study with the reason.
+fn plan_stage(
+    study: &Study,
+    si: usize,
+    stage: &Stage,
+    ctx: &Context,
+) -> Result<StageResult, String> {
     let mut st = StageResult::new(si, stage.kind());
     st.active = ctx.active.clone();
-    st.factors = factors_of(study, ctx);
+    st.factors = factors_of(study, ctx)?;
     let k = st.active.len();
     match stage {
         Stage::Screening {
@@ -510,15 +538,8 @@ fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageRe
         } => {
             let d = match kind {
                 RsmDesign::CentralComposite { alpha } => {
-                    let a = match alpha.as_str() {
-                        "rotatable" => CcdAlpha::Rotatable,
-                        "face" => CcdAlpha::FaceCentred,
-                        "spherical" => CcdAlpha::Spherical,
-                        "orthogonal" => CcdAlpha::Orthogonal,
-                        v => CcdAlpha::Custom(v.parse().unwrap_or(1.0)),
-                    };
                     let cp = center_points.unwrap_or(if k == 2 { 5 } else { 6 });
-                    design::central_composite(k, a, cp, None)
+                    design::central_composite(k, *alpha, cp, None)
                 }
                 RsmDesign::BoxBehnken => design::box_behnken(k, center_points.unwrap_or(5)),
             };
@@ -537,7 +558,14 @@ fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageRe
                         let mut c = 0.5 * (hi + lo);
                         if c - a * h < lim_lo - 1e-12 || c + a * h > lim_hi + 1e-12 {
                             h = h.min((lim_hi - lim_lo) / (2.0 * a));
-                            c = c.clamp(lim_lo + a * h, lim_hi - a * h);
+                            // When the region fills the whole range the two bounds for the
+                            // centre meet, and rounding can leave them a hair crossed.
+                            let (c_lo, c_hi) = (lim_lo + a * h, lim_hi - a * h);
+                            c = if c_lo <= c_hi {
+                                c.clamp(c_lo, c_hi)
+                            } else {
+                                0.5 * (lim_lo + lim_hi)
+                            };
                             st.notes.push(format!(
                                 "{}: the design's ±{} points would leave {} .. {}; its ±1 range is now {} .. {}",
                                 p.name,
@@ -548,7 +576,7 @@ fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageRe
                                 sig(p.actual(c + h))
                             ));
                         }
-                        factors.push(p.factor(p.actual(c - h), p.actual(c + h)));
+                        factors.push(p.factor(p.actual(c - h), p.actual(c + h))?);
                     }
                     st.factors = factors;
                     st.title = format!("{}, {} runs", d.kind, d.runs.len());
@@ -583,7 +611,7 @@ fn plan_stage(study: &Study, si: usize, stage: &Stage, ctx: &Context) -> StageRe
             st.calibrated = Some(point);
         }
     }
-    st
+    Ok(st)
 }
 
 fn experiment(study: &Study, st: &StageResult) -> Experiment {
@@ -598,11 +626,18 @@ fn experiment(study: &Study, st: &StageResult) -> Experiment {
 }
 
 fn enough(st: &StageResult, needed: usize, what: &str) -> Result<(), String> {
-    let ok = st.done();
+    let ok = st.usable();
     if ok < needed {
+        // Runs stored as done without a response (a store from elsewhere) do not count.
+        let without = st.done() - ok;
         return Err(format!(
-            "{ok} of {} runs finished ({} failed{}); {what} needs at least {needed}. Look at the failures, narrow the ranges or make the test more robust, then run again with --retry-failed",
+            "{ok} of {} runs finished{} ({} failed{}); {what} needs at least {needed}. Look at the failures, narrow the ranges or make the test more robust, then run again with --retry-failed",
             st.runs.len(),
+            if without > 0 {
+                format!(" with a response, {without} without")
+            } else {
+                String::new()
+            },
             st.failed(),
             st.first_failure()
         ));
@@ -729,7 +764,7 @@ fn conclude(
                 .iter()
                 .min_by(|a, b| (a.1 - target).abs().total_cmp(&(b.1 - target).abs()))
                 .copied()
-                .unwrap();
+                .ok_or("no run of the path gave a response")?;
             let b = best_spec.index;
             let last = st.runs.len() - 1;
             let (lo_i, hi_i) = if b == 0 {
@@ -749,6 +784,20 @@ fn conclude(
                 let p = &study.parameters[pi];
                 let a = st.runs[lo_i].values[pi];
                 let c = st.runs[hi_i].values[pi];
+                if a == c {
+                    // A parameter the path does not move (its coefficient is zero, to the digits
+                    // values are kept to) keeps the range it had: a range of nothing cannot be
+                    // designed over.
+                    let (lo, hi) = ctx.region[pi];
+                    st.notes.push(format!(
+                        "{}: the path does not move it (its coefficient is about zero); its range stays {} .. {}",
+                        p.name,
+                        sig(lo),
+                        sig(hi)
+                    ));
+                    ctx.values[pi] = a;
+                    continue;
+                }
                 ctx.region[pi] = (a.min(c), a.max(c));
                 ctx.values[pi] = if b == 0 || b == last {
                     p.actual(0.5 * (p.transformed(a) + p.transformed(c)))
@@ -798,7 +847,10 @@ fn conclude(
             st.fit = Some(fit);
         }
         Stage::Optimize { solutions, starts } => {
-            let (fit, active) = ctx.model.clone().expect("checked when the study was read");
+            let (fit, active) = ctx
+                .model
+                .clone()
+                .ok_or("no stage before it fitted a model (put a screening or rsm stage first)")?;
             let observed = &fit.experiment.response;
             let lo = observed.iter().copied().fold(target, f64::min);
             let hi = observed.iter().copied().fold(target, f64::max);

@@ -193,6 +193,120 @@ impl Store {
     }
 }
 
+/// The right to run a study: `<store>.lock` next to the store, holding the process id of the
+/// `demcal run` that owns it. Created atomically (a second `demcal run` of the same study finds it
+/// and stops, naming the process); removed when the run ends. A lock left by a process that no
+/// longer exists (killed, power cut) is stale and taken over. Readers (`status`, `report`) take
+/// no lock: SQLite keeps every transaction whole for them.
+#[derive(Debug)]
+pub struct StoreLock {
+    path: PathBuf,
+}
+
+impl StoreLock {
+    /// The lock file of the store at `store`.
+    pub fn path_for(store: &Path) -> PathBuf {
+        let mut name = store.as_os_str().to_owned();
+        name.push(".lock");
+        PathBuf::from(name)
+    }
+
+    pub fn acquire(store: &Path) -> Result<StoreLock, String> {
+        let path = StoreLock::path_for(store);
+        let me = std::process::id();
+        // Two tries: the second after removing a stale lock.
+        for _ in 0..2 {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path)
+            {
+                Ok(mut f) => {
+                    use std::io::Write;
+                    f.write_all(format!("{me}\n").as_bytes())
+                        .and_then(|_| f.sync_all())
+                        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+                    return Ok(StoreLock { path });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let text = std::fs::read_to_string(&path).unwrap_or_default();
+                    match text.lines().next().and_then(|l| l.trim().parse::<u32>().ok()) {
+                        Some(pid) if pid != me && !process_exists(pid) => {
+                            // Stale: its process is gone.
+                            let _ = std::fs::remove_file(&path);
+                        }
+                        Some(pid) => {
+                            return Err(format!(
+                                "{}: the study is being run by process {pid} (lock file {}); wait for it to end, or stop it",
+                                store.display(),
+                                path.display()
+                            ))
+                        }
+                        // Being written this instant, or not ours to read.
+                        None => {
+                            return Err(format!(
+                                "{}: the study is being run by another process (lock file {}); if no demcal run is going, remove that file",
+                                store.display(),
+                                path.display()
+                            ))
+                        }
+                    }
+                }
+                Err(e) => return Err(format!("{}: cannot create: {e}", path.display())),
+            }
+        }
+        Err(format!(
+            "{}: cannot take the lock: another process took it over at the same moment",
+            path.display()
+        ))
+    }
+}
+
+impl Drop for StoreLock {
+    fn drop(&mut self) {
+        // Only our own lock: after a takeover the file may be another process's.
+        let ours = std::fs::read_to_string(&self.path)
+            .ok()
+            .and_then(|t| {
+                t.lines()
+                    .next()
+                    .map(|l| l.trim() == std::process::id().to_string())
+            })
+            .unwrap_or(false);
+        if ours {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Whether a process with this id exists on this machine.
+fn process_exists(pid: u32) -> bool {
+    if Path::new("/proc/self").exists() {
+        // A zombie (ended, not yet reaped by its parent) holds nothing either.
+        return match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+            Ok(stat) => stat
+                .rsplit_once(')')
+                .is_none_or(|(_, rest)| rest.split_whitespace().next() != Some("Z")),
+            Err(_) => false,
+        };
+    }
+    #[cfg(unix)]
+    {
+        // No /proc (macOS, BSD): `kill -0` asks without sending anything.
+        std::process::Command::new("kill")
+            .args(["-0", &pid.to_string()])
+            .stderr(std::process::Stdio::null())
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(true)
+    }
+    #[cfg(not(unix))]
+    {
+        // Without a way to ask, assume it runs; the message says how to remove the lock.
+        true
+    }
+}
+
 /// The time now as `YYYY-MM-DD HH:MM:SS` UTC, without a date crate.
 pub fn now_utc() -> String {
     let secs = std::time::SystemTime::now()

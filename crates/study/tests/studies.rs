@@ -267,6 +267,42 @@ fn invalid_study_files_name_the_key() {
             BOWL.replace("seed = 3", "seed = 3\njobs = 2"),
             "jobs: unknown key",
         ),
+        (
+            BOWL.replace(
+                "plan = [\"screening\",",
+                "plan = [{ stage = \"screening\", center_points = 1000000000 },",
+            ),
+            "plan[0].center_points: expected a whole number from 0 to 1000",
+        ),
+        (
+            BOWL.replace(
+                "\"optimize\", \"validate\"]",
+                "\"optimize\", { stage = \"validate\", replicates = 1000000000 }]",
+            ),
+            "plan[4].replicates: expected a whole number from 1 to 1000",
+        ),
+        (
+            BOWL.replace(
+                "\"optimize\", \"validate\"]",
+                "{ stage = \"optimize\", starts = 100000000 }, \"validate\"]",
+            ),
+            "plan[3].starts: expected a whole number from 1 to 10000",
+        ),
+        (
+            BOWL.replace(
+                "\"steepest\", \"rsm\"",
+                "{ stage = \"steepest\", steps = 100000000 }, \"rsm\"",
+            ),
+            "plan[1].steps: expected a whole number from 3 to 1000",
+        ),
+        (
+            BOWL.replace("\"rsm\",", "{ stage = \"rsm\", alpha = \"nan\" },"),
+            "plan[2].alpha: \"nan\": expected rotatable, face, spherical, orthogonal or a positive number",
+        ),
+        (
+            BOWL.replace("\"rsm\",", "{ stage = \"rsm\", alpha = inf },"),
+            "plan[2].alpha: inf: expected rotatable, face, spherical, orthogonal or a positive number",
+        ),
     ];
     for (text, expected) in cases {
         let path = write_study(&dir, &text);
@@ -313,5 +349,315 @@ fn runs_over_the_time_limit_fail_and_an_interrupt_stores_nothing() {
     assert!(study::status(&path)
         .unwrap()
         .contains("2 runs: 0 done, 2 failed, 0 pending"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The quickstart study read with another plan (its test file sits beside it).
+fn quickstart_with_plan(plan: &str) -> Study {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/quickstart/study.toml");
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+        plan,
+    );
+    Study::parse(&path, &text).unwrap()
+}
+
+/// An rsm stage without a steepest path before it starts from the parameters' whole ranges: a
+/// rotatable CCD of four factors (alpha 2) must shrink every range to a quarter each side of the
+/// middle so that its axial points land on min and max (this used to panic in a clamp).
+#[test]
+fn rsm_first_shrinks_the_region_to_keep_axial_points_inside() {
+    let study = quickstart_with_plan("plan = [\"rsm\"]");
+    let r = study::replay(&study, &[], None).unwrap();
+    assert_eq!(r.state, study::State::Pending { stage: 0 });
+    let st = &r.stages[0];
+    assert_eq!(st.runs.len(), 16 + 8 + 6);
+    let want = [(0.35, 0.65), (0.065, 0.155), (0.3, 0.5), (0.4, 0.6)];
+    for (f, (lo, hi)) in st.factors.iter().zip(want) {
+        assert!(
+            (f.low - lo).abs() < 1e-12 && (f.high - hi).abs() < 1e-12,
+            "{}: {} .. {}",
+            f.name,
+            f.low,
+            f.high
+        );
+    }
+    // Every run stays within min .. max, and the axial points reach both ends.
+    for (j, p) in study.parameters.iter().enumerate() {
+        let v: Vec<f64> = st.runs.iter().map(|s| s.values[j]).collect();
+        let lo = v.iter().cloned().fold(f64::MAX, f64::min);
+        let hi = v.iter().cloned().fold(f64::MIN, f64::max);
+        assert!(
+            (lo - p.min).abs() < 1e-12 && (hi - p.max).abs() < 1e-12,
+            "{}: {lo} .. {hi}",
+            p.name
+        );
+    }
+    assert_eq!(st.notes.len(), 4, "{:?}", st.notes);
+    assert_eq!(
+        st.notes[0],
+        "static_friction: the design's ±2.000 points would leave 0.2000 .. 0.8000; its ±1 range is now 0.3500 .. 0.6500"
+    );
+}
+
+/// The same plan end to end on the bowl: rsm over the whole ranges, then the optimum.
+#[test]
+fn a_plan_starting_with_rsm_finds_the_optimum() {
+    let dir = fresh_dir("rsm-first");
+    let path = write_study(
+        &dir,
+        &BOWL
+            .replace(
+                "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+                "plan = [{ stage = \"rsm\", design = \"ccd\", alpha = 1.5 }, \"optimize\", \"validate\"]",
+            )
+            .replace("fail_when = \"c + d - 1.7\"", ""),
+    );
+    let out = run(&path, 2).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir);
+    let (a, b) = (
+        s["calibrated"]["a"].as_f64().unwrap(),
+        s["calibrated"]["b"].as_f64().unwrap(),
+    );
+    assert!(
+        (a - 0.6).abs() < 0.05 && (b - 0.3).abs() < 0.05,
+        "a = {a}, b = {b}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A steepest path along the coefficients leaves a parameter without effect where it was: the
+/// next stage keeps its range instead of a range of nothing (this used to panic in
+/// `Parameter::factor`).
+#[test]
+fn a_parameter_the_path_does_not_move_keeps_its_range() {
+    let dir = fresh_dir("unmoved");
+    let text = BOWL
+        .replace(
+            "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+            "plan = [{ stage = \"screening\", min_factors = 4 }, { stage = \"steepest\", direction = \"coefficients\" }, { stage = \"rsm\", design = \"ccd\", alpha = \"face\" }]",
+        )
+        .replace("fail_when = \"c + d - 1.7\"", "")
+        .replace("noise = 0.02", "noise = 0.0")
+        // d has no effect at all: its coefficient is zero up to rounding.
+        .replace(" + 0.01*d\"", "\"");
+    let path = write_study(&dir, &text);
+    let out = run(&path, 2).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let study = Study::load(&path).unwrap();
+    let stored = study::Store::open(&study.store_path(), false)
+        .unwrap()
+        .runs()
+        .unwrap();
+    let r = study::replay(&study, &stored, None).unwrap();
+    let d = &r.stages[2].factors[3];
+    assert_eq!((d.name.as_str(), d.low, d.high), ("d", 0.0, 1.0));
+    assert!(
+        r.stages[1]
+            .notes
+            .iter()
+            .any(|n| n.starts_with("d: the path does not move it")),
+        "{:?}",
+        r.stages[1].notes
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A range too narrow to tell its ends apart once values are kept to 12 significant digits is
+/// refused when the study is read.
+#[test]
+fn a_range_narrower_than_the_stored_digits_is_refused() {
+    let dir = fresh_dir("narrow");
+    let path = write_study(
+        &dir,
+        &BOWL.replace("min = 0.0\nmax = 1.0", "min = 1.0\nmax = 1.000000000001"),
+    );
+    let e = Study::load(&path).unwrap_err();
+    assert_eq!(
+        e,
+        format!(
+            "{}: parameter[2].max: the range 1 .. 1.000000000001 is too narrow: values are kept to 12 significant digits, so give a range wider than a millionth of its values",
+            path.display()
+        )
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An executor that hands back a run the stage never asked for.
+struct WrongRuns;
+
+impl study::stages::Execute for WrongRuns {
+    fn execute(
+        &mut self,
+        study: &Study,
+        stage: &study::stages::StageResult,
+        runs: &[study::stages::RunSpec],
+    ) -> Result<Vec<study::store::RunRecord>, String> {
+        let spec = &runs[0];
+        Ok(vec![study::store::RunRecord {
+            stage: stage.index,
+            stage_kind: stage.kind.into(),
+            index: stage.runs.len() + 5,
+            inputs: spec.inputs(study),
+            seed: spec.seed,
+            status: study::store::Status::Done,
+            response: Some(1.0),
+            outputs: serde_json::Value::Null,
+            error: None,
+            wall_s: 0.0,
+            finished_at: String::new(),
+            version: String::new(),
+            out_dir: String::new(),
+            fingerprint: spec.fingerprint(study),
+        }])
+    }
+}
+
+#[test]
+fn an_executor_returning_other_runs_is_an_error() {
+    let dir = fresh_dir("executor");
+    let path = write_study(
+        &dir,
+        &BOWL.replace(
+            "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+            "plan = [{ stage = \"validate\", replicates = 2 }]",
+        ),
+    );
+    let study = Study::load(&path).unwrap();
+    let e = study::replay(&study, &[], Some(&mut WrongRuns))
+        .err()
+        .expect("an error, not a replay");
+    assert_eq!(
+        e,
+        "stage 1 (validate): the executor returned run 8, which the stage does not have (it has runs 1 to 2)"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Stored runs marked done without a response (a store written by hand or by another version)
+/// do not count as results: validation stops saying so rather than reporting NaN.
+#[test]
+fn done_runs_without_a_response_do_not_count() {
+    let dir = fresh_dir("no-response");
+    let path = write_study(
+        &dir,
+        &BOWL.replace(
+            "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+            "plan = [{ stage = \"validate\", replicates = 2 }]",
+        ),
+    );
+    let study = Study::load(&path).unwrap();
+    let pending = study::replay(&study, &[], None).unwrap();
+    let stored: Vec<study::store::RunRecord> = pending.stages[0]
+        .runs
+        .iter()
+        .map(|spec| study::store::RunRecord {
+            stage: 0,
+            stage_kind: "validate".into(),
+            index: spec.index,
+            inputs: spec.inputs(&study),
+            seed: spec.seed,
+            status: study::store::Status::Done,
+            response: None,
+            outputs: serde_json::Value::Null,
+            error: None,
+            wall_s: 0.0,
+            finished_at: String::new(),
+            version: String::new(),
+            out_dir: String::new(),
+            fingerprint: spec.fingerprint(&study),
+        })
+        .collect();
+    let r = study::replay(&study, &stored, None).unwrap();
+    assert!(r.stages[0].validation.is_none());
+    match &r.state {
+        study::State::Stopped(why) => assert!(
+            why.starts_with("stage 1 (validate): 0 of 2 runs finished with a response")
+                && why.contains("validation needs at least 1"),
+            "{why}"
+        ),
+        s => panic!("expected a stop, got {s:?}"),
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// One `demcal run` at a time per study: the store's lock names the process holding it, is let
+/// go when the run ends, and a lock left by a process that no longer exists is taken over.
+#[test]
+fn the_store_is_locked_while_a_study_runs() {
+    let dir = fresh_dir("lock");
+    let path = write_study(
+        &dir,
+        &BOWL.replace(
+            "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+            "plan = [{ stage = \"validate\", replicates = 2 }]",
+        ),
+    );
+    let db = dir.join("study.db");
+    let lock_file = dir.join("study.db.lock");
+    let held = study::store::StoreLock::acquire(&db).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(&lock_file).unwrap().lines().next(),
+        Some(std::process::id().to_string().as_str())
+    );
+    let busy = format!(
+        "{}: the study is being run by process {} (lock file {}); wait for it to end, or stop it",
+        db.display(),
+        std::process::id(),
+        lock_file.display()
+    );
+    assert_eq!(study::store::StoreLock::acquire(&db).unwrap_err(), busy);
+    // `demcal run` takes the same lock before anything else; nothing is stored.
+    assert_eq!(run(&path, 1).unwrap_err(), busy);
+    assert!(!db.exists());
+    drop(held);
+    assert!(!lock_file.exists());
+    run(&path, 1).unwrap();
+    assert!(!lock_file.exists());
+    // A lock whose process has ended (killed, power cut) is stale and taken over.
+    let mut gone = std::process::Command::new("true").spawn().unwrap();
+    let pid = gone.id();
+    gone.wait().unwrap();
+    std::fs::write(&lock_file, format!("{pid}\n")).unwrap();
+    let lock = study::store::StoreLock::acquire(&db).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(&lock_file).unwrap().lines().next(),
+        Some(std::process::id().to_string().as_str())
+    );
+    drop(lock);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The CCD's axial distance is read once into its typed form: a name, a number or a number
+/// written as text.
+#[test]
+fn the_ccd_alpha_is_typed_when_read() {
+    use doe::design::CcdAlpha;
+    use study::spec::{RsmDesign, Stage};
+    let dir = fresh_dir("alpha");
+    for (given, want) in [
+        ("\"rotatable\"", CcdAlpha::Rotatable),
+        ("\"Face\"", CcdAlpha::FaceCentred),
+        ("1.5", CcdAlpha::Custom(1.5)),
+        ("\"1.25\"", CcdAlpha::Custom(1.25)),
+        ("2", CcdAlpha::Custom(2.0)),
+    ] {
+        let path = write_study(
+            &dir,
+            &BOWL.replace(
+                "\"rsm\",",
+                &format!("{{ stage = \"rsm\", alpha = {given} }},"),
+            ),
+        );
+        let s = Study::load(&path).unwrap();
+        match &s.plan[2] {
+            Stage::Rsm {
+                design: RsmDesign::CentralComposite { alpha },
+                ..
+            } => assert_eq!(*alpha, want, "{given}"),
+            other => panic!("{other:?}"),
+        }
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -539,20 +539,21 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
         steps,
         output,
         rayleigh_time_step,
-        hertz_collision_time,
+        collision_time,
         warnings,
         notes,
     } = scene;
     let dt = simulation.params.time_step;
     eprintln!(
-        "{}: {} particles, {} geometries, dt = {:.3e} s ({:.1} % of the Rayleigh step {:.3e} s), Hertz collision time {:.3e} s, {} steps",
+        "{}: {} particles, {} geometries, dt = {:.3e} s ({:.1} % of the Rayleigh step {:.3e} s), {} collision time {:.3e} s, {} steps",
         path.display(),
         simulation.particles.len(),
         simulation.geometries.len(),
         dt,
         100.0 * dt / rayleigh_time_step,
         rayleigh_time_step,
-        hertz_collision_time,
+        simulation.params.contact_model.name(),
+        collision_time,
         steps
     );
     for n in &notes {

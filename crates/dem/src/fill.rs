@@ -97,7 +97,7 @@ impl SizeDistribution {
 
 /// A region to fill.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Region {
+pub enum FillRegion {
     Box {
         min: DVec3,
         max: DVec3,
@@ -111,14 +111,14 @@ pub enum Region {
     },
 }
 
-impl Region {
+impl FillRegion {
     /// True when a sphere of radius `r` at `x` lies inside (use r = 0 for "centre inside").
     pub fn contains(&self, x: DVec3, r: f64) -> bool {
         match *self {
-            Region::Box { min, max } => {
+            FillRegion::Box { min, max } => {
                 x.cmpge(min + DVec3::splat(r)).all() && x.cmple(max - DVec3::splat(r)).all()
             }
-            Region::Cylinder {
+            FillRegion::Cylinder {
                 base,
                 axis,
                 radius,
@@ -134,8 +134,8 @@ impl Region {
 
     pub fn bounds(&self) -> (DVec3, DVec3) {
         match *self {
-            Region::Box { min, max } => (min, max),
-            Region::Cylinder {
+            FillRegion::Box { min, max } => (min, max),
+            FillRegion::Cylinder {
                 base,
                 axis,
                 radius,
@@ -150,8 +150,8 @@ impl Region {
 
     pub fn volume(&self) -> f64 {
         match *self {
-            Region::Box { min, max } => (max - min).element_product(),
-            Region::Cylinder { radius, length, .. } => PI * radius * radius * length,
+            FillRegion::Box { min, max } => (max - min).element_product(),
+            FillRegion::Cylinder { radius, length, .. } => PI * radius * radius * length,
         }
     }
 }
@@ -166,7 +166,7 @@ pub enum Lattice {
 /// nearest-neighbour distance. Points are those whose centre lies inside the region, as LIGGGHTS'
 /// `create_atoms region` does, so shrink the region by the radius to keep spheres inside walls.
 pub fn lattice_points(
-    region: &Region,
+    region: &FillRegion,
     lattice: Lattice,
     spacing: f64,
     origin: DVec3,
@@ -236,7 +236,7 @@ mod tests {
 
     #[test]
     fn settle_lattice_has_21160_points() {
-        let region = Region::Box {
+        let region = FillRegion::Box {
             min: DVec3::new(0.002, 0.002, 0.002),
             max: DVec3::new(0.098, 0.098, 0.17),
         };
@@ -246,7 +246,7 @@ mod tests {
 
     #[test]
     fn hcp_nearest_neighbours_at_spacing() {
-        let region = Region::Box {
+        let region = FillRegion::Box {
             min: DVec3::ZERO,
             max: DVec3::splat(0.01),
         };

@@ -12,7 +12,7 @@ pub mod contact;
 pub mod factory;
 pub mod fill;
 pub mod geometry;
-pub mod kernel;
+pub mod maize_kernel;
 pub mod material;
 pub mod mixture;
 pub mod neighbour;

@@ -11,7 +11,7 @@
 //! than as their bounding spheres would.
 
 use crate::clump::{ClumpTemplate, MassProperties};
-use crate::fill::{Region, SizeDistribution};
+use crate::fill::{FillRegion, SizeDistribution};
 use glam::{DQuat, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -352,7 +352,7 @@ impl SphereGrid {
 /// Seeded random sequential insertion of a mixture wholly inside `region`, avoiding `existing`
 /// spheres. Particles are drawn first and placed largest first, which packs better.
 pub fn fill_region(
-    region: &Region,
+    region: &FillRegion,
     mixture: &Mixture,
     target: FillTarget,
     seed: u64,
@@ -423,7 +423,7 @@ mod tests {
 
     #[test]
     fn sphere_fill_is_seeded_and_overlap_free() {
-        let region = Region::Cylinder {
+        let region = FillRegion::Cylinder {
             base: DVec3::ZERO,
             axis: DVec3::Z,
             radius: 0.02,
@@ -447,7 +447,7 @@ mod tests {
 
     #[test]
     fn fill_to_a_target_mass() {
-        let region = Region::Box {
+        let region = FillRegion::Box {
             min: DVec3::ZERO,
             max: DVec3::splat(0.05),
         };
@@ -512,7 +512,7 @@ mod tests {
     #[test]
     fn clump_members_do_not_overlap_and_stay_inside() {
         let m = rods();
-        let region = Region::Cylinder {
+        let region = FillRegion::Cylinder {
             base: DVec3::ZERO,
             axis: DVec3::Z,
             radius: 0.045,

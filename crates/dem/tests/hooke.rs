@@ -117,3 +117,71 @@ fn contact_models_are_found_by_name() {
     assert!(!hooke.cohesive());
     assert!(ContactModel::default().cohesive());
 }
+
+const SCENE: &str = r#"
+[simulation]
+steps = 10
+contact_model = "hooke"
+contact_parameters = { characteristic_velocity = 2.5 }
+
+[[material]]
+name = "grain"
+density = 1200
+poisson_ratio = 0.3
+shear_modulus = 1e7
+
+[[interaction]]
+materials = ["grain", "grain"]
+restitution = 0.4
+static_friction = 0.5
+rolling_friction = 0.1
+
+[[particles]]
+material = "grain"
+size = { type = "fixed", radius = 0.002 }
+region = { type = "box", min = [0.0, 0.0, 0.0], max = [0.02, 0.02, 0.02] }
+fill = { type = "lattice", lattice = "sc", spacing = 0.005 }
+"#;
+
+fn load(text: &str) -> Result<dem::scene::Scene, String> {
+    dem::scene::Scene::from_toml(text, "scene.toml", std::path::Path::new("."))
+        .map_err(|e| e.to_string())
+}
+
+fn load_err(text: &str) -> String {
+    match load(text) {
+        Ok(_) => panic!("accepted"),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn a_scene_chooses_hooke_and_sets_its_parameters() {
+    let scene = load(SCENE).unwrap();
+    assert_eq!(
+        scene.simulation.params.contact_model,
+        ContactModel::Hooke(Hooke {
+            characteristic_velocity: 2.5
+        })
+    );
+    let e = load_err(&SCENE.replace("characteristic_velocity = 2.5", "speed = 2.5"));
+    assert_eq!(
+        e,
+        "scene.toml: simulation.contact_parameters.speed: hooke takes no parameter \"speed\" (expected characteristic_velocity)"
+    );
+    let e = load_err(&SCENE.replace(
+        "rolling_friction = 0.1",
+        "rolling_friction = 0.1\nsurface_energy = 0.2",
+    ));
+    assert!(
+        e.starts_with(
+            "scene.toml: interaction[0].surface_energy: the hooke contact model has no cohesion"
+        ),
+        "{e}"
+    );
+    let e = load_err(&SCENE.replace("\"hooke\"", "\"walton\""));
+    assert_eq!(
+        e,
+        "scene.toml: simulation.contact_model: unknown model \"walton\" (expected one of: hertz_mindlin, hooke)"
+    );
+}

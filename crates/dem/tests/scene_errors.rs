@@ -399,3 +399,123 @@ size = {{ type = "fixed", radius = 0.002 }}
     );
     assert_has(&e, &["particles[0].size", "not used with types"]);
 }
+
+#[test]
+fn absurd_durations_and_step_counts_are_refused_up_front() {
+    // 1e300 s would have run u64::MAX steps.
+    let e = error_after("duration = 0.01", "duration = 1e300");
+    assert_has(
+        &e,
+        &[
+            "simulation.duration",
+            "time steps",
+            "more than the 1e10 a run may take",
+        ],
+    );
+    let e = error_after("duration = 0.01", "steps = 20000000000");
+    assert_has(&e, &["simulation.steps", "more than the 1e10"]);
+    // Just under the limit is fine.
+    let s = load(&GOOD.replacen("duration = 0.01", "steps = 10000000000", 1)).unwrap();
+    assert_eq!(s.steps, dem::scene::MAX_STEPS);
+}
+
+#[test]
+fn particle_counts_beyond_memory_are_refused_before_allocating() {
+    let random = "fill = { type = \"random\", count = 100000000 }";
+    let start = std::time::Instant::now();
+    let e = error_after(
+        "fill = { type = \"lattice\", lattice = \"sc\", spacing = 0.01 }",
+        random,
+    );
+    assert_has(
+        &e,
+        &[
+            "particles[0].fill.count",
+            "100000000 particles",
+            "at most 10000000 spheres",
+        ],
+    );
+    // Refused from the count alone: no 3.5 GB of draws first.
+    assert!(start.elapsed().as_secs_f64() < 1.0, "{:?}", start.elapsed());
+    // A mass fill: 1e6 kg of 4 mm beads (0.32 g each) is 3e9 particles.
+    let e = error_after(
+        "fill = { type = \"lattice\", lattice = \"sc\", spacing = 0.01 }",
+        "fill = { type = \"random\", mass = 1e6 }",
+    );
+    assert_has(
+        &e,
+        &[
+            "particles[0].fill.mass",
+            "the mass over the lightest particle",
+            "at most 10000000 spheres",
+        ],
+    );
+    // A lattice in a region far too large for its spacing.
+    let e = error_after("max = [0.05, 0.05, 0.05]", "max = [50.0, 50.0, 50.0]");
+    assert_has(
+        &e,
+        &["particles[0].fill.spacing", "at most 10000000 spheres"],
+    );
+    // Groups add up: two of 6 million each.
+    let six = "fill = { type = \"factory\", count = 6000000, rate = 100 }\nfactory = { type = \"disc\", centre = [0.02, 0.02, 0.1], radius = 0.01 }";
+    let region = "region = { type = \"box\", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }\nfill = { type = \"lattice\", lattice = \"sc\", spacing = 0.01 }";
+    let e = error_after(
+        region,
+        &format!("{six}\n\n[[particles]]\nmaterial = \"kernel\"\nsize = {{ type = \"fixed\", radius = 0.004 }}\n{six}"),
+    );
+    assert_has(
+        &e,
+        &[
+            "particles[1].fill.count",
+            "with the groups before it up to 1.200e7 spheres",
+        ],
+    );
+}
+
+#[test]
+fn sizes_that_look_like_millimetres_are_named() {
+    // A radius of 3 (meant as 3 mm) cannot fit; the error says why.
+    let e = error_after(
+        "radius = 0.004 }\nregion = { type = \"box\", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }\nfill = { type = \"lattice\", lattice = \"sc\", spacing = 0.01 }",
+        "radius = 3 }\nregion = { type = \"box\", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }\nfill = { type = \"random\", count = 20 }",
+    );
+    assert_has(
+        &e,
+        &[
+            "particles[0].fill",
+            "region is too small",
+            "particles[0]: particle spheres of radius up to 3.0000 m look like the wrong unit",
+            "3.0000 mm would be 3.0000e-3",
+        ],
+    );
+    // It stays a warning where the scene can be built.
+    let s = load(&GOOD.replacen(
+        "radius = 0.004 }\nregion = { type = \"box\", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }\nfill = { type = \"lattice\", lattice = \"sc\", spacing = 0.01 }",
+        "radius = 0.6 }\nregion = { type = \"box\", min = [0.0, 0.0, 0.7], max = [5.0, 5.0, 5.0] }\nfill = { type = \"lattice\" }",
+        1,
+    ))
+    .unwrap();
+    assert!(
+        s.warnings.iter().any(|w| w.contains(
+            "particles[0]: particle spheres of radius up to 0.6000 m look like the wrong unit"
+        )),
+        "{:?}",
+        s.warnings
+    );
+    // Geometry hundreds of metres across (an STL in millimetres, or a size typed in mm).
+    let s = load(&GOOD.replacen(
+        "type = \"plane\"\nmaterial = \"steel\"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]",
+        "type = \"cylinder\"\nmaterial = \"steel\"\nbase = [0.0, 0.0, 0.0]\nradius = 300\nlength = 0.1\ncaps = \"bottom\"",
+        1,
+    ))
+    .unwrap();
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert_has(
+        &s.warnings[0],
+        &[
+            "geometry[0]: \"floor\" is 600.0000 m across",
+            "wrong unit",
+            "in metres",
+        ],
+    );
+}

@@ -24,6 +24,13 @@ impl RollingModel {
     /// Names scene files use.
     pub const NAMES: &'static [&'static str] = &["cdt", "epsd"];
 
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::ConstantDirectionalTorque => "cdt",
+            Self::Epsd { .. } => "epsd",
+        }
+    }
+
     pub fn from_name(name: &str, viscous_damping: f64) -> Option<Self> {
         match name {
             "cdt" => Some(Self::ConstantDirectionalTorque),

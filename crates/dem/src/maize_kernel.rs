@@ -79,6 +79,16 @@ impl KernelShape {
     pub const KINDS: [&'static str; 4] =
         ["horse_tooth", "flat", "spherical_cone", "near_spherical"];
 
+    /// The class's name, as [`KernelShape::published`] takes it.
+    pub fn class(&self) -> &'static str {
+        match self {
+            KernelShape::HorseTooth { .. } => "horse_tooth",
+            KernelShape::Flat { .. } => "flat",
+            KernelShape::SphericalCone { .. } => "spherical_cone",
+            KernelShape::NearSpherical { .. } => "near_spherical",
+        }
+    }
+
     /// The class's dimensions by name (the scene-file keys), to read or override.
     pub fn dimensions_mut(&mut self) -> Vec<(&'static str, &mut f64)> {
         match self {
@@ -392,6 +402,7 @@ mod tests {
     fn target_volumes_match_their_inside_tests() {
         for kind in KernelShape::KINDS {
             let s = KernelShape::published(kind).unwrap();
+            assert_eq!(s.class(), kind);
             let (analytic, counted) = (s.volume(), grid_volume(&s));
             assert!(
                 (counted / analytic - 1.0).abs() < 0.01,

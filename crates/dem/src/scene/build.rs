@@ -1,0 +1,578 @@
+//! A [`SceneDescription`] into a ready [`Simulation`]: materials, geometry, particle types, the
+//! time step (against the Rayleigh step of the smallest sphere any type can produce), the skin,
+//! the domain, placement group by group, and the overlap checks. Every value is checked here, so
+//! a description written in Rust gets the same one-line errors as a scene file, with the keys a
+//! file would use.
+
+use super::description::*;
+use super::particles::{self, Planned};
+use super::{Ctx, OutputSettings, Scene, SceneError};
+use crate::contact::{ContactModel, RollingModel};
+use crate::factory::Factory;
+use crate::geometry::Geometry;
+use crate::material::{Interaction, Material, MaterialTable};
+use crate::mixture::{self, Item, Mixture, ParticleType};
+use crate::particles::Particles;
+use crate::sim::{Simulation, SimulationParams};
+use crate::timestep;
+use glam::DVec3;
+
+/// The most time steps a scene may ask for: 1e10 steps take days even for a handful of
+/// particles, so more is a typo (a duration in the wrong unit) rather than a plan.
+pub const MAX_STEPS: u64 = 10_000_000_000;
+
+/// The most spheres a scene may hold (a clump counts its spheres): each costs about 1 kB with
+/// its neighbour list, so this is about what a workstation's memory holds. Fills are checked
+/// against it before anything is allocated.
+pub const MAX_SPHERES: usize = 10_000_000;
+
+/// Particle radii above this (m) look like millimetres typed as metres.
+const LARGE_RADIUS: f64 = 0.5;
+/// Geometry and fill regions larger than this (m) look like millimetres typed as metres.
+const LARGE_GEOMETRY: f64 = 100.0;
+
+/// One group, its particles resolved but not placed yet.
+struct Group {
+    mixture: Mixture,
+    planned: Planned,
+    velocity: DVec3,
+}
+
+pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError> {
+    let table = materials(d, ctx)?;
+    let material_id = |name: &str, key: String| material_lookup(ctx, &table, name, key);
+
+    // Simulation settings that the particles and walls need. The contact law is checked here
+    // and nowhere else.
+    let s = &d.simulation;
+    let name = s.contact_model.as_str();
+    let mut contact_model = ContactModel::from_name(name).ok_or_else(|| {
+        ctx.err(
+            "simulation.contact_model",
+            format!(
+                "unknown model \"{name}\" (expected one of: {})",
+                ContactModel::NAMES.join(", ")
+            ),
+        )
+    })?;
+    for (key, value) in &s.contact_parameters {
+        contact_model
+            .set_parameter(key, *value)
+            .map_err(|m| ctx.err(format!("simulation.contact_parameters.{key}"), m))?;
+    }
+    if !contact_model.cohesive() {
+        if let Some(k) = d.interactions.iter().position(|i| i.surface_energy != 0.0) {
+            return Err(ctx.err(
+                format!("interaction[{k}].surface_energy"),
+                format!(
+                    "the {name} contact model has no cohesion; expected 0, or contact_model = \"hertz_mindlin\" (JKR)"
+                ),
+            ));
+        }
+    }
+    let rolling_name = s.rolling_friction_model.as_str();
+    let damping = s.rolling_viscous_damping;
+    ctx.non_negative(damping, "simulation.rolling_viscous_damping".into())?;
+    let rolling_model = RollingModel::from_name(rolling_name, damping).ok_or_else(|| {
+        ctx.err(
+            "simulation.rolling_friction_model",
+            format!("unknown model \"{rolling_name}\" (expected cdt or epsd)"),
+        )
+    })?;
+
+    // Geometry.
+    let mut warnings = Vec::new();
+    let mut geometries = Vec::new();
+    for (k, g) in d.geometries.iter().enumerate() {
+        let geo = super::geometry::build(ctx, k, g, &material_id)?;
+        let size = super::geometry::extent(&geo);
+        if size > LARGE_GEOMETRY {
+            let hint = if matches!(g.shape, GeometryShape::Mesh { .. }) {
+                "; an STL drawn in millimetres needs scale = 0.001"
+            } else {
+                ""
+            };
+            warnings.push(format!(
+                "geometry[{k}]: \"{}\" is {size:.4} m across, which looks like the wrong unit: scene values are in metres ({size:.4} mm would be {:.4e}){hint}",
+                geo.name,
+                size / 1000.0
+            ));
+        }
+        geometries.push(geo);
+    }
+
+    // Particle types: the named ones, then each group's (a mixture of named types, or one inline).
+    let mut notes = Vec::new();
+    let mut named: Vec<ParticleType> = Vec::new();
+    for (k, t) in d.particle_types.iter().enumerate() {
+        let prefix = format!("particle_type[{k}]");
+        if named.iter().any(|n| n.name == t.name) {
+            return Err(ctx.err(
+                format!("{prefix}.name"),
+                format!("particle type \"{}\" is defined twice", t.name),
+            ));
+        }
+        let mat = material_id(&t.material, format!("{prefix}.material"))?;
+        let density = table.material(mat).density;
+        let built = particles::particle_type(
+            ctx, &prefix, &t.name, mat, density, &t.shape, &t.size, &mut notes,
+        )?;
+        large_radius(&prefix, &built, &mut warnings);
+        named.push(built);
+    }
+    let mut groups: Vec<Group> = Vec::new();
+    let mut spheres = 0.0;
+    for (k, p) in d.particles.iter().enumerate() {
+        let mixture = match &p.particles {
+            GroupParticles::Mixture {
+                types,
+                fractions,
+                by_mass,
+            } => particles::mixture_of(ctx, k, types, fractions.as_deref(), *by_mass, &named)?,
+            GroupParticles::Inline {
+                material,
+                shape,
+                size,
+            } => {
+                let prefix = format!("particles[{k}]");
+                let mat = material_id(material, format!("{prefix}.material"))?;
+                let density = table.material(mat).density;
+                let built = particles::particle_type(
+                    ctx, &prefix, &prefix, mat, density, shape, size, &mut notes,
+                )?;
+                large_radius(&prefix, &built, &mut warnings);
+                Mixture::single(built)
+            }
+        };
+        if let Placement::Lattice { region, .. } | Placement::Random { region, .. } = &p.placement {
+            let (lo, hi) = region.bounds();
+            let size = (hi - lo).max_element();
+            if size > LARGE_GEOMETRY && size.is_finite() {
+                warnings.push(format!(
+                    "particles[{k}].region: {size:.4} m across, which looks like the wrong unit: scene values are in metres ({size:.4} mm would be {:.4e})",
+                    size / 1000.0
+                ));
+            }
+        }
+        let planned = particles::plan(ctx, k, &p.placement, &mixture, &mut spheres)
+            .map_err(|e| with_unit_warnings(e, &warnings))?;
+        groups.push(Group {
+            mixture,
+            planned,
+            velocity: p.velocity,
+        });
+    }
+    if groups.is_empty() {
+        return Err(ctx.err(
+            "particles",
+            "no [[particles]] given; at least one group is needed",
+        ));
+    }
+
+    // Every pair that can meet needs an interaction.
+    let mut particle_materials: Vec<usize> = groups
+        .iter()
+        .flat_map(|g| g.mixture.types.iter().map(|t| t.material))
+        .collect();
+    particle_materials.sort_unstable();
+    particle_materials.dedup();
+    let mut geometry_materials: Vec<usize> =
+        geometries.iter().map(|g: &Geometry| g.material).collect();
+    geometry_materials.sort_unstable();
+    geometry_materials.dedup();
+    for &a in &particle_materials {
+        for &b in particle_materials.iter().chain(&geometry_materials) {
+            if table.interaction(a, b).is_none() {
+                return Err(ctx.err(
+                    "interaction",
+                    format!(
+                        "no [[interaction]] for materials \"{}\" and \"{}\", which can touch",
+                        table.material(a).name,
+                        table.material(b).name
+                    ),
+                ));
+            }
+        }
+    }
+
+    // Time step, from the smallest sphere each type can produce.
+    let smallest: Vec<(usize, f64, f64)> = groups
+        .iter()
+        .flat_map(|g| g.mixture.types.iter())
+        .map(|t| {
+            (
+                t.material,
+                t.min_sphere_radius(),
+                t.mass(t.size.min_radius()),
+            )
+        })
+        .collect();
+    let smallest_radii: Vec<(usize, f64)> = smallest.iter().map(|s| (s.0, s.1)).collect();
+    let rayleigh = timestep::rayleigh_time_step_for(&table, &smallest_radii);
+    let dt = match s.time_step {
+        TimeStep::Fixed(dt) => ctx.positive(dt, "simulation.time_step".into())?,
+        TimeStep::PercentOfRayleigh(p) => {
+            ctx.positive(p, "simulation.time_step_percent".into())? / 100.0 * rayleigh
+        }
+    };
+    if dt > rayleigh {
+        let key = match s.time_step {
+            TimeStep::Fixed(_) => "simulation.time_step",
+            TimeStep::PercentOfRayleigh(_) => "simulation.time_step_percent",
+        };
+        return Err(ctx.err(key, format!(
+            "time step {dt:.3e} s is larger than the Rayleigh time step {rayleigh:.3e} s; expected at most 100 % (EDEM users pick 10-40 %)"
+        )));
+    }
+    let steps = match s.run_length {
+        RunLength::Duration(t) => {
+            let t = ctx.positive(t, "simulation.duration".into())?;
+            let steps = (t / dt).round().max(1.0);
+            if steps > MAX_STEPS as f64 {
+                return Err(ctx.err(
+                    "simulation.duration",
+                    format!(
+                        "{t} s takes {steps:.3e} time steps of {dt:.3e} s, more than the {MAX_STEPS:.0e} a run may take; expected a duration in seconds"
+                    ),
+                ));
+            }
+            steps as u64
+        }
+        RunLength::Steps(0) => return Err(ctx.err("simulation.steps", "expected a step count > 0")),
+        RunLength::Steps(n) if n > MAX_STEPS => {
+            return Err(ctx.err(
+                "simulation.steps",
+                format!("{n} steps are more than the {MAX_STEPS:.0e} a run may take"),
+            ))
+        }
+        RunLength::Steps(n) => n,
+    };
+    let gravity = s.gravity;
+    let min_r = groups
+        .iter()
+        .map(|g| g.mixture.min_sphere_radius())
+        .fold(f64::INFINITY, f64::min);
+    let skin = match s.neighbour_skin {
+        Some(v) => ctx.positive(v, "simulation.neighbour_skin".into())?,
+        None => SimulationParams::default().skin_fraction * min_r,
+    };
+    let domain = match s.domain {
+        Some(d) => {
+            if !(d.min.cmplt(d.max).all()) {
+                return Err(ctx.err(
+                    "simulation.domain",
+                    "expected min < max in every coordinate",
+                ));
+            }
+            Some((d.min, d.max))
+        }
+        None => None,
+    };
+
+    // Hertz collision time at the fastest speed we can foresee: the fastest initial velocity or
+    // a fall over the height of everything that starts or is created.
+    let spawn: Vec<(DVec3, DVec3)> = groups
+        .iter()
+        .map(|g| g.planned.bounds(&g.mixture))
+        .collect();
+    let height: f64 = {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let gdir = if gravity.length() > 0.0 {
+            gravity.normalize()
+        } else {
+            DVec3::Z
+        };
+        for (a, b) in &spawn {
+            for x in [*a, *b] {
+                lo = lo.min(x.dot(gdir));
+                hi = hi.max(x.dot(gdir));
+            }
+        }
+        hi - lo
+    };
+    let initial_speed = groups
+        .iter()
+        .map(|g| g.velocity.length())
+        .fold(0.0, f64::max);
+    let fall_speed = (2.0 * gravity.length() * height).sqrt();
+    let speed = match s.expected_max_speed {
+        Some(v) => ctx.positive(v, "simulation.expected_max_speed".into())?,
+        None => initial_speed.max(fall_speed).max(0.1),
+    };
+    let collision = timestep::shortest_collision_time(
+        &contact_model,
+        &smallest,
+        &table,
+        &geometry_materials,
+        speed,
+    );
+    if collision / dt < 10.0 {
+        warnings.push(format!(
+            "only {:.1} time steps fit in the {} collision time {collision:.3e} s at {speed:.2} m/s; \
+             contacts may be poorly resolved (aim for at least 10)",
+            collision / dt,
+            contact_model.name()
+        ));
+    }
+
+    // Output.
+    let o = &d.output;
+    let snapshot_interval = match o.snapshot_interval {
+        Some(v) => Some(ctx.positive(v, "output.snapshot_interval".into())?),
+        None => None,
+    };
+    let force_interval = match o.force_interval {
+        Some(v) => ctx.positive(v, "output.force_interval".into())?,
+        None => (steps as f64 * dt / 1000.0).max(dt),
+    };
+
+    let max_overlap = ctx.non_negative(
+        s.max_initial_overlap,
+        "simulation.max_initial_overlap".into(),
+    )?;
+    let params = SimulationParams {
+        time_step: dt,
+        gravity,
+        contact_model,
+        rolling_model,
+        rolling_viscous_damping: damping,
+        skin,
+        domain,
+        max_initial_overlap: max_overlap,
+        ..Default::default()
+    };
+
+    // Place the particles group by group, each avoiding those before it.
+    let with_units = |e: SceneError| with_unit_warnings(e, &warnings);
+    let mut simulation = Simulation::new(Particles::default(), table, geometries, params);
+    let mut group_of: Vec<usize> = Vec::new();
+    for (k, g) in groups.into_iter().enumerate() {
+        let seed = |s: Option<u64>| s.unwrap_or(1) + k as u64;
+        let items = match g.planned {
+            Planned::Lattice { points, seed: s } => {
+                let mut rng = <rand_pcg::Pcg64 as rand::SeedableRng>::seed_from_u64(s.unwrap_or(1));
+                let t = &g.mixture.types[0];
+                points
+                    .into_iter()
+                    .map(|x| Item {
+                        kind: 0,
+                        size: t.size.sample(&mut rng),
+                        position: x,
+                        orientation: glam::DQuat::IDENTITY,
+                    })
+                    .collect()
+            }
+            Planned::Random {
+                region,
+                target,
+                seed: s,
+            } => {
+                let p = &simulation.particles;
+                let existing: Vec<(DVec3, f64)> = p
+                    .position
+                    .iter()
+                    .cloned()
+                    .zip(p.radius.iter().cloned())
+                    .collect();
+                mixture::fill_region(&region, &g.mixture, target, seed(s), &existing)
+                    .map_err(|m| with_units(ctx.err(format!("particles[{k}].fill"), m)))?
+            }
+            Planned::Factory {
+                shape,
+                normal,
+                total,
+                rate,
+                start,
+                seed: s,
+            } => {
+                simulation.add_factory(Factory::new(
+                    &format!("particles[{k}]"),
+                    shape,
+                    normal,
+                    g.mixture,
+                    total,
+                    rate,
+                    start,
+                    g.velocity,
+                    seed(s),
+                ));
+                continue;
+            }
+        };
+        if items.is_empty() {
+            return Err(with_units(ctx.err(
+                format!("particles[{k}].region"),
+                "no particle fits in the region",
+            )));
+        }
+        simulation.add_items(&g.mixture, &items, g.velocity);
+        group_of.resize(simulation.particles.len(), k);
+    }
+    if simulation.params.domain.is_none() {
+        let mut d = default_domain(&simulation.particles, &simulation.geometries);
+        for f in simulation.factories() {
+            let (lo, hi) = f.bounds();
+            let ext = (hi - lo).max_element();
+            d = (
+                d.0.min(lo - DVec3::splat(ext)),
+                d.1.max(hi + DVec3::splat(ext)),
+            );
+        }
+        simulation.params.domain = Some(d);
+    }
+    if let Some((rel, a, b)) = simulation.largest_relative_overlap() {
+        if rel > max_overlap {
+            let (ga, gb) = (group_of[a as usize], group_of[b as usize]);
+            return Err(with_units(ctx.err(format!("particles[{ga}]"), format!(
+                "particles overlap at start by {:.1} % of the smaller radius (particle {a} of particles[{ga}] and \
+                 particle {b} of particles[{gb}]); at most {:.1} % allowed (simulation.max_initial_overlap)",
+                100.0 * rel, 100.0 * max_overlap
+            ))));
+        }
+    }
+    if let Some((rel, a, g)) = simulation.largest_wall_overlap() {
+        if rel > max_overlap {
+            return Err(with_units(ctx.err(format!("particles[{}]", group_of[a as usize]), format!(
+                "particle {a} overlaps geometry \"{g}\" at start by {:.1} % of its radius; at most {:.1} % allowed \
+                 (simulation.max_initial_overlap)",
+                100.0 * rel, 100.0 * max_overlap
+            ))));
+        }
+    }
+    Ok(Scene {
+        simulation,
+        steps,
+        output: OutputSettings {
+            directory: o.directory.clone(),
+            snapshot_interval,
+            force_interval,
+        },
+        rayleigh_time_step: rayleigh,
+        collision_time: collision,
+        warnings,
+        notes,
+    })
+}
+
+/// The material table: every material, then every interaction.
+fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable, SceneError> {
+    let mut table = MaterialTable::new();
+    if d.materials.is_empty() {
+        return Err(ctx.err("material", "no [[material]] given; at least one is needed"));
+    }
+    for (k, m) in d.materials.iter().enumerate() {
+        let key = |s: &str| format!("material[{k}].{s}");
+        if table.id_of(&m.name).is_some() {
+            return Err(ctx.err(
+                key("name"),
+                format!("material \"{}\" is defined twice", m.name),
+            ));
+        }
+        ctx.positive(m.density, key("density"))?;
+        if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
+            return Err(ctx.err(
+                key("poisson_ratio"),
+                format!("expected a value in (-1, 0.5), got {}", m.poisson_ratio),
+            ));
+        }
+        let shear = match m.stiffness {
+            Stiffness::ShearModulus(g) => ctx.positive(g, key("shear_modulus"))?,
+            Stiffness::YoungsModulus(e) => {
+                ctx.positive(e, key("youngs_modulus"))? / (2.0 * (1.0 + m.poisson_ratio))
+            }
+        };
+        table.add_material(Material {
+            name: m.name.clone(),
+            density: m.density,
+            poisson_ratio: m.poisson_ratio,
+            shear_modulus: shear,
+        });
+    }
+    let mut interactions = Vec::new();
+    for (k, i) in d.interactions.iter().enumerate() {
+        let key = |s: &str| format!("interaction[{k}].{s}");
+        let a = material_lookup(ctx, &table, &i.materials[0], key("materials"))?;
+        let b = material_lookup(ctx, &table, &i.materials[1], key("materials"))?;
+        if !(i.restitution > 0.0 && i.restitution <= 1.0) {
+            return Err(ctx.err(
+                key("restitution"),
+                format!("expected a value in (0, 1], got {}", i.restitution),
+            ));
+        }
+        ctx.non_negative(i.static_friction, key("static_friction"))?;
+        ctx.non_negative(i.rolling_friction, key("rolling_friction"))?;
+        ctx.non_negative(i.surface_energy, key("surface_energy"))?;
+        interactions.push((
+            a,
+            b,
+            Interaction {
+                restitution: i.restitution,
+                static_friction: i.static_friction,
+                rolling_friction: i.rolling_friction,
+                surface_energy: i.surface_energy,
+            },
+        ));
+    }
+    for (a, b, i) in interactions {
+        table.set_interaction(a, b, i);
+    }
+    Ok(table)
+}
+
+/// Warns when a type's spheres are so large that its sizes were probably meant as millimetres.
+fn large_radius(prefix: &str, t: &ParticleType, warnings: &mut Vec<String>) {
+    let r = t.max_sphere_radius();
+    if r > LARGE_RADIUS {
+        warnings.push(format!(
+            "{prefix}: particle spheres of radius up to {r:.4} m look like the wrong unit: scene values are in metres ({r:.4} mm would be {:.4e})",
+            r / 1000.0
+        ));
+    }
+}
+
+/// Adds the unit warnings to an error they may explain (a fill that does not fit).
+fn with_unit_warnings(mut e: SceneError, warnings: &[String]) -> SceneError {
+    let units: Vec<&str> = warnings
+        .iter()
+        .filter(|w| w.contains("wrong unit"))
+        .map(String::as_str)
+        .collect();
+    if !units.is_empty() {
+        e.message = format!("{}; note: {}", e.message, units.join("; "));
+    }
+    e
+}
+
+/// The box holding the particles and every finite geometry, grown by its largest extent on every
+/// side: a particle that gets out of it has been thrown out by an unstable simulation (or fell off
+/// the set-up), and running on would waste the time of a study.
+fn default_domain(particles: &Particles, geometries: &[Geometry]) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = particles.bounds(true);
+    for e in geometries.iter().flat_map(|g| &g.elements) {
+        let (a, b) = e.bounds();
+        if a.is_finite() && b.is_finite() {
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+    }
+    let pad = DVec3::splat((hi - lo).max_element());
+    (lo - pad, hi + pad)
+}
+
+fn material_lookup(
+    ctx: &Ctx,
+    table: &MaterialTable,
+    name: &str,
+    key: String,
+) -> Result<usize, SceneError> {
+    table.id_of(name).ok_or_else(|| {
+        let known: Vec<&str> = table.materials().iter().map(|m| m.name.as_str()).collect();
+        ctx.err(
+            key,
+            format!(
+                "unknown material \"{name}\" (defined: {})",
+                known.join(", ")
+            ),
+        )
+    })
+}

@@ -1,0 +1,167 @@
+//! Scenes: materials, interactions, geometry, particles and run settings.
+//!
+//! A scene is built in two steps that can be used apart:
+//!
+//! 1. [`parse`] reads a scene file (TOML) into a [`SceneDescription`]: serde reads plain structs
+//!    that reject unknown keys (`serde_path_to_error` supplies the key path), and each entry's
+//!    form is checked (a `type` that exists, the keys that type uses, one of two alternatives).
+//! 2. [`build`] turns a description into a ready [`Simulation`]: it checks every value, creates
+//!    materials, geometry and particle types, picks the time step and skin, the domain, places
+//!    the particles and checks their overlaps. Rust code that writes a description (a virtual
+//!    test) uses this step alone, through [`Scene::from_description`].
+//!
+//! Every failure of either step is one [`SceneError`] line naming the file, the key as the scene
+//! file spells it, and what was expected.
+
+pub mod build;
+pub mod description;
+mod geometry;
+pub mod parse;
+mod particles;
+
+pub use build::{MAX_SPHERES, MAX_STEPS};
+pub use description::*;
+pub use particles::prepare_shapes;
+
+use crate::sim::Simulation;
+use glam::DVec3;
+use std::path::{Path, PathBuf};
+
+/// A scene problem: `file: key: message`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneError {
+    pub file: String,
+    pub key: String,
+    pub message: String,
+}
+
+impl std::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "{}: {}", self.file, self.message)
+        } else {
+            write!(f, "{}: {}: {}", self.file, self.key, self.message)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Output settings of a scene.
+#[derive(Clone, Debug)]
+pub struct OutputSettings {
+    pub directory: PathBuf,
+    /// Seconds between particle snapshots (None: only the first and last).
+    pub snapshot_interval: Option<f64>,
+    /// Seconds between geometry load records.
+    pub force_interval: f64,
+}
+
+/// A built scene: the simulation ready to run and what to do with it.
+pub struct Scene {
+    pub simulation: Simulation,
+    pub steps: u64,
+    pub output: OutputSettings,
+    pub rayleigh_time_step: f64,
+    /// Shortest collision time of the contact law at the fastest foreseen impact (s).
+    pub collision_time: f64,
+    /// Non-fatal remarks (few steps per collision, sizes that look like the wrong unit).
+    pub warnings: Vec<String>,
+    /// What was built that the user should know (e.g. each fitted kernel's volume error).
+    pub notes: Vec<String>,
+}
+
+impl Scene {
+    /// Reads and builds a scene file. Relative paths inside (STL files, output directory) are taken
+    /// relative to the file's folder.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            file: name.clone(),
+            key: String::new(),
+            message: format!("cannot read the scene file: {e}"),
+        })?;
+        let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        Scene::from_toml(&text, &name, &base)
+    }
+
+    /// Builds a scene from TOML text; `file` names it in errors, `base` resolves relative paths.
+    pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Scene, SceneError> {
+        let description = parse::scene(text, file, base)?;
+        Scene::from_description(&description, file)
+    }
+
+    /// Builds a scene from its description; `file` names it in errors ("scene" when there is no
+    /// file).
+    pub fn from_description(
+        description: &SceneDescription,
+        file: &str,
+    ) -> Result<Scene, SceneError> {
+        build::build(description, &Ctx { file })
+    }
+}
+
+/// Names the file in errors and checks values on behalf of the parser and the builder.
+pub(crate) struct Ctx<'a> {
+    pub file: &'a str,
+}
+
+impl Ctx<'_> {
+    pub fn err(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError {
+            file: self.file.to_string(),
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn require<T>(&self, v: Option<T>, key: String, what: &str) -> Result<T, SceneError> {
+        v.ok_or_else(|| self.err(key, format!("missing; expected {what}")))
+    }
+
+    pub fn positive(&self, v: f64, key: String) -> Result<f64, SceneError> {
+        if v > 0.0 && v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(key, format!("expected a positive number, got {v}")))
+        }
+    }
+
+    pub fn non_negative(&self, v: f64, key: String) -> Result<f64, SceneError> {
+        if v >= 0.0 && v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(key, format!("expected a number >= 0, got {v}")))
+        }
+    }
+
+    pub fn direction(&self, d: DVec3, key: String) -> Result<DVec3, SceneError> {
+        if d.length() > 0.0 && d.is_finite() {
+            Ok(d.normalize())
+        } else {
+            Err(self.err(key, "expected a non-zero direction vector"))
+        }
+    }
+
+    /// Rejects keys that belong to other variants, so a typo in `type` is not silently ignored.
+    pub fn only(
+        &self,
+        prefix: &str,
+        kind: &str,
+        given: &[(&str, bool)],
+        allowed: &[&str],
+    ) -> Result<(), SceneError> {
+        for (name, present) in given {
+            if *present && !allowed.contains(name) {
+                return Err(self.err(
+                    format!("{prefix}.{name}"),
+                    format!(
+                        "not used by type \"{kind}\" (expected one of: {})",
+                        allowed.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,669 @@
+//! Particle types, size distributions, regions and `[[particles]]` groups of a scene file.
+
+use super::{v3, V3};
+use crate::factory::Rate;
+use crate::fill::{FillRegion, Lattice, SizeDistribution};
+use crate::maize_kernel::KernelShape;
+use crate::mixture::FillTarget;
+use crate::scene::description::*;
+use crate::scene::{Ctx, SceneError};
+use glam::DVec3;
+use serde::Deserialize;
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ParticleTypeEntry {
+    name: String,
+    material: String,
+    shape: Option<ShapeEntry>,
+    size: Option<SizeEntry>,
+    scale: Option<SizeEntry>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct ShapeEntry {
+    #[serde(rename = "type")]
+    kind: String,
+    // rod
+    length: Option<f64>,
+    diameter: Option<f64>,
+    count: Option<usize>,
+    // spheres: [x, y, z, r] rows
+    spheres: Option<Vec<[f64; 4]>>,
+    // maize_kernel
+    class: Option<String>,
+    width: Option<f64>,
+    height: Option<f64>,
+    thickness: Option<f64>,
+    upper_width: Option<f64>,
+    lower_width: Option<f64>,
+    upper_thickness: Option<f64>,
+    lower_thickness: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ParticleEntry {
+    // One type given inline ...
+    material: Option<String>,
+    size: Option<SizeEntry>,
+    shape: Option<ShapeEntry>,
+    scale: Option<SizeEntry>,
+    // ... or a mixture of named [[particle_type]]s.
+    types: Option<Vec<String>>,
+    fractions: Option<Vec<f64>>,
+    basis: Option<String>,
+    region: Option<RegionEntry>,
+    factory: Option<FactoryEntry>,
+    fill: FillEntry,
+    velocity: Option<V3>,
+}
+
+/// A group's particles without placement (a virtual test's `particles`).
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(super) struct GroupParticlesEntry {
+    material: Option<String>,
+    size: Option<SizeEntry>,
+    shape: Option<ShapeEntry>,
+    scale: Option<SizeEntry>,
+    types: Option<Vec<String>>,
+    fractions: Option<Vec<f64>>,
+    basis: Option<String>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct FactoryEntry {
+    #[serde(rename = "type")]
+    kind: String,
+    #[serde(alias = "center")]
+    centre: V3,
+    normal: Option<V3>,
+    radius: Option<f64>,
+    size: Option<[f64; 2]>,
+    u_axis: Option<V3>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct SizeEntry {
+    #[serde(rename = "type")]
+    kind: String,
+    /// `value` reads better for a clump's fixed scale factor.
+    #[serde(alias = "value")]
+    radius: Option<f64>,
+    min: Option<f64>,
+    max: Option<f64>,
+    mean: Option<f64>,
+    std: Option<f64>,
+    radii: Option<Vec<f64>>,
+    fractions: Option<Vec<f64>>,
+    basis: Option<String>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RegionEntry {
+    #[serde(rename = "type")]
+    kind: String,
+    min: Option<V3>,
+    max: Option<V3>,
+    base: Option<V3>,
+    axis: Option<V3>,
+    radius: Option<f64>,
+    length: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct FillEntry {
+    #[serde(rename = "type")]
+    kind: String,
+    lattice: Option<String>,
+    spacing: Option<f64>,
+    origin: Option<V3>,
+    count: Option<usize>,
+    mass: Option<f64>,
+    seed: Option<u64>,
+    // factory
+    rate: Option<f64>,
+    mass_rate: Option<f64>,
+    start: Option<f64>,
+}
+
+pub(super) fn particle_type(
+    ctx: &Ctx,
+    k: usize,
+    t: ParticleTypeEntry,
+) -> Result<ParticleTypeDescription, SceneError> {
+    let prefix = format!("particle_type[{k}]");
+    let (shape, size) = shape_and_size(ctx, &prefix, t.shape, t.size, t.scale)?;
+    Ok(ParticleTypeDescription {
+        name: t.name,
+        material: t.material,
+        shape,
+        size,
+    })
+}
+
+/// A virtual test's `particles` (a group without placement).
+pub(super) fn group_from_entry(
+    ctx: &Ctx,
+    key: &str,
+    e: GroupParticlesEntry,
+) -> Result<GroupParticles, SceneError> {
+    particles_of_group(
+        ctx,
+        key,
+        TypeKeys {
+            material: e.material,
+            size: e.size,
+            shape: e.shape,
+            scale: e.scale,
+            types: e.types,
+            fractions: e.fractions,
+            basis: e.basis,
+        },
+    )
+}
+
+/// The keys of a group that say which particles it holds.
+struct TypeKeys {
+    material: Option<String>,
+    size: Option<SizeEntry>,
+    shape: Option<ShapeEntry>,
+    scale: Option<SizeEntry>,
+    types: Option<Vec<String>>,
+    fractions: Option<Vec<f64>>,
+    basis: Option<String>,
+}
+
+fn particles_of_group(ctx: &Ctx, prefix: &str, p: TypeKeys) -> Result<GroupParticles, SceneError> {
+    let key = |s: &str| format!("{prefix}.{s}");
+    Ok(match (p.types, p.material) {
+        (Some(types), None) => {
+            for (name, given) in [
+                ("size", p.size.is_some()),
+                ("shape", p.shape.is_some()),
+                ("scale", p.scale.is_some()),
+            ] {
+                if given {
+                    return Err(ctx.err(
+                        key(name),
+                        "not used with types (each [[particle_type]] has its own)",
+                    ));
+                }
+            }
+            let by_mass = basis(ctx, key("basis"), p.basis.as_deref())?;
+            GroupParticles::Mixture {
+                types,
+                fractions: p.fractions,
+                by_mass,
+            }
+        }
+        (None, Some(material)) => {
+            for (name, given) in [
+                ("fractions", p.fractions.is_some()),
+                ("basis", p.basis.is_some()),
+            ] {
+                if given {
+                    return Err(ctx.err(
+                        key(name),
+                        "only used with types (a mixture of [[particle_type]]s)",
+                    ));
+                }
+            }
+            let (shape, size) = shape_and_size(ctx, prefix, p.shape, p.size, p.scale)?;
+            GroupParticles::Inline {
+                material,
+                shape,
+                size,
+            }
+        }
+        (Some(_), Some(_)) => {
+            return Err(ctx.err(
+                key("types"),
+                "give types (named [[particle_type]]s) or material (one type inline), not both",
+            ))
+        }
+        (None, None) => {
+            return Err(ctx.err(
+                key("material"),
+                "missing; expected material (with size, or shape) or types",
+            ))
+        }
+    })
+}
+
+fn basis(ctx: &Ctx, key: String, basis: Option<&str>) -> Result<bool, SceneError> {
+    match basis.unwrap_or("number") {
+        "number" => Ok(false),
+        "mass" => Ok(true),
+        other => Err(ctx.err(
+            key,
+            format!("unknown basis \"{other}\" (expected number or mass)"),
+        )),
+    }
+}
+
+/// A type's shape with its size (a sphere's radius) or scale (a clump's) distribution.
+fn shape_and_size(
+    ctx: &Ctx,
+    prefix: &str,
+    shape: Option<ShapeEntry>,
+    size: Option<SizeEntry>,
+    scale: Option<SizeEntry>,
+) -> Result<(ParticleShape, SizeDistribution), SceneError> {
+    let key = |n: &str| format!("{prefix}.{n}");
+    let sh = match shape {
+        Some(sh) if sh.kind != "sphere" => sh,
+        sphere => {
+            if let Some(sh) = &sphere {
+                shape_keys(ctx, &key("shape"), sh, &[])?;
+            }
+            if scale.is_some() {
+                return Err(ctx.err(
+                    key("scale"),
+                    "not used by a sphere (give its radius distribution as size)",
+                ));
+            }
+            let size = size.ok_or_else(|| ctx.err(key("size"), "missing; expected the radius distribution, e.g. { type = \"fixed\", radius = 0.002 }"))?;
+            return Ok((
+                ParticleShape::Sphere,
+                size_distribution(ctx, &key("size"), &size)?,
+            ));
+        }
+    };
+    if size.is_some() {
+        return Err(ctx.err(
+            key("size"),
+            "not used by a clump (its shape sets its size; give a scale distribution as scale)",
+        ));
+    }
+    let scale = match scale {
+        Some(sc) => size_distribution(ctx, &key("scale"), &sc)?,
+        None => SizeDistribution::Fixed { radius: 1.0 },
+    };
+    let sk = |n: &str| format!("{prefix}.shape.{n}");
+    let shape = match sh.kind.as_str() {
+        "rod" => {
+            shape_keys(ctx, &key("shape"), &sh, &["length", "diameter", "count"])?;
+            ParticleShape::Rod {
+                length: ctx.require(sh.length, sk("length"), "the rod length end to end (m)")?,
+                diameter: ctx.require(sh.diameter, sk("diameter"), "the rod diameter (m)")?,
+                count: ctx.require(sh.count, sk("count"), "the number of spheres")?,
+            }
+        }
+        "spheres" => {
+            shape_keys(ctx, &key("shape"), &sh, &["spheres"])?;
+            let rows = ctx.require(
+                sh.spheres.as_ref(),
+                sk("spheres"),
+                "rows [x, y, z, radius] (m)",
+            )?;
+            ParticleShape::Spheres {
+                spheres: rows
+                    .iter()
+                    .map(|r| (DVec3::new(r[0], r[1], r[2]), r[3]))
+                    .collect(),
+            }
+        }
+        "maize_kernel" => {
+            let class = sh.class.as_deref().ok_or_else(|| {
+                ctx.err(
+                    sk("class"),
+                    format!("missing; expected one of {}", KernelShape::KINDS.join(", ")),
+                )
+            })?;
+            let mut kernel = KernelShape::published(class).ok_or_else(|| {
+                ctx.err(
+                    sk("class"),
+                    format!(
+                        "unknown kernel class \"{class}\" (expected {})",
+                        KernelShape::KINDS.join(", ")
+                    ),
+                )
+            })?;
+            let mut allowed = vec!["class", "count"];
+            allowed.extend(kernel.dimensions_mut().into_iter().map(|(n, _)| n));
+            shape_keys(ctx, &key("shape"), &sh, &allowed)?;
+            let given = shape_values(&sh);
+            for (name, v) in kernel.dimensions_mut() {
+                if let Some(g) = given.iter().find(|(n, _)| *n == name).and_then(|(_, g)| *g) {
+                    *v = g;
+                }
+            }
+            let count = ctx.require(sh.count, sk("count"), "the number of spheres")?;
+            ParticleShape::MaizeKernel { kernel, count }
+        }
+        other => {
+            return Err(ctx.err(
+                sk("type"),
+                format!(
+                    "unknown shape \"{other}\" (expected sphere, rod, spheres or maize_kernel)"
+                ),
+            ))
+        }
+    };
+    Ok((shape, scale))
+}
+
+/// The numeric keys of a shape entry, by name.
+fn shape_values(s: &ShapeEntry) -> [(&'static str, Option<f64>); 9] {
+    [
+        ("length", s.length),
+        ("diameter", s.diameter),
+        ("width", s.width),
+        ("height", s.height),
+        ("thickness", s.thickness),
+        ("upper_width", s.upper_width),
+        ("lower_width", s.lower_width),
+        ("upper_thickness", s.upper_thickness),
+        ("lower_thickness", s.lower_thickness),
+    ]
+}
+
+/// Rejects shape keys that the shape type does not use.
+fn shape_keys(ctx: &Ctx, prefix: &str, s: &ShapeEntry, allowed: &[&str]) -> Result<(), SceneError> {
+    let mut given: Vec<(&str, bool)> = shape_values(s)
+        .iter()
+        .map(|(n, v)| (*n, v.is_some()))
+        .collect();
+    given.extend([
+        ("count", s.count.is_some()),
+        ("spheres", s.spheres.is_some()),
+        ("class", s.class.is_some()),
+    ]);
+    ctx.only(prefix, &s.kind, &given, allowed)
+}
+
+fn size_distribution(
+    ctx: &Ctx,
+    prefix: &str,
+    s: &SizeEntry,
+) -> Result<SizeDistribution, SceneError> {
+    let key = |n: &str| format!("{prefix}.{n}");
+    let given = [
+        ("radius", s.radius.is_some()),
+        ("min", s.min.is_some()),
+        ("max", s.max.is_some()),
+        ("mean", s.mean.is_some()),
+        ("std", s.std.is_some()),
+        ("radii", s.radii.is_some()),
+        ("fractions", s.fractions.is_some()),
+        ("basis", s.basis.is_some()),
+    ];
+    Ok(match s.kind.as_str() {
+        "fixed" => {
+            ctx.only(prefix, "fixed", &given, &["radius"])?;
+            SizeDistribution::Fixed {
+                radius: ctx.require(s.radius, key("radius"), "the particle radius (m)")?,
+            }
+        }
+        "uniform" => {
+            ctx.only(prefix, "uniform", &given, &["min", "max"])?;
+            SizeDistribution::Uniform {
+                min: ctx.require(s.min, key("min"), "the smallest radius (m)")?,
+                max: ctx.require(s.max, key("max"), "the largest radius (m)")?,
+            }
+        }
+        "normal" => {
+            ctx.only(prefix, "normal", &given, &["mean", "std", "min", "max"])?;
+            let mean = ctx.require(s.mean, key("mean"), "the mean radius (m)")?;
+            let std = ctx.require(
+                s.std,
+                key("std"),
+                "the standard deviation of the radius (m)",
+            )?;
+            SizeDistribution::TruncatedNormal {
+                mean,
+                std,
+                min: s.min.unwrap_or(mean - 3.0 * std),
+                max: s.max.unwrap_or(mean + 3.0 * std),
+            }
+        }
+        "classes" => {
+            ctx.only(prefix, "classes", &given, &["radii", "fractions", "basis"])?;
+            let radii = s
+                .radii
+                .clone()
+                .ok_or_else(|| ctx.err(key("radii"), "missing; expected a list of radii (m)"))?;
+            let fractions = s.fractions.clone().ok_or_else(|| {
+                ctx.err(key("fractions"), "missing; expected a list of fractions")
+            })?;
+            SizeDistribution::Classes {
+                radii,
+                fractions,
+                by_mass: basis(ctx, key("basis"), s.basis.as_deref())?,
+            }
+        }
+        other => {
+            return Err(ctx.err(
+                key("type"),
+                format!(
+                    "unknown size distribution \"{other}\" (expected fixed, uniform, normal or classes)"
+                ),
+            ))
+        }
+    })
+}
+
+fn region(ctx: &Ctx, prefix: &str, r: &RegionEntry) -> Result<FillRegion, SceneError> {
+    let key = |n: &str| format!("{prefix}.{n}");
+    let given = [
+        ("min", r.min.is_some()),
+        ("max", r.max.is_some()),
+        ("base", r.base.is_some()),
+        ("axis", r.axis.is_some()),
+        ("radius", r.radius.is_some()),
+        ("length", r.length.is_some()),
+    ];
+    Ok(match r.kind.as_str() {
+        "box" => {
+            ctx.only(prefix, "box", &given, &["min", "max"])?;
+            FillRegion::Box {
+                min: v3(ctx.require(r.min, key("min"), "the lower corner [x, y, z]")?),
+                max: v3(ctx.require(r.max, key("max"), "the upper corner [x, y, z]")?),
+            }
+        }
+        "cylinder" => {
+            ctx.only(
+                prefix,
+                "cylinder",
+                &given,
+                &["base", "axis", "radius", "length"],
+            )?;
+            FillRegion::Cylinder {
+                base: v3(ctx.require(r.base, key("base"), "the centre of the bottom [x, y, z]")?),
+                axis: v3(r.axis.unwrap_or([0.0, 0.0, 1.0])),
+                radius: ctx.require(r.radius, key("radius"), "the radius (m)")?,
+                length: ctx.require(r.length, key("length"), "the length (m)")?,
+            }
+        }
+        other => {
+            return Err(ctx.err(
+                key("type"),
+                format!("unknown region \"{other}\" (expected box or cylinder)"),
+            ))
+        }
+    })
+}
+
+pub(super) fn particle_group(
+    ctx: &Ctx,
+    k: usize,
+    p: ParticleEntry,
+) -> Result<ParticleGroup, SceneError> {
+    let prefix = format!("particles[{k}]");
+    let key = |s: &str| format!("particles[{k}].{s}");
+    let fk = |s: &str| format!("particles[{k}].fill.{s}");
+    let particles = particles_of_group(
+        ctx,
+        &prefix,
+        TypeKeys {
+            material: p.material,
+            size: p.size,
+            shape: p.shape,
+            scale: p.scale,
+            types: p.types,
+            fractions: p.fractions,
+            basis: p.basis,
+        },
+    )?;
+    let fe = &p.fill;
+    let given = [
+        ("lattice", fe.lattice.is_some()),
+        ("spacing", fe.spacing.is_some()),
+        ("origin", fe.origin.is_some()),
+        ("count", fe.count.is_some()),
+        ("mass", fe.mass.is_some()),
+        ("seed", fe.seed.is_some()),
+        ("rate", fe.rate.is_some()),
+        ("mass_rate", fe.mass_rate.is_some()),
+        ("start", fe.start.is_some()),
+    ];
+    let amount = || -> Result<FillTarget, SceneError> {
+        match (fe.count, fe.mass) {
+            (Some(n), None) => Ok(FillTarget::Count(n)),
+            (None, Some(m)) => Ok(FillTarget::Mass(m)),
+            (Some(_), Some(_)) => Err(ctx.err(fk("mass"), "give count or mass, not both")),
+            (None, None) => Err(ctx.err(
+                fk("count"),
+                "missing; expected count (particles) or mass (kg)",
+            )),
+        }
+    };
+    let fill_region = |what: &str| -> Result<FillRegion, SceneError> {
+        if p.factory.is_some() {
+            return Err(ctx.err(
+                key("factory"),
+                format!("not used by a {what} fill (use fill.type = \"factory\")"),
+            ));
+        }
+        let r = p
+            .region
+            .as_ref()
+            .ok_or_else(|| ctx.err(key("region"), "missing; expected the region to fill"))?;
+        region(ctx, &key("region"), r)
+    };
+    let placement = match fe.kind.as_str() {
+        "lattice" => {
+            ctx.only(
+                &key("fill"),
+                "lattice",
+                &given,
+                &["lattice", "spacing", "origin", "seed"],
+            )?;
+            let region = fill_region("lattice")?;
+            let lattice = match fe.lattice.as_deref().unwrap_or("sc") {
+                "sc" | "simple_cubic" => Lattice::SimpleCubic,
+                "hcp" | "hexagonal_close_packed" => Lattice::HexagonalClosePacked,
+                other => {
+                    return Err(ctx.err(
+                        fk("lattice"),
+                        format!("unknown lattice \"{other}\" (expected sc or hcp)"),
+                    ))
+                }
+            };
+            Placement::Lattice {
+                region,
+                lattice,
+                spacing: fe.spacing,
+                origin: fe.origin.map(v3),
+                seed: fe.seed,
+            }
+        }
+        "random" => {
+            ctx.only(&key("fill"), "random", &given, &["count", "mass", "seed"])?;
+            Placement::Random {
+                region: fill_region("random")?,
+                amount: amount()?,
+                seed: fe.seed,
+            }
+        }
+        "factory" => {
+            ctx.only(
+                &key("fill"),
+                "factory",
+                &given,
+                &["count", "mass", "seed", "rate", "mass_rate", "start"],
+            )?;
+            if p.region.is_some() {
+                return Err(ctx.err(
+                    key("region"),
+                    "not used by a factory fill (give factory = { ... })",
+                ));
+            }
+            let fa = p.factory.as_ref().ok_or_else(|| ctx.err(key("factory"), "missing; expected factory = { type = \"disc\" or \"rectangle\", centre = [x, y, z], ... }"))?;
+            let fak = |s: &str| format!("particles[{k}].factory.{s}");
+            let centre = v3(fa.centre);
+            let outlet = match fa.kind.as_str() {
+                "disc" => {
+                    if fa.size.is_some() || fa.u_axis.is_some() {
+                        return Err(ctx.err(
+                            fak(if fa.size.is_some() { "size" } else { "u_axis" }),
+                            "not used by a disc (give radius)",
+                        ));
+                    }
+                    FactoryOutlet::Disc {
+                        centre,
+                        radius: ctx.require(fa.radius, fak("radius"), "the disc radius (m)")?,
+                    }
+                }
+                "rectangle" => {
+                    if fa.radius.is_some() {
+                        return Err(ctx.err(
+                            fak("radius"),
+                            "not used by a rectangle (give size = [a, b])",
+                        ));
+                    }
+                    FactoryOutlet::Rectangle {
+                        centre,
+                        size: ctx.require(fa.size, fak("size"), "the side lengths [a, b] (m)")?,
+                        u_axis: fa.u_axis.map(v3),
+                    }
+                }
+                other => {
+                    return Err(ctx.err(
+                        fak("type"),
+                        format!("unknown factory \"{other}\" (expected disc or rectangle)"),
+                    ))
+                }
+            };
+            let rate = match (fe.rate, fe.mass_rate) {
+                (Some(r), None) => Rate::Count(r),
+                (None, Some(r)) => Rate::Mass(r),
+                (Some(_), Some(_)) => {
+                    return Err(ctx.err(fk("mass_rate"), "give rate or mass_rate, not both"))
+                }
+                (None, None) => {
+                    return Err(ctx.err(
+                        fk("rate"),
+                        "missing; expected rate (particles/s) or mass_rate (kg/s)",
+                    ))
+                }
+            };
+            Placement::Factory {
+                outlet,
+                normal: v3(fa.normal.unwrap_or([0.0, 0.0, -1.0])),
+                amount: amount()?,
+                rate,
+                start: fe.start.unwrap_or(0.0),
+                seed: fe.seed,
+            }
+        }
+        other => {
+            return Err(ctx.err(
+                fk("type"),
+                format!("unknown fill \"{other}\" (expected lattice, random or factory)"),
+            ))
+        }
+    };
+    Ok(ParticleGroup {
+        particles,
+        placement,
+        velocity: v3(p.velocity.unwrap_or([0.0; 3])),
+    })
+}

@@ -4,20 +4,15 @@
 use super::{ContactForce, PairParams};
 use glam::DVec3;
 
-/// Rolling resistance model.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Rolling resistance model (default: constant directional torque, EDEM's standard).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum RollingModel {
     /// EDEM's standard "constant directional torque" (`cdt`): each particle gets
     /// mu_r |F_n| c_i against its own spin.
+    #[default]
     ConstantDirectionalTorque,
     /// Elastic-plastic spring-dashpot (`epsd`, EDEM type C, LIGGGHTS `epsd`).
     Epsd { viscous_damping: f64 },
-}
-
-impl Default for RollingModel {
-    fn default() -> Self {
-        RollingModel::ConstantDirectionalTorque
-    }
 }
 
 impl RollingModel {

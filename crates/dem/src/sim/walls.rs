@@ -47,6 +47,7 @@ impl WallLists {
 
     /// Rebuilds the candidates of every particle (particles already in their new order; `order[new]
     /// = old` maps to the rows of the old list, whose history is carried over).
+    #[allow(clippy::needless_range_loop)]
     pub fn rebuild(
         &mut self,
         particles: &Particles,

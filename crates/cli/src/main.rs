@@ -95,6 +95,17 @@ enum Command {
         #[arg(long)]
         retry_failed: bool,
     },
+    /// Run one simulation of a study from a job file (the unit a cluster executor submits) and
+    /// write its record as JSON.
+    RunOne {
+        job: PathBuf,
+        /// Where to write the record (default: the job file with .record.json in place of .json).
+        #[arg(long)]
+        record: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// Show a study's stages, runs done / failed / pending, and the best values so far.
     Status { study: PathBuf },
     /// Write a study's report (index.html, results.csv, summary.json) from its stored runs.
@@ -467,6 +478,11 @@ fn main() -> ExitCode {
             restart,
             retry_failed,
         } => run_study(&study, jobs, restart, retry_failed),
+        Command::RunOne {
+            job,
+            record,
+            threads,
+        } => set_threads(threads).and_then(|_| run_job(&job, record.as_deref())),
         Command::Status { study } => study::status(&study).map(|s| print!("{s}")),
         Command::Report { study, out } => study::report(&study, out.as_deref()).map(|dir| {
             println!("wrote {}", dir.join("index.html").display());
@@ -520,6 +536,54 @@ fn run_study(path: &Path, jobs: usize, restart: bool, retry_failed: bool) -> Res
         retry_failed,
     };
     print!("{}", study::run(path, &opts, interrupted)?);
+    Ok(())
+}
+
+/// `demcal run-one`: runs a job and writes its record (done, or failed with its kind and reason)
+/// next to it. Exits 0 whenever a record is written: a failed simulation is a result.
+fn run_job(path: &Path, record: Option<&Path>) -> Result<(), String> {
+    let job = study::Job::load(path)?;
+    let out = record
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| path.with_extension("record.json"));
+    let interrupted = Arc::new(AtomicBool::new(false));
+    let flag = interrupted.clone();
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    })
+    .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    let name = format!(
+        "stage {} {} run {}",
+        job.stage + 1,
+        job.stage_kind,
+        job.index + 1
+    );
+    let log = std::sync::Mutex::new(LogLine::new());
+    let report = |phase: &str, t: f64| {
+        let mut log = log.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(elapsed) = log.due() {
+            eprintln!("{name}: {phase}: t = {t:.3} s, {elapsed:.0} s elapsed");
+        }
+    };
+    let Some(rec) = job.execute(&interrupted, &report) else {
+        return Err(format!("{name}: interrupted; no record written"));
+    };
+    let json = serde_json::to_string_pretty(&rec).map_err(|e| e.to_string())?;
+    let tmp = out.with_extension("tmp");
+    std::fs::write(&tmp, json)
+        .and_then(|_| std::fs::rename(&tmp, &out))
+        .map_err(|e| format!("{}: cannot write the record: {e}", out.display()))?;
+    match (&rec.response, &rec.error, rec.error_kind) {
+        (Some(y), _, _) => println!("{name}: {} = {y} (record {})", job.response, out.display()),
+        (None, e, kind) => println!(
+            "{name}: failed ({}): {} (record {})",
+            kind.map(|k| k.as_str()).unwrap_or("unknown"),
+            e.clone().unwrap_or_default(),
+            out.display()
+        ),
+    }
     Ok(())
 }
 

@@ -847,3 +847,79 @@ fn long_runs_log_progress_when_not_on_a_terminal() {
         "{err}"
     );
 }
+
+/// `demcal run-one` runs a study's job file in its own process and writes the same record the
+/// local executor stored for that run; a failed run's record carries its kind.
+#[test]
+fn run_one_executes_a_job_file_as_the_study_would() {
+    let dir = temp_dir("run-one");
+    let study_text = r#"
+name = "bowl"
+seed = 5
+plan = [{ stage = "screening", design = "pb" }]
+
+[test]
+test = "function"
+[test.function]
+expression = "30 + 10*((a - 0.6)^2 + (b - 0.3)^2)"
+variables = { a = 0.8, b = 0.5 }
+noise = 0.02
+fail_when = "a - 1.1"
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.4
+max = 1.2
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.1
+max = 0.9
+
+[target]
+value = 30.0
+"#;
+    let path = dir.join("bowl.toml");
+    std::fs::write(&path, study_text).unwrap();
+    run_ok(&["run".as_ref(), path.as_os_str()]);
+    let study = study::Study::load(&path).unwrap();
+    let store = study::Store::open(&study.store_path(), false).unwrap();
+    let stored = store.runs().unwrap();
+    let replay = study::replay(&study, &stored, None).unwrap();
+    let stage = &replay.stages[0];
+    let mut checked = (0, 0);
+    for (spec, rec) in stage.runs.iter().zip(&stage.records) {
+        let rec = rec.as_ref().expect("stored");
+        let job = study::Job::new(&study, spec);
+        let job_path = dir.join(format!("job{}.json", spec.index));
+        std::fs::write(&job_path, job.to_json()).unwrap();
+        let line = run_ok(&["run-one".as_ref(), job_path.as_os_str()]);
+        let back: study::store::RunRecord = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(format!("job{}.record.json", spec.index))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(back.response, rec.response, "{line}");
+        assert_eq!(back.fingerprint, rec.fingerprint);
+        assert_eq!(back.status, rec.status);
+        assert_eq!(back.error_kind, rec.error_kind);
+        match rec.response {
+            Some(_) => checked.0 += 1,
+            None => {
+                assert_eq!(rec.error_kind, Some(study::RunErrorKind::Diverged));
+                assert!(line.contains("failed (diverged)"), "{line}");
+                checked.1 += 1;
+            }
+        }
+    }
+    // Pb with a high half failing: some of each.
+    assert!(checked.0 > 0 && checked.1 > 0, "{checked:?}");
+    // A broken job file names the file and the key.
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, r#"{"test_name": "x", "seed": "three"}"#).unwrap();
+    let out = demcal().arg("run-one").arg(&bad).output().unwrap();
+    assert!(!out.status.success());
+    let e = one_line_error(&out);
+    assert!(e.contains("bad.json: seed: invalid type"), "{e}");
+}

@@ -7,6 +7,7 @@
 //! on this machine ([`runner`]); [`status`] and [`report`] replay without running. The report
 //! ([`report`]) is one self-contained HTML page plus `results.csv` and `summary.json`.
 
+pub mod job;
 pub mod paths;
 pub mod report;
 pub mod runner;
@@ -19,6 +20,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
+pub use job::{Job, RunError, RunErrorKind};
 pub use spec::Study;
 pub use stages::{replay, Replay, State};
 pub use store::Store;

@@ -52,6 +52,7 @@ fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String, String> {
         "relative_error_percent".into(),
         "wall_s".into(),
         "finished_at".into(),
+        "error_kind".into(),
         "error".into(),
     ]);
     w.write_record(&head).map_err(|e| e.to_string())?;
@@ -80,6 +81,11 @@ fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String, String> {
         );
         row.push(format!("{:.3}", r.wall_s));
         row.push(r.finished_at.clone());
+        row.push(
+            r.error_kind
+                .map(|k| k.as_str().to_string())
+                .unwrap_or_default(),
+        );
         row.push(r.error.clone().unwrap_or_default());
         w.write_record(&row).map_err(|e| e.to_string())?;
     }
@@ -572,7 +578,11 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
                     .unwrap_or_default();
                 let status = match r.status {
                     Status::Done => "done".to_string(),
-                    Status::Failed => format!("failed: {}", r.error.clone().unwrap_or_default()),
+                    Status::Failed => format!(
+                        "failed ({}): {}",
+                        r.error_kind.map(|k| k.as_str()).unwrap_or("unknown"),
+                        r.error.clone().unwrap_or_default()
+                    ),
                 };
                 write!(
                     h,

@@ -6,16 +6,16 @@
 
 use std::collections::VecDeque;
 use std::io::IsTerminal;
-use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
+use crate::job::Job;
 use crate::spec::Study;
 use crate::stages::{Execute, RunSpec, StageResult};
-use crate::store::{now_utc, RunRecord, Status, Store};
+use crate::store::{RunRecord, Status, Store};
 
 /// How often a long run logs how far it is when standard error is not a terminal (a log file, a
 /// batch job): `DEMCAL_PROGRESS_S` seconds, default 5.
@@ -27,9 +27,6 @@ pub fn log_interval() -> Duration {
         .map(|s| Duration::from_secs_f64(s.min(1e6)))
         .unwrap_or(Duration::from_secs(5))
 }
-
-/// The error text a run returns when the study is interrupted; such runs are not stored.
-const INTERRUPTED: &str = "interrupted";
 
 pub struct LocalExecutor<'a> {
     pub jobs: usize,
@@ -64,87 +61,6 @@ pub fn run_dir(study: &Study, spec: &RunSpec) -> std::path::PathBuf {
         .runs_dir()
         .join(format!("stage{}-{}", spec.stage + 1, spec.stage_kind))
         .join(format!("run{:03}", spec.index + 1))
-}
-
-/// Runs one simulation. None when it was interrupted.
-fn run_one(
-    study: &Study,
-    spec: &RunSpec,
-    interrupted: &AtomicBool,
-    report: &dyn Fn(&str, f64),
-) -> Option<RunRecord> {
-    let start = Instant::now();
-    let dir = run_dir(study, spec);
-    // A run killed before may have left pictures behind.
-    let _ = std::fs::remove_dir_all(&dir);
-    let limit = study.run_time_limit_s;
-    let table = study.test_with(&spec.values);
-    // Errors name the test (the run is named by the row they are stored in).
-    let name = if study.test_source == "inline" {
-        format!("{} [test]", study.path.display())
-    } else {
-        study.test_source.clone()
-    };
-    let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        let file = virtual_tests::TestFile::from_table(&name, &table)?;
-        let mut progress = |phase: &str, t: f64| -> Result<(), String> {
-            if interrupted.load(Ordering::Relaxed) {
-                return Err(INTERRUPTED.into());
-            }
-            if let Some(l) = limit {
-                if start.elapsed().as_secs_f64() > l {
-                    return Err(format!(
-                        "stopped: the run took longer than run_time_limit_s = {l} s (in {phase} at t = {t:.3} s)"
-                    ));
-                }
-            }
-            report(phase, t);
-            Ok(())
-        };
-        virtual_tests::run_file(&file, Some(spec.seed), Some(&dir), &mut progress)
-    }))
-    .unwrap_or_else(|panic| {
-        let msg = panic
-            .downcast_ref::<String>()
-            .cloned()
-            .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-            .unwrap_or_default();
-        Err(format!("the simulation panicked: {msg}"))
-    });
-    if matches!(&result, Err(e) if e == INTERRUPTED) {
-        return None;
-    }
-    let (status, response, outputs, error) = match result {
-        Ok((json, _)) => match json.get(&study.target.response).and_then(|v| v.as_f64()) {
-            Some(y) if y.is_finite() => (Status::Done, Some(y), json, None),
-            _ => (
-                Status::Failed,
-                None,
-                json,
-                Some(format!(
-                    "the test gave no finite number for {}",
-                    study.target.response
-                )),
-            ),
-        },
-        Err(e) => (Status::Failed, None, serde_json::Value::Null, Some(e)),
-    };
-    Some(RunRecord {
-        stage: spec.stage,
-        stage_kind: spec.stage_kind.to_string(),
-        index: spec.index,
-        inputs: spec.inputs(study),
-        seed: spec.seed,
-        status,
-        response,
-        outputs,
-        error,
-        wall_s: start.elapsed().as_secs_f64(),
-        finished_at: now_utc(),
-        version: env!("CARGO_PKG_VERSION").to_string(),
-        out_dir: dir.display().to_string(),
-        fingerprint: spec.fingerprint(study),
-    })
 }
 
 impl Execute for LocalExecutor<'_> {
@@ -235,7 +151,8 @@ impl Execute for LocalExecutor<'_> {
                                 }
                             }
                         };
-                        let rec = pool.install(|| run_one(study, &spec, interrupted, &report));
+                        let job = Job::new(study, &spec);
+                        let rec = pool.install(|| job.execute(interrupted, &report));
                         if tx.send((spec, rec)).is_err() {
                             break;
                         }
@@ -257,7 +174,11 @@ impl Execute for LocalExecutor<'_> {
                     (Status::Done, Some(y)) => {
                         format!("{} = {}", study.target.response, crate::stages::sig(y))
                     }
-                    _ => format!("failed: {}", rec.error.clone().unwrap_or_default()),
+                    _ => format!(
+                        "failed ({}): {}",
+                        rec.error_kind.map(|k| k.as_str()).unwrap_or("unknown"),
+                        rec.error.clone().unwrap_or_default()
+                    ),
                 };
                 bar.inc(1);
                 let short: String = outcome.chars().take(70).collect();

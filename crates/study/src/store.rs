@@ -6,8 +6,11 @@ use std::path::{Path, PathBuf};
 
 use rusqlite::{params, Connection, OptionalExtension};
 
+use crate::job::RunErrorKind;
+
 /// How a finished run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Status {
     Done,
     Failed,
@@ -22,8 +25,9 @@ impl Status {
     }
 }
 
-/// One finished simulation.
-#[derive(Clone, Debug)]
+/// One finished simulation (also what `demcal run-one` writes as JSON).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RunRecord {
     pub stage: usize,
     pub stage_kind: String,
@@ -35,7 +39,9 @@ pub struct RunRecord {
     pub response: Option<f64>,
     /// The test's whole outcome as JSON (null for failed runs).
     pub outputs: serde_json::Value,
+    /// Why a failed run gave no result: the message, and its kind.
     pub error: Option<String>,
+    pub error_kind: Option<RunErrorKind>,
     pub wall_s: f64,
     pub finished_at: String,
     pub version: String,
@@ -63,6 +69,7 @@ CREATE TABLE IF NOT EXISTS runs (
     response REAL,
     outputs TEXT NOT NULL,
     error TEXT,
+    error_kind TEXT,
     wall_s REAL NOT NULL,
     finished_at TEXT NOT NULL,
     version TEXT NOT NULL,
@@ -90,6 +97,13 @@ impl Store {
         conn.execute_batch("PRAGMA journal_mode = DELETE; PRAGMA synchronous = FULL;")
             .map_err(db_err(path))?;
         conn.execute_batch(SCHEMA).map_err(db_err(path))?;
+        // Stores written before run errors had kinds get the column (their failures read as
+        // kind "unknown").
+        let has_kind = conn.prepare("SELECT error_kind FROM runs LIMIT 0").is_ok();
+        if !has_kind {
+            conn.execute_batch("ALTER TABLE runs ADD COLUMN error_kind TEXT")
+                .map_err(db_err(path))?;
+        }
         conn.busy_timeout(std::time::Duration::from_secs(10))
             .map_err(db_err(path))?;
         Ok(Store {
@@ -122,8 +136,8 @@ impl Store {
         let tx = self.conn.transaction().map_err(db_err(&path))?;
         tx.execute(
             "INSERT OR REPLACE INTO runs (stage, stage_kind, idx, inputs, seed, status, response,
-                 outputs, error, wall_s, finished_at, version, out_dir, fingerprint)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)",
+                 outputs, error, wall_s, finished_at, version, out_dir, fingerprint, error_kind)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
             params![
                 r.stage as i64,
                 r.stage_kind,
@@ -139,6 +153,7 @@ impl Store {
                 r.version,
                 r.out_dir,
                 r.fingerprint,
+                r.error_kind.map(|k| k.as_str()),
             ],
         )
         .map_err(db_err(&path))?;
@@ -157,7 +172,7 @@ impl Store {
             .conn
             .prepare(
                 "SELECT stage, stage_kind, idx, inputs, seed, status, response, outputs, error,
-                        wall_s, finished_at, version, out_dir, fingerprint
+                        wall_s, finished_at, version, out_dir, fingerprint, error_kind
                  FROM runs ORDER BY stage, idx",
             )
             .map_err(db_err(&self.path))?;
@@ -179,6 +194,14 @@ impl Store {
                     response: r.get(6)?,
                     outputs: serde_json::from_str(&r.get::<_, String>(7)?)
                         .unwrap_or(serde_json::Value::Null),
+                    error_kind: match (
+                        r.get::<_, Option<String>>(8)?,
+                        r.get::<_, Option<String>>(14)?,
+                    ) {
+                        (_, Some(k)) => Some(RunErrorKind::from_str(&k)),
+                        (Some(_), None) => Some(RunErrorKind::Unknown),
+                        (None, None) => None,
+                    },
                     error: r.get(8)?,
                     wall_s: r.get(9)?,
                     finished_at: r.get(10)?,
@@ -353,6 +376,7 @@ mod tests {
             response: Some(31.5),
             outputs: serde_json::json!({"value": 31.5}),
             error: None,
+            error_kind: None,
             wall_s: 1.25,
             finished_at: now_utc(),
             version: "0.1.0".into(),
@@ -364,6 +388,7 @@ mod tests {
         r.status = Status::Failed;
         r.response = None;
         r.error = Some("diverged".into());
+        r.error_kind = Some(RunErrorKind::Diverged);
         s.insert(&r).unwrap();
         drop(s);
         let s = Store::open(&path, false).unwrap();
@@ -373,6 +398,8 @@ mod tests {
         assert_eq!(runs[0].inputs["x"], 0.5);
         assert_eq!(runs[1].status, Status::Failed);
         assert_eq!(runs[1].error.as_deref(), Some("diverged"));
+        assert_eq!(runs[1].error_kind, Some(RunErrorKind::Diverged));
+        assert_eq!(runs[0].error_kind, None);
         assert_eq!(s.delete_failed().unwrap(), 1);
         assert_eq!(s.runs().unwrap().len(), 1);
         assert!(now_utc().starts_with("20"));

@@ -114,7 +114,7 @@ fn the_plan_recovers_a_known_optimum_and_keeps_failed_runs() {
         "contours",
         "Reduced model",
         "Validation",
-        "failed: ",
+        "failed (",
     ] {
         assert!(html.contains(part), "report lacks {part}");
     }
@@ -505,6 +505,7 @@ impl study::stages::Execute for WrongRuns {
             response: Some(1.0),
             outputs: serde_json::Value::Null,
             error: None,
+            error_kind: None,
             wall_s: 0.0,
             finished_at: String::new(),
             version: String::new(),
@@ -562,6 +563,7 @@ fn done_runs_without_a_response_do_not_count() {
             response: None,
             outputs: serde_json::Value::Null,
             error: None,
+            error_kind: None,
             wall_s: 0.0,
             finished_at: String::new(),
             version: String::new(),

@@ -1,0 +1,275 @@
+//! A run as a self-contained unit of work: [`Job`] carries everything one simulation of a study
+//! needs (the test with the run's values written in, the seed, where to write, the response to
+//! read, the time limit) and serialises to JSON. The local executor runs jobs in threads;
+//! `demcal run-one JOB.json` runs one in its own process and writes its [`RunRecord`] as JSON,
+//! which is the seam a cluster executor uses: write job files, run them anywhere, read the records
+//! back and store them.
+//!
+//! A run that does not give a number ends in a typed [`RunError`]; its kind is stored with the
+//! message, so reports and a retry policy can tell a diverged simulation from a bad setting.
+
+use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::spec::Study;
+use crate::stages::RunSpec;
+use crate::store::{now_utc, RunRecord, Status};
+
+/// Why a run gave no result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunErrorKind {
+    /// Stopped by Ctrl-C (never stored: the run is made again next time).
+    Interrupted,
+    /// Ran longer than the study's `run_time_limit_s`.
+    TimeLimit,
+    /// The simulation blew up (non-finite positions or velocities).
+    Diverged,
+    /// A particle left the simulation domain.
+    Escaped,
+    /// The test's settings (with the run's values) were refused.
+    BadSettings,
+    /// The simulation ran but the measurement could not be made, or gave no finite response.
+    MeasurementFailed,
+    /// The code panicked (a bug: the message says where).
+    Panic,
+    /// Stored by a demcal version that did not record kinds.
+    Unknown,
+}
+
+impl RunErrorKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RunErrorKind::Interrupted => "interrupted",
+            RunErrorKind::TimeLimit => "time_limit",
+            RunErrorKind::Diverged => "diverged",
+            RunErrorKind::Escaped => "escaped",
+            RunErrorKind::BadSettings => "bad_settings",
+            RunErrorKind::MeasurementFailed => "measurement_failed",
+            RunErrorKind::Panic => "panic",
+            RunErrorKind::Unknown => "unknown",
+        }
+    }
+
+    pub fn from_str(s: &str) -> RunErrorKind {
+        [
+            RunErrorKind::Interrupted,
+            RunErrorKind::TimeLimit,
+            RunErrorKind::Diverged,
+            RunErrorKind::Escaped,
+            RunErrorKind::BadSettings,
+            RunErrorKind::MeasurementFailed,
+            RunErrorKind::Panic,
+        ]
+        .into_iter()
+        .find(|k| k.as_str() == s)
+        .unwrap_or(RunErrorKind::Unknown)
+    }
+}
+
+/// A run that gave no result: its kind and a one-line message.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunError {
+    pub kind: RunErrorKind,
+    pub message: String,
+}
+
+impl RunError {
+    pub fn new(kind: RunErrorKind, message: impl Into<String>) -> Self {
+        RunError {
+            kind,
+            message: message.into(),
+        }
+    }
+}
+
+impl std::fmt::Display for RunError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for RunError {}
+
+impl From<virtual_tests::TestError> for RunError {
+    fn from(e: virtual_tests::TestError) -> Self {
+        use virtual_tests::TestError as T;
+        let kind = match &e {
+            T::Settings(_) => RunErrorKind::BadSettings,
+            T::Diverged(_) => RunErrorKind::Diverged,
+            T::Escaped(_) => RunErrorKind::Escaped,
+            T::Measurement(_) => RunErrorKind::MeasurementFailed,
+            T::Stopped(_) => RunErrorKind::Interrupted,
+        };
+        RunError::new(kind, e.to_string())
+    }
+}
+
+/// One run of a study, ready to execute anywhere.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Job {
+    /// Names the test in error messages (its file, or the study's inline `[test]`).
+    pub test_name: String,
+    /// The test file as TOML, with the run's parameter values written in.
+    pub test: toml::Table,
+    pub seed: u64,
+    pub stage: usize,
+    pub stage_kind: String,
+    pub index: usize,
+    /// What the point is (factorial, centre, axial, step 3, ...).
+    pub label: String,
+    /// Every parameter's value by name.
+    pub inputs: serde_json::Value,
+    /// The test outcome the study calibrates against.
+    pub response: String,
+    /// Seconds of wall time after which the run stops and fails.
+    pub run_time_limit_s: Option<f64>,
+    /// Where the run writes its pictures and result.
+    pub out_dir: PathBuf,
+    /// The exact test and seed; a stored record is reused only while it matches.
+    pub fingerprint: String,
+}
+
+impl Job {
+    /// The job for one planned run of `study`.
+    pub fn new(study: &Study, spec: &RunSpec) -> Job {
+        Job {
+            test_name: if study.test_source == "inline" {
+                format!("{} [test]", study.path.display())
+            } else {
+                study.test_source.clone()
+            },
+            test: study.test_with(&spec.values),
+            seed: spec.seed,
+            stage: spec.stage,
+            stage_kind: spec.stage_kind.to_string(),
+            index: spec.index,
+            label: spec.label.clone(),
+            inputs: spec.inputs(study),
+            response: study.target.response.clone(),
+            run_time_limit_s: study.run_time_limit_s,
+            out_dir: crate::runner::run_dir(study, spec),
+            fingerprint: spec.fingerprint(study),
+        }
+    }
+
+    /// Reads a job file; errors name the file and the key.
+    pub fn load(path: &Path) -> Result<Job, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read the job file: {e}", path.display()))?;
+        let de = &mut serde_json::Deserializer::from_str(&text);
+        serde_path_to_error::deserialize(de).map_err(|e| {
+            let key = e.path().to_string();
+            format!("{}: {key}: {}", path.display(), e.into_inner())
+        })
+    }
+
+    /// The job as JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a job is plain data")
+    }
+
+    /// Runs the simulation. `None` when `interrupted` stopped it (nothing is to be stored);
+    /// otherwise the record, done or failed with its reason. `report` hears the phase and the
+    /// simulated time every few hundred steps.
+    pub fn execute(
+        &self,
+        interrupted: &AtomicBool,
+        report: &dyn Fn(&str, f64),
+    ) -> Option<RunRecord> {
+        let start = Instant::now();
+        // A run killed before may have left pictures behind.
+        let _ = std::fs::remove_dir_all(&self.out_dir);
+        let result = self.simulate(interrupted, start, report);
+        let (status, response, outputs, error) = match result {
+            Err(e) if e.kind == RunErrorKind::Interrupted => return None,
+            Ok(json) => match json.get(&self.response).and_then(|v| v.as_f64()) {
+                Some(y) if y.is_finite() => (Status::Done, Some(y), json, None),
+                _ => (
+                    Status::Failed,
+                    None,
+                    json,
+                    Some(RunError::new(
+                        RunErrorKind::MeasurementFailed,
+                        format!("the test gave no finite number for {}", self.response),
+                    )),
+                ),
+            },
+            Err(e) => (Status::Failed, None, serde_json::Value::Null, Some(e)),
+        };
+        Some(RunRecord {
+            stage: self.stage,
+            stage_kind: self.stage_kind.clone(),
+            index: self.index,
+            inputs: self.inputs.clone(),
+            seed: self.seed,
+            status,
+            response,
+            outputs,
+            error_kind: error.as_ref().map(|e| e.kind),
+            error: error.map(|e| e.message),
+            wall_s: start.elapsed().as_secs_f64(),
+            finished_at: now_utc(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            out_dir: self.out_dir.display().to_string(),
+            fingerprint: self.fingerprint.clone(),
+        })
+    }
+
+    fn simulate(
+        &self,
+        interrupted: &AtomicBool,
+        start: Instant,
+        report: &dyn Fn(&str, f64),
+    ) -> Result<serde_json::Value, RunError> {
+        let limit = self.run_time_limit_s;
+        // Why the progress callback stopped the run, which the test hands back as a plain stop.
+        let stopped = std::cell::Cell::new(None::<RunError>);
+        let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            let file = virtual_tests::TestFile::from_table(&self.test_name, &self.test)
+                .map_err(|e| RunError::new(RunErrorKind::BadSettings, e))?;
+            let mut progress = |phase: &str, t: f64| -> Result<(), virtual_tests::Stop> {
+                if interrupted.load(Ordering::Relaxed) {
+                    stopped.set(Some(RunError::new(RunErrorKind::Interrupted, "interrupted")));
+                    return Err(virtual_tests::Stop);
+                }
+                if let Some(l) = limit {
+                    if start.elapsed().as_secs_f64() > l {
+                        stopped.set(Some(RunError::new(
+                            RunErrorKind::TimeLimit,
+                            format!(
+                                "stopped: the run took longer than run_time_limit_s = {l} s (in {phase} at t = {t:.3} s)"
+                            ),
+                        )));
+                        return Err(virtual_tests::Stop);
+                    }
+                }
+                report(phase, t);
+                Ok(())
+            };
+            virtual_tests::run_file(&file, Some(self.seed), Some(&self.out_dir), &mut progress)
+                .map(|(json, _)| json)
+                .map_err(RunError::from)
+        }))
+        .unwrap_or_else(|panic| {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(RunError::new(
+                RunErrorKind::Panic,
+                format!("the simulation panicked: {msg}"),
+            ))
+        });
+        match (result, stopped.into_inner()) {
+            (Err(_), Some(why)) => Err(why),
+            (result, _) => result,
+        }
+    }
+}

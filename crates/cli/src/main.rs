@@ -64,8 +64,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Run a virtual lab test (angle_of_repose, incline_tilt, incline_slide, function) and print what it
-    /// measures.
+    #[command(about = format!("Run a virtual lab test ({}) and print what it measures", virtual_tests::registry::names().join(", ")))]
+    #[command(long_about = format!("Run a virtual lab test and print what it measures. Tests: {}.", virtual_tests::tests_help()))]
     Test {
         test: PathBuf,
         /// Seed of the particle generation (overrides the file's `seed`).

@@ -4,13 +4,20 @@
 
 use std::time::Instant;
 
-use dem::geometry::Motion;
-use dem::scene::Scene;
+use dem::factory::Rate;
+use dem::fill::FillRegion;
+use dem::mixture::FillTarget;
+use dem::scene::{FactoryOutlet, GeometryDescription, GeometryShape, ParticleGroup, Placement};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::file::{arr, group, plate_geometry, table, text, TestFile};
+use crate::file::TestFile;
+use crate::harness::{self, Quiet};
 use crate::repose::{measure, ReposeMeasurement, ReposeResult};
+use crate::virtual_test::{Picture, Response, Run, VirtualTest};
+
+/// The lifted-cylinder test.
+pub struct AngleOfRepose;
 
 /// `[angle_of_repose]` settings.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -122,7 +129,7 @@ pub struct Outcome {
 }
 
 fn check(file: &TestFile, s: &Settings) -> Result<(), String> {
-    let err = |key: &str, msg: String| Err(format!("{}: angle_of_repose.{key}: {msg}", file.name));
+    let err = |key: &str, msg: String| Err(file.error(key, msg));
     for (key, v) in [
         ("cylinder_diameter", s.cylinder_diameter),
         ("cylinder_height", s.cylinder_height),
@@ -191,196 +198,281 @@ fn check(file: &TestFile, s: &Settings) -> Result<(), String> {
     if s.planes == 0 {
         return err("planes", "expected at least 1".into());
     }
+    file.check_material("wall_material", &s.wall_material)?;
     Ok(())
 }
 
-/// The scene of the test, as scene-file TOML.
-pub fn scene_toml(file: &TestFile, s: &Settings, seed: u64) -> Result<String, String> {
-    use toml::Value;
+/// The scene of the test: a plate, the cylinder standing on it, and the particles filled in
+/// (or poured from a disc at the fill height).
+pub fn scene(
+    file: &TestFile,
+    s: &Settings,
+    seed: u64,
+) -> Result<dem::scene::SceneDescription, String> {
     let plate = s.plate_size.unwrap_or(6.0 * s.cylinder_diameter);
     let fill_height = s.fill_height.unwrap_or(s.cylinder_height);
-    let lift = s.lift_distance.unwrap_or(s.cylinder_height);
-    let duration = s.settle_max_time + lift / s.lift_speed + s.final_max_time;
     let r = 0.5 * s.cylinder_diameter;
     let half = 0.5 * plate;
-    let mut fill = vec![("seed", Value::Integer(seed as i64))];
-    if let Some(c) = s.fill.count {
-        fill.push(("count", Value::Integer(c as i64)));
-    }
-    if let Some(m) = s.fill.mass {
-        fill.push(("mass", Value::Float(m)));
-    }
-    let placement = if s.fill.from == "factory" {
-        fill.push(("type", text("factory")));
-        match (s.fill.rate, s.fill.mass_rate, s.fill.count, s.fill.mass) {
-            (Some(rate), _, _, _) => fill.push(("rate", Value::Float(rate))),
-            (_, Some(rate), _, _) => fill.push(("mass_rate", Value::Float(rate))),
-            (_, _, Some(n), _) => fill.push(("rate", Value::Float(n as f64 / 0.5))),
-            (_, _, _, m) => fill.push(("mass_rate", Value::Float(m.unwrap_or(0.0) / 0.5))),
-        }
-        // A disc just inside the rim, particles created below it.
-        vec![
-            (
-                "factory",
-                table(vec![
-                    ("type", text("disc")),
-                    ("centre", arr([0.0, 0.0, fill_height])),
-                    ("radius", Value::Float(0.95 * r)),
-                ]),
-            ),
-            ("velocity", arr([0.0, 0.0, -s.fill.speed])),
-        ]
-    } else {
-        fill.push(("type", text("random")));
-        vec![(
-            "region",
-            table(vec![
-                ("type", text("cylinder")),
-                ("base", arr([0.0, 0.0, 0.0])),
-                ("radius", Value::Float(r)),
-                ("length", Value::Float(fill_height)),
-            ]),
-        )]
+    let amount = match (s.fill.count, s.fill.mass) {
+        (Some(c), _) => FillTarget::Count(c as usize),
+        (None, m) => FillTarget::Mass(m.unwrap_or(0.0)),
     };
-    let mut extra = placement;
-    extra.push(("fill", table(fill)));
-    let mut simulation = vec![
-        ("duration", Value::Float(duration)),
-        ("time_step_percent", Value::Float(s.time_step_percent)),
+    let (placement, velocity) = if s.fill.from == "factory" {
+        let rate = match (s.fill.rate, s.fill.mass_rate, s.fill.count, s.fill.mass) {
+            (Some(rate), _, _, _) => Rate::Count(rate),
+            (_, Some(rate), _, _) => Rate::Mass(rate),
+            (_, _, Some(n), _) => Rate::Count(n as f64 / 0.5),
+            (_, _, _, m) => Rate::Mass(m.unwrap_or(0.0) / 0.5),
+        };
+        // A disc just inside the rim, particles created below it.
         (
-            "domain",
-            table(vec![
-                // A particle that rolls off the plate falls out of this box and stops the run
-                // with its reason: the plate is too small.
-                (
-                    "min",
-                    arr([-half * 1.2, -half * 1.2, -0.25 * s.cylinder_height]),
-                ),
-                (
-                    "max",
-                    arr([
-                        half * 1.2,
-                        half * 1.2,
-                        fill_height + 2.0 * s.cylinder_height,
-                    ]),
-                ),
-            ]),
+            Placement::Factory {
+                outlet: FactoryOutlet::Disc {
+                    centre: DVec3::new(0.0, 0.0, fill_height),
+                    radius: 0.95 * r,
+                },
+                normal: DVec3::new(0.0, 0.0, -1.0),
+                amount,
+                rate,
+                start: 0.0,
+                seed: Some(seed),
+            },
+            DVec3::new(0.0, 0.0, -s.fill.speed),
+        )
+    } else {
+        (
+            Placement::Random {
+                region: FillRegion::Cylinder {
+                    base: DVec3::ZERO,
+                    axis: DVec3::Z,
+                    radius: r,
+                    length: fill_height,
+                },
+                amount,
+                seed: Some(seed),
+            },
+            DVec3::ZERO,
+        )
+    };
+    // A particle that rolls off the plate falls out of the domain and stops the run with its
+    // reason: the plate is too small.
+    let mut simulation = harness::simulation(
+        s.time_step_percent,
+        (
+            DVec3::new(-half * 1.2, -half * 1.2, -0.25 * s.cylinder_height),
+            DVec3::new(
+                half * 1.2,
+                half * 1.2,
+                fill_height + 2.0 * s.cylinder_height,
+            ),
         ),
-    ];
+    );
     if let Some(m) = &s.rolling_friction_model {
-        simulation.push(("rolling_friction_model", text(m)));
+        simulation.rolling_friction_model = m.clone();
     }
     if let Some(d) = s.rolling_viscous_damping {
-        simulation.push(("rolling_viscous_damping", Value::Float(d)));
+        simulation.rolling_viscous_damping = d;
     }
-    let simulation = table(simulation);
     let geometries = vec![
-        plate_geometry(&s.wall_material, half, half, 0.0),
-        table(vec![
-            ("name", text("cylinder")),
-            ("type", text("cylinder")),
-            ("material", text(&s.wall_material)),
-            ("base", arr([0.0, 0.0, 0.0])),
-            ("axis", arr([0.0, 0.0, 1.0])),
-            ("radius", Value::Float(r)),
-            ("length", Value::Float(s.cylinder_height)),
-        ]),
+        harness::plate(&s.wall_material, half, half, 0.0),
+        GeometryDescription {
+            name: "cylinder".into(),
+            material: s.wall_material.clone(),
+            shape: GeometryShape::Cylinder {
+                base: DVec3::ZERO,
+                axis: DVec3::Z,
+                radius: r,
+                length: s.cylinder_height,
+                bottom_cap: false,
+                top_cap: false,
+            },
+            motion: Vec::new(),
+            torque_point: None,
+        },
     ];
-    file.scene_text(simulation, geometries, vec![group(&s.particles, extra)])
+    let group = ParticleGroup {
+        particles: file.particles(&s.particles)?,
+        placement,
+        velocity,
+    };
+    Ok(file.scene(simulation, geometries, vec![group]))
 }
 
-/// Runs the test. `progress` hears the phase and the simulated time.
-/// When the heap cannot be measured and `out` is given, its side view is written there first.
-pub fn run(
-    file: &TestFile,
-    seed_override: Option<u64>,
-    out: Option<&std::path::Path>,
-    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
-) -> Result<Outcome, String> {
-    let s: Settings = file.settings()?;
-    check(file, &s)?;
-    let seed = seed_override.or(file.seed).unwrap_or(1);
-    let text = scene_toml(file, &s, seed)?;
-    let scene = Scene::from_toml(&text, &file.name, std::path::Path::new("."))
-        .map_err(|e| e.to_string())?;
-    let wall = Instant::now();
-    let mut sim = scene.simulation;
-    let dt = sim.params.time_step;
-    // The mass grows while a factory pours.
-    let rms = |sim: &dem::Simulation| (2.0 * sim.kinetic_energy() / sim.total_mass()).sqrt();
-    let chunk = ((0.01 / dt).ceil() as u64).max(1);
-    let fail = |e: dem::sim::SimError| format!("{}: simulation failed: {e}", file.name);
+impl VirtualTest for AngleOfRepose {
+    type Settings = Settings;
+    type Outcome = Outcome;
 
-    // 1. Settle in the cylinder (at least 0.05 s so a fill at rest does not count as settled).
-    while sim.time < s.settle_max_time {
-        sim.run(chunk).map_err(fail)?;
-        progress("settle", sim.time)?;
-        if sim.time > 0.05 && sim.factories_done() && rms(&sim) < s.settle_speed {
-            break;
+    fn name(&self) -> &'static str {
+        "angle_of_repose"
+    }
+
+    fn about(&self) -> &'static str {
+        "a cylinder on a plate is filled, lifted, and the heap's angle measured"
+    }
+
+    fn response_names(&self) -> &'static [&'static str] {
+        &[
+            "angle_of_repose_deg",
+            "angle_std_deg",
+            "heap_height_m",
+            "heap_radius_m",
+        ]
+    }
+
+    fn check(&self, file: &TestFile, s: &Settings) -> Result<(), String> {
+        check(file, s)
+    }
+
+    /// When the heap cannot be measured and pictures are wanted, its side view is written
+    /// first.
+    fn run(&self, file: &TestFile, s: &Settings, run: &mut Run) -> Result<Outcome, String> {
+        let seed = run.seed;
+        let description = scene(file, s, seed)?;
+        let scene = file.build(&description, "angle_of_repose.fill")?;
+        let wall = Instant::now();
+        let mut sim = scene.simulation;
+        let dt = sim.params.time_step;
+        let lift = s.lift_distance.unwrap_or(s.cylinder_height);
+        let lift_time = lift / s.lift_speed;
+        harness::budget(
+            file,
+            dt,
+            &[
+                ("settle_max_time", "settling".into(), s.settle_max_time),
+                (
+                    "lift_speed",
+                    format!(
+                        "lifting {} m at {} m/s",
+                        harness::number(lift),
+                        harness::number(s.lift_speed)
+                    ),
+                    lift_time,
+                ),
+                (
+                    "final_max_time",
+                    "the final settling".into(),
+                    s.final_max_time,
+                ),
+            ],
+        )?;
+        let fail = |e: harness::Stop| e.message(file, "");
+
+        // 1. Settle in the cylinder (at least 0.05 s so a fill at rest does not count as settled).
+        let quiet = |max_time: f64, min_time: f64, wait_for_factories: bool| Quiet {
+            rms_speed: s.settle_speed,
+            min_time,
+            max_time,
+            check_every: 0.01,
+            wait_for_factories,
+        };
+        harness::settle(
+            &mut sim,
+            &quiet(s.settle_max_time, 0.05, true),
+            "settle",
+            run,
+        )
+        .map_err(fail)?;
+        if !sim.factories_done() {
+            return Err(file.error(
+                "settle_max_time",
+                format!(
+                    "the factory had not finished pouring after {} s; allow more time or pour faster",
+                    s.settle_max_time
+                ),
+            ));
         }
-    }
-    if !sim.factories_done() {
-        return Err(format!(
-            "{}: angle_of_repose.settle_max_time: the factory had not finished pouring after {} s; allow more time or pour faster",
-            file.name, s.settle_max_time
-        ));
-    }
-    let settle_time = sim.time;
-    // 2. Lift.
-    let lift = s.lift_distance.unwrap_or(s.cylinder_height);
-    let lift_time = lift / s.lift_speed;
-    let start = sim.time;
-    sim.geometries[1].motion.push(Motion::Translation {
-        velocity: DVec3::new(0.0, 0.0, s.lift_speed),
-        start,
-        end: start + lift_time,
-    });
-    while sim.time < start + lift_time {
-        sim.run(chunk).map_err(fail)?;
-        progress("lift", sim.time)?;
-    }
-    // 3. Let the heap come to rest.
-    let final_start = sim.time;
-    while sim.time < final_start + s.final_max_time {
-        sim.run(chunk).map_err(fail)?;
-        progress("final settle", sim.time)?;
-        if rms(&sim) < s.settle_speed {
-            break;
+        let settle_time = sim.time;
+        // 2. Lift.
+        let chunk = ((0.01 / dt).ceil() as u64).max(1);
+        let end = harness::translate(
+            &mut sim,
+            "cylinder",
+            DVec3::new(0.0, 0.0, s.lift_speed),
+            lift_time,
+        )?;
+        while sim.time < end {
+            harness::advance(&mut sim, chunk, "lift", run, None).map_err(fail)?;
         }
+        // 3. Let the heap come to rest.
+        harness::settle(
+            &mut sim,
+            &quiet(s.final_max_time, 0.0, false),
+            "final settle",
+            run,
+        )
+        .map_err(fail)?;
+        let final_rms = harness::rms_speed(&sim);
+        let positions = sim.particles.position.clone();
+        let radii = sim.particles.radius.clone();
+        let m = ReposeMeasurement {
+            planes: s.planes,
+            fit_band: (s.fit_band[0], s.fit_band[1]),
+            ..Default::default()
+        };
+        let res = measure(&positions, &radii, &m).map_err(|e| {
+            let picture = run.out.and_then(|dir| {
+                std::fs::create_dir_all(dir).ok()?;
+                let png = dir.join("heap.png");
+                crate::render::side_view_png(&positions, &radii, 900, &png).ok()?;
+                Some(format!(" (side view in {})", png.display()))
+            });
+            format!("{}: {e}{}", file.name, picture.unwrap_or_default())
+        })?;
+        Ok(Outcome {
+            angle_of_repose_deg: res.angle_deg,
+            angle_std_deg: res.angle_std_deg,
+            heap_height_m: res.heap_height,
+            heap_radius_m: res.heap_radius,
+            flank_angles_deg: res.flanks.iter().map(|f| f.angle_deg).collect(),
+            particles: sim.particle_count(),
+            spheres: positions.len(),
+            time_step_s: dt,
+            settle_time_s: settle_time,
+            simulated_time_s: sim.time,
+            final_rms_speed_m_s: final_rms,
+            wall_s: wall.elapsed().as_secs_f64(),
+            seed,
+            measurement: res,
+            positions,
+            radii,
+        })
     }
-    let final_rms = rms(&sim);
-    let positions = sim.particles.position.clone();
-    let radii = sim.particles.radius.clone();
-    let m = ReposeMeasurement {
-        planes: s.planes,
-        fit_band: (s.fit_band[0], s.fit_band[1]),
-        ..Default::default()
-    };
-    let res = measure(&positions, &radii, &m).map_err(|e| {
-        let picture = out.and_then(|dir| {
-            std::fs::create_dir_all(dir).ok()?;
-            let png = dir.join("heap.png");
-            crate::render::side_view_png(&positions, &radii, 900, &png).ok()?;
-            Some(format!(" (side view in {})", png.display()))
-        });
-        format!("{}: {e}{}", file.name, picture.unwrap_or_default())
-    })?;
-    Ok(Outcome {
-        angle_of_repose_deg: res.angle_deg,
-        angle_std_deg: res.angle_std_deg,
-        heap_height_m: res.heap_height,
-        heap_radius_m: res.heap_radius,
-        flank_angles_deg: res.flanks.iter().map(|f| f.angle_deg).collect(),
-        particles: sim.particle_count(),
-        spheres: positions.len(),
-        time_step_s: dt,
-        settle_time_s: settle_time,
-        simulated_time_s: sim.time,
-        final_rms_speed_m_s: final_rms,
-        wall_s: wall.elapsed().as_secs_f64(),
-        seed,
-        measurement: res,
-        positions,
-        radii,
-    })
+
+    fn responses(&self, o: &Outcome) -> Vec<(&'static str, Response)> {
+        vec![
+            (
+                "angle_of_repose_deg",
+                Response::Scalar(o.angle_of_repose_deg),
+            ),
+            ("angle_std_deg", Response::Scalar(o.angle_std_deg)),
+            ("heap_height_m", Response::Scalar(o.heap_height_m)),
+            ("heap_radius_m", Response::Scalar(o.heap_radius_m)),
+        ]
+    }
+
+    fn summary(&self, o: &Outcome) -> String {
+        format!(
+            "angle_of_repose: angle_deg={:.2} std_deg={:.2} heap_height_m={:.4} heap_radius_m={:.4} particles={} simulated_s={:.2} wall_s={:.1}",
+            o.angle_of_repose_deg,
+            o.angle_std_deg,
+            o.heap_height_m,
+            o.heap_radius_m,
+            o.particles,
+            o.simulated_time_s,
+            o.wall_s
+        )
+    }
+
+    fn pictures(&self, o: &Outcome) -> Result<Vec<Picture>, String> {
+        Ok(vec![
+            Picture {
+                file_name: "profiles.svg".into(),
+                bytes: crate::render::profiles_svg(&o.measurement)?.into_bytes(),
+            },
+            Picture {
+                file_name: "heap.png".into(),
+                bytes: crate::render::side_view_png_bytes(&o.positions, &o.radii, 900)?,
+            },
+        ])
+    }
 }

@@ -1,10 +1,23 @@
-//! Virtual test files: TOML with `test = "<name>"`, the materials and interactions in the scene
-//! format (`[[material]]`, `[[interaction]]`), and a table named after the test with its settings.
-//! A test builds its scene as TOML and hands it to the engine's scene loader, so material and
-//! interaction errors read exactly as they do for scenes.
+//! Virtual test files: TOML with `test = "<name>"`, the materials, interactions and particle
+//! types in the scene format (`[[material]]`, `[[interaction]]`, `[[particle_type]]`), and a
+//! table named after the test with its settings.
+//!
+//! The scene parts are read into the engine's typed scene description when the file is read, so
+//! their errors name the file and the key exactly as a scene file's do. A test then writes its
+//! scene in Rust ([`TestFile::scene`]) and builds it ([`TestFile::build`]); errors of the built
+//! scene are told in the test's terms (`angle_of_repose.particles.size.radius`).
+//!
+//! The constructors that check the test's name against the registry ([`TestFile::load`],
+//! [`TestFile::parse`], [`TestFile::from_table`]) live in [`crate::registry`], so that this
+//! module, which every test uses, does not depend on the tests.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
+use dem::scene::parse::{self, SharedParts};
+use dem::scene::{
+    prepare_shapes, GeometryDescription, GroupParticles, OutputDescription, ParticleGroup, Scene,
+    SceneDescription, SceneError, SimulationSettings,
+};
 use serde::de::DeserializeOwned;
 
 /// A test file read into its parts.
@@ -12,59 +25,26 @@ use serde::de::DeserializeOwned;
 pub struct TestFile {
     /// For messages: the file's path.
     pub name: String,
+    /// The folder relative paths in the file are taken from.
+    pub folder: PathBuf,
     pub test: String,
     pub seed: Option<u64>,
-    /// `[[material]]`, `[[interaction]]` and `[[particle_type]]` as given.
-    pub materials: toml::Value,
-    pub interactions: toml::Value,
-    pub particle_types: Option<toml::Value>,
+    /// `[[material]]`, `[[interaction]]` and `[[particle_type]]`, typed.
+    pub parts: SharedParts,
     /// The table named after the test.
     pub settings: toml::Value,
 }
 
-pub const TESTS: &[&str] = &[
-    "angle_of_repose",
-    "incline_tilt",
-    "incline_slide",
-    "function",
-];
-
-/// Tests that simulate particles and so need materials and interactions.
-fn needs_materials(test: &str) -> bool {
-    test != "function"
-}
-
 impl TestFile {
-    pub fn load(path: &Path) -> Result<TestFile, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        TestFile::parse(&path.display().to_string(), &text)
-    }
-
-    pub fn parse(name: &str, text: &str) -> Result<TestFile, String> {
-        let value: toml::Table =
-            toml::from_str(text).map_err(|e| format!("{name}: {}", one_line(&e.to_string())))?;
-        TestFile::from_table(name, &value)
-    }
-
-    /// A test file already read as TOML (a study's inline test, or one with parameters set).
-    pub fn from_table(name: &str, value: &toml::Table) -> Result<TestFile, String> {
-        let test = match value.get("test") {
-            Some(toml::Value::String(s)) => s.clone(),
-            Some(_) => return Err(format!("{name}: test: expected a string")),
-            None => {
-                return Err(format!(
-                    "{name}: test: missing (expected one of: {})",
-                    TESTS.join(", ")
-                ))
-            }
-        };
-        if !TESTS.contains(&test.as_str()) {
-            return Err(format!(
-                "{name}: test: unknown test \"{test}\" (expected one of: {})",
-                TESTS.join(", ")
-            ));
-        }
+    /// Reads the parts of a test file already read as TOML, for a test that exists and
+    /// (`needs_materials`) simulates particles.
+    pub(crate) fn read(
+        name: &str,
+        folder: &Path,
+        value: &toml::Table,
+        test: &str,
+        needs_materials: bool,
+    ) -> Result<TestFile, String> {
         for key in value.keys() {
             if ![
                 "test",
@@ -72,7 +52,7 @@ impl TestFile {
                 "material",
                 "interaction",
                 "particle_type",
-                test.as_str(),
+                test,
             ]
             .contains(&key.as_str())
             {
@@ -86,29 +66,34 @@ impl TestFile {
             Some(toml::Value::Integer(s)) if *s >= 0 => Some(*s as u64),
             Some(_) => return Err(format!("{name}: seed: expected a whole number >= 0")),
         };
-        let get = |k: &str| value.get(k).cloned();
+        let settings = value
+            .get(test)
+            .cloned()
+            .ok_or_else(|| format!("{name}: {test}: missing table [{test}]"))?;
+        if needs_materials {
+            for (key, what) in [
+                ("material", "[[material]]"),
+                ("interaction", "[[interaction]]"),
+            ] {
+                if !value.contains_key(key) {
+                    return Err(format!("{name}: {key}: missing {what}"));
+                }
+            }
+        }
+        let parts = parse::shared_parts(value, name).map_err(|e| e.to_string())?;
         Ok(TestFile {
             name: name.to_string(),
-            settings: get(&test)
-                .ok_or_else(|| format!("{name}: {test}: missing table [{test}]"))?,
-            test: test.clone(),
+            folder: folder.to_path_buf(),
+            test: test.to_string(),
             seed,
-            materials: match get("material") {
-                Some(m) => m,
-                None if needs_materials(&test) => {
-                    return Err(format!("{name}: material: missing [[material]]"))
-                }
-                None => toml::Value::Array(Vec::new()),
-            },
-            interactions: match get("interaction") {
-                Some(i) => i,
-                None if needs_materials(&test) => {
-                    return Err(format!("{name}: interaction: missing [[interaction]]"))
-                }
-                None => toml::Value::Array(Vec::new()),
-            },
-            particle_types: get("particle_type"),
+            parts,
+            settings,
         })
+    }
+
+    /// A path given in the file, taken relative to the file's folder.
+    pub fn resolve(&self, path: &str) -> PathBuf {
+        self.folder.join(path)
     }
 
     /// The settings table as `T`, with errors naming the key.
@@ -122,6 +107,32 @@ impl TestFile {
                 format!("{}: {}.{path}: {msg}", self.name, self.test)
             }
         })
+    }
+
+    /// An error about the test's setting `key`: `file: test.key: message`.
+    pub fn error(&self, key: &str, message: impl std::fmt::Display) -> String {
+        format!("{}: {}.{key}: {message}", self.name, self.test)
+    }
+
+    /// Checks that the setting `key` names one of the file's materials.
+    pub fn check_material(&self, key: &str, material: &str) -> Result<(), String> {
+        let known: Vec<&str> = self
+            .parts
+            .materials
+            .iter()
+            .map(|m| m.name.as_str())
+            .collect();
+        if known.contains(&material) {
+            Ok(())
+        } else {
+            Err(self.error(
+                key,
+                format!(
+                    "unknown material \"{material}\" (defined: {})",
+                    known.join(", ")
+                ),
+            ))
+        }
     }
 
     /// Checks a test's `particles` setting: one type inline (`material` with `size`, or with
@@ -152,70 +163,78 @@ impl TestFile {
         Ok(())
     }
 
-    /// A scene (as TOML) with this file's materials, interactions and particle types.
-    pub fn scene_text(
+    /// The test's `particles` setting read as a scene group's particles (checked first with
+    /// [`TestFile::check_particles`]).
+    pub fn particles(&self, particles: &toml::Value) -> Result<GroupParticles, String> {
+        self.check_particles(particles)?;
+        parse::group_particles(
+            particles.clone(),
+            &self.name,
+            &format!("{}.particles", self.test),
+        )
+        .map_err(|e| e.to_string())
+    }
+
+    /// A scene with this file's materials, interactions and particle types, and what the test
+    /// sets up.
+    pub fn scene(
         &self,
-        simulation: toml::Value,
-        geometries: Vec<toml::Value>,
-        particles: Vec<toml::Value>,
-    ) -> Result<String, String> {
-        let mut scene = vec![
-            ("simulation", simulation),
-            ("material", self.materials.clone()),
-            ("interaction", self.interactions.clone()),
-            ("geometry", toml::Value::Array(geometries)),
-            ("particles", toml::Value::Array(particles)),
-        ];
-        if let Some(t) = &self.particle_types {
-            scene.push(("particle_type", t.clone()));
+        simulation: SimulationSettings,
+        geometries: Vec<GeometryDescription>,
+        particles: Vec<ParticleGroup>,
+    ) -> SceneDescription {
+        SceneDescription {
+            simulation,
+            output: OutputDescription::default(),
+            materials: self.parts.materials.clone(),
+            interactions: self.parts.interactions.clone(),
+            geometries,
+            particle_types: self.parts.particle_types.clone(),
+            particles,
         }
-        toml::to_string(&table(scene)).map_err(|e| format!("{}: {e}", self.name))
     }
-}
 
-/// `[x, y, z]` as TOML.
-pub fn arr(v: [f64; 3]) -> toml::Value {
-    toml::Value::Array(v.iter().map(|x| toml::Value::Float(*x)).collect())
-}
-
-/// A TOML table from pairs.
-pub fn table(pairs: Vec<(&str, toml::Value)>) -> toml::Value {
-    toml::Value::Table(pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
-}
-
-/// A flat plate as a scene geometry: a box whose top face (z = `top`) is the only closed one, so
-/// particles see a plate and nothing of its sides.
-pub fn plate_geometry(material: &str, half_x: f64, half_y: f64, top: f64) -> toml::Value {
-    table(vec![
-        ("name", text("plate")),
-        ("type", text("box")),
-        ("material", text(material)),
-        ("min", arr([-half_x, -half_y, top - 0.01])),
-        ("max", arr([half_x, half_y, top])),
-        (
-            "open",
-            toml::Value::Array(
-                ["-x", "+x", "-y", "+y", "-z"]
-                    .iter()
-                    .map(|f| text(f))
-                    .collect(),
-            ),
-        ),
-    ])
-}
-
-/// A TOML string.
-pub fn text(s: &str) -> toml::Value {
-    toml::Value::String(s.to_string())
-}
-
-/// `particles` with more keys (region, fill, velocity) added.
-pub fn group(particles: &toml::Value, extra: Vec<(&str, toml::Value)>) -> toml::Value {
-    let mut t = particles.as_table().cloned().unwrap_or_default();
-    for (k, v) in extra {
-        t.insert(k.to_string(), v);
+    /// Fits every clump shape of `scene` once (kernel fits, mass properties), so that the
+    /// scenes built from copies of it share them.
+    pub fn prepare(&self, scene: &mut SceneDescription, placement_key: &str) -> Result<(), String> {
+        prepare_shapes(scene, &self.name)
+            .map(|_| ())
+            .map_err(|e| self.scene_error(e, placement_key))
     }
-    toml::Value::Table(t)
+
+    /// Builds a scene the test wrote. Errors name the test's keys: the particles' own keys as
+    /// `<test>.particles.*`, placement problems as `placement_key` (the setting that placed
+    /// them, e.g. `angle_of_repose.fill`), run settings as `<test>.<setting>`.
+    pub fn build(&self, scene: &SceneDescription, placement_key: &str) -> Result<Scene, String> {
+        Scene::from_description(scene, &self.name).map_err(|e| self.scene_error(e, placement_key))
+    }
+
+    fn scene_error(&self, mut e: SceneError, placement_key: &str) -> String {
+        let own = [
+            "material",
+            "size",
+            "shape",
+            "scale",
+            "types",
+            "fractions",
+            "basis",
+        ];
+        if let Some(rest) = e.key.strip_prefix("particles[0]") {
+            let first = rest
+                .trim_start_matches('.')
+                .split(['.', '['])
+                .next()
+                .unwrap_or("");
+            e.key = if own.contains(&first) {
+                format!("{}.particles{rest}", self.test)
+            } else {
+                placement_key.to_string()
+            };
+        } else if let Some(rest) = e.key.strip_prefix("simulation.") {
+            e.key = format!("{}.{rest}", self.test);
+        }
+        e.to_string()
+    }
 }
 
 /// A TOML parser message on one line (without the source excerpt and carets).

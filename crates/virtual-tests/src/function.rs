@@ -21,6 +21,13 @@ use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
 use crate::file::TestFile;
+use crate::virtual_test::{Response, Run, VirtualTest};
+
+/// The formula test.
+pub struct Function;
+
+/// The longest wall time a run may be asked to take (s).
+const MAX_DURATION_S: f64 = 3600.0;
 
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -72,57 +79,100 @@ fn evaluate(
         .map_err(|e| format!("{}: function.{key}: {e}", file.name))
 }
 
-/// Evaluates the formula. `progress` hears "evaluate" and may stop the run by returning an error.
-pub fn run(
-    file: &TestFile,
-    seed_override: Option<u64>,
-    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
-) -> Result<Outcome, String> {
-    let s: Settings = file.settings()?;
-    if !(s.noise >= 0.0 && s.duration_s >= 0.0) {
-        return Err(format!(
-            "{}: function: noise and duration_s must be >= 0",
-            file.name
-        ));
+impl VirtualTest for Function {
+    type Settings = Settings;
+    type Outcome = Outcome;
+
+    fn name(&self) -> &'static str {
+        "function"
     }
-    let seed = seed_override.or(file.seed).unwrap_or(1);
-    let wall = Instant::now();
-    let exact = evaluate(file, "expression", &s.expression, &s.variables)?;
-    if let Some(cond) = &s.fail_when {
-        if evaluate(file, "fail_when", cond, &s.variables)? > 0.0 {
+
+    fn about(&self) -> &'static str {
+        "no particles: a formula of named variables plus seeded noise, for testing studies"
+    }
+
+    fn needs_materials(&self) -> bool {
+        false
+    }
+
+    fn response_names(&self) -> &'static [&'static str] {
+        &["value", "exact"]
+    }
+
+    fn check(&self, file: &TestFile, s: &Settings) -> Result<(), String> {
+        if !(s.noise >= 0.0 && s.duration_s >= 0.0) {
             return Err(format!(
-                "{}: function: simulation failed: fail_when \"{cond}\" holds",
+                "{}: function: noise and duration_s must be >= 0",
                 file.name
             ));
         }
-    }
-    // Sleep in slices so that an interrupted study stops the run promptly.
-    let end = wall + Duration::from_secs_f64(s.duration_s);
-    loop {
-        progress("evaluate", wall.elapsed().as_secs_f64())?;
-        let now = Instant::now();
-        if now >= end {
-            break;
+        if s.duration_s > MAX_DURATION_S {
+            return Err(file.error(
+                "duration_s",
+                format!(
+                    "expected at most {MAX_DURATION_S} s of wall time, got {}",
+                    crate::harness::number(s.duration_s)
+                ),
+            ));
         }
-        std::thread::sleep((end - now).min(Duration::from_millis(20)));
+        Ok(())
     }
-    // Box-Muller on a seeded generator: the same seed always gives the same noise.
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let (u1, u2): (f64, f64) = (rng.gen_range(f64::EPSILON..1.0), rng.gen());
-    let normal = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
-    let noise = s.noise * normal;
-    let value = exact + noise;
-    if !value.is_finite() {
-        return Err(format!(
-            "{}: function: simulation failed: the response is not finite ({value})",
-            file.name
-        ));
+
+    /// Evaluates the formula; the progress callback hears "evaluate" and may stop the run.
+    fn run(&self, file: &TestFile, s: &Settings, run: &mut Run) -> Result<Outcome, String> {
+        let seed = run.seed;
+        let wall = Instant::now();
+        let exact = evaluate(file, "expression", &s.expression, &s.variables)?;
+        if let Some(cond) = &s.fail_when {
+            if evaluate(file, "fail_when", cond, &s.variables)? > 0.0 {
+                return Err(format!(
+                    "{}: function: simulation failed: fail_when \"{cond}\" holds",
+                    file.name
+                ));
+            }
+        }
+        // Sleep in slices so that an interrupted study stops the run promptly.
+        let end = wall + Duration::from_secs_f64(s.duration_s);
+        loop {
+            run.progress("evaluate", wall.elapsed().as_secs_f64())?;
+            let now = Instant::now();
+            if now >= end {
+                break;
+            }
+            std::thread::sleep((end - now).min(Duration::from_millis(20)));
+        }
+        // Box-Muller on a seeded generator: the same seed always gives the same noise.
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let (u1, u2): (f64, f64) = (rng.gen_range(f64::EPSILON..1.0), rng.gen());
+        let normal = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
+        let noise = s.noise * normal;
+        let value = exact + noise;
+        if !value.is_finite() {
+            return Err(format!(
+                "{}: function: simulation failed: the response is not finite ({value})",
+                file.name
+            ));
+        }
+        Ok(Outcome {
+            value,
+            exact,
+            noise,
+            seed,
+            wall_s: wall.elapsed().as_secs_f64(),
+        })
     }
-    Ok(Outcome {
-        value,
-        exact,
-        noise,
-        seed,
-        wall_s: wall.elapsed().as_secs_f64(),
-    })
+
+    fn responses(&self, o: &Outcome) -> Vec<(&'static str, Response)> {
+        vec![
+            ("value", Response::Scalar(o.value)),
+            ("exact", Response::Scalar(o.exact)),
+        ]
+    }
+
+    fn summary(&self, o: &Outcome) -> String {
+        format!(
+            "function: value={} exact={} noise={}",
+            o.value, o.exact, o.noise
+        )
+    }
 }

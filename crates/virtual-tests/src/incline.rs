@@ -13,14 +13,25 @@
 
 use std::time::Instant;
 
-use dem::geometry::Motion;
-use dem::mixture::furthest_below_share;
-use dem::scene::Scene;
+use dem::fill::FillRegion;
+use dem::mixture::{furthest_below_share, FillTarget};
+use dem::scene::{GeometryDescription, GeometryShape, GroupParticles, ParticleGroup, Placement};
 use dem::Simulation;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::file::{arr, group, plate_geometry, table, text, TestFile};
+use crate::file::TestFile;
+use crate::harness::{self, centres, rms_speed, Quiet};
+use crate::virtual_test::{Response, Run, VirtualTest};
+
+/// The tilted-plate test.
+pub struct InclineTilt;
+
+/// The ramp-and-plate slide test.
+pub struct InclineSlide;
+
+/// The most releases of one slide test: each is its own simulation.
+const MAX_RELEASES: usize = 10_000;
 
 /// `[incline_tilt]` settings.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -132,220 +143,161 @@ pub struct SlideOutcome {
 
 fn positive(file: &TestFile, key: &str, v: f64) -> Result<(), String> {
     if v.is_nan() || v <= 0.0 {
-        return Err(format!(
-            "{}: {}.{key}: expected a positive number, got {v}",
-            file.name, file.test
-        ));
+        return Err(file.error(key, format!("expected a positive number, got {v}")));
     }
     Ok(())
 }
 
-fn load(file: &TestFile, text: &str) -> Result<Simulation, String> {
-    Scene::from_toml(text, &file.name, std::path::Path::new("."))
-        .map(|s| s.simulation)
-        .map_err(|e| e.to_string())
-}
+impl VirtualTest for InclineTilt {
+    type Settings = TiltSettings;
+    type Outcome = TiltOutcome;
 
-/// The centre of mass of every particle (free spheres and clumps).
-fn centres(sim: &Simulation) -> Vec<DVec3> {
-    let p = &sim.particles;
-    let mut out: Vec<DVec3> = (0..p.len())
-        .filter(|&k| p.body[k] == dem::particles::NO_BODY)
-        .map(|k| p.position[k])
-        .collect();
-    out.extend(sim.bodies.position.iter().cloned());
-    out
-}
-
-fn rms_speed(sim: &Simulation) -> f64 {
-    (2.0 * sim.kinetic_energy() / sim.total_mass()).sqrt()
-}
-
-pub fn run_tilt(
-    file: &TestFile,
-    seed_override: Option<u64>,
-    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
-) -> Result<TiltOutcome, String> {
-    use toml::Value;
-    let s: TiltSettings = file.settings()?;
-    for (k, v) in [
-        ("plate_size", s.plate_size[0].min(s.plate_size[1])),
-        ("tilt_rate_deg_s", s.tilt_rate_deg_s),
-        ("max_angle_deg", s.max_angle_deg),
-        ("slide_distance", s.slide_distance),
-        ("time_step_percent", s.time_step_percent),
-        ("settle_speed", s.settle_speed),
-        ("settle_max_time", s.settle_max_time),
-        ("count", s.count as f64),
-    ] {
-        positive(file, k, v)?;
+    fn name(&self) -> &'static str {
+        "incline_tilt"
     }
-    if s.max_angle_deg >= 90.0 {
-        return Err(format!(
-            "{}: incline_tilt.max_angle_deg: expected less than 90, got {}",
-            file.name, s.max_angle_deg
-        ));
+
+    fn about(&self) -> &'static str {
+        "a plate carrying a sample is tilted until the sample slides"
     }
-    file.check_particles(&s.particles)?;
-    let seed = seed_override.or(file.seed).unwrap_or(1);
-    let [length, width] = s.plate_size;
-    // The sample is dropped from a few millimetres onto the middle of the plate.
-    let side = (0.25 * length.min(width)).max(0.01);
-    let tilt_time = s.max_angle_deg / s.tilt_rate_deg_s;
-    let simulation = table(vec![
-        ("duration", Value::Float(s.settle_max_time + tilt_time)),
-        ("time_step_percent", Value::Float(s.time_step_percent)),
-        (
-            "domain",
-            table(vec![
-                ("min", arr([-length, -length, -length])),
-                ("max", arr([length, length, length])),
-            ]),
-        ),
-    ]);
-    let plate = plate_geometry(&s.plate_material, 0.5 * length, 0.5 * width, 0.0);
-    let particles = group(
-        &s.particles,
+
+    fn response_names(&self) -> &'static [&'static str] {
+        &["angle_deg", "tan_angle"]
+    }
+
+    fn check(&self, file: &TestFile, s: &TiltSettings) -> Result<(), String> {
+        for (k, v) in [
+            ("plate_size", s.plate_size[0].min(s.plate_size[1])),
+            ("tilt_rate_deg_s", s.tilt_rate_deg_s),
+            ("max_angle_deg", s.max_angle_deg),
+            ("slide_distance", s.slide_distance),
+            ("time_step_percent", s.time_step_percent),
+            ("settle_speed", s.settle_speed),
+            ("settle_max_time", s.settle_max_time),
+            ("count", s.count as f64),
+        ] {
+            positive(file, k, v)?;
+        }
+        if s.max_angle_deg >= 90.0 {
+            return Err(file.error(
+                "max_angle_deg",
+                format!("expected less than 90, got {}", s.max_angle_deg),
+            ));
+        }
+        file.check_particles(&s.particles)?;
+        file.check_material("plate_material", &s.plate_material)
+    }
+
+    fn run(&self, file: &TestFile, s: &TiltSettings, run: &mut Run) -> Result<TiltOutcome, String> {
+        let seed = run.seed;
+        let [length, width] = s.plate_size;
+        // The sample is dropped from a few millimetres onto the middle of the plate.
+        let side = (0.25 * length.min(width)).max(0.01);
+        let tilt_time = s.max_angle_deg / s.tilt_rate_deg_s;
+        let simulation = harness::simulation(
+            s.time_step_percent,
+            (DVec3::splat(-length), DVec3::splat(length)),
+        );
+        let plate = harness::plate(&s.plate_material, 0.5 * length, 0.5 * width, 0.0);
+        let group = ParticleGroup {
+            particles: file.particles(&s.particles)?,
+            placement: Placement::Random {
+                region: FillRegion::Box {
+                    min: DVec3::new(-0.5 * side, -0.5 * side, 0.0),
+                    max: DVec3::new(0.5 * side, 0.5 * side, side),
+                },
+                amount: FillTarget::Count(s.count as usize),
+                seed: Some(seed),
+            },
+            velocity: DVec3::ZERO,
+        };
+        let description = file.scene(simulation, vec![plate], vec![group]);
+        let mut sim = file.build(&description, "incline_tilt.count")?.simulation;
+        harness::budget(
+            file,
+            sim.params.time_step,
+            &[
+                ("settle_max_time", "settling".into(), s.settle_max_time),
+                (
+                    "tilt_rate_deg_s",
+                    format!(
+                        "tilting to {} deg at {} deg/s",
+                        harness::number(s.max_angle_deg),
+                        harness::number(s.tilt_rate_deg_s)
+                    ),
+                    tilt_time,
+                ),
+            ],
+        )?;
+        let wall = Instant::now();
+        let fail = |e: harness::Stop| e.message(file, "");
+        let quiet = Quiet {
+            rms_speed: s.settle_speed,
+            min_time: 0.05,
+            max_time: s.settle_max_time,
+            check_every: 0.005,
+            wait_for_factories: false,
+        };
+        harness::settle(&mut sim, &quiet, "settle", run).map_err(fail)?;
+        // Tilt about the y axis through the plate's top centre: +x goes down.
+        let start = sim.time;
+        let omega = s.tilt_rate_deg_s.to_radians();
+        let end = harness::rotate(&mut sim, "plate", DVec3::ZERO, DVec3::Y, omega, tilt_time)?;
+        let plate = harness::geometry(&sim, "plate")?;
+        let local = |sim: &Simulation| -> f64 {
+            let g = &sim.geometries[plate];
+            let xs = centres(sim);
+            xs.iter()
+                .map(|x| (g.rotation.transpose() * (*x - g.translation)).x)
+                .sum::<f64>()
+                / xs.len() as f64
+        };
+        let at_start = local(&sim);
+        let step_chunk = ((0.001 / sim.params.time_step).ceil() as u64).max(1);
+        let mut slid = false;
+        while sim.time < end {
+            harness::advance(&mut sim, step_chunk, "tilt", run, None).map_err(fail)?;
+            if local(&sim) - at_start > s.slide_distance {
+                slid = true;
+                break;
+            }
+        }
+        let angle_deg = (omega * (sim.time - start))
+            .to_degrees()
+            .min(s.max_angle_deg);
+        Ok(TiltOutcome {
+            angle_deg,
+            tan_angle: angle_deg.to_radians().tan(),
+            slid,
+            particles: sim.particle_count(),
+            simulated_time_s: sim.time,
+            wall_s: wall.elapsed().as_secs_f64(),
+            seed,
+        })
+    }
+
+    fn responses(&self, o: &TiltOutcome) -> Vec<(&'static str, Response)> {
         vec![
-            (
-                "region",
-                table(vec![
-                    ("type", text("box")),
-                    ("min", arr([-0.5 * side, -0.5 * side, 0.0])),
-                    ("max", arr([0.5 * side, 0.5 * side, side])),
-                ]),
-            ),
-            (
-                "fill",
-                table(vec![
-                    ("type", text("random")),
-                    ("count", Value::Integer(s.count as i64)),
-                    ("seed", Value::Integer(seed as i64)),
-                ]),
-            ),
-        ],
-    );
-    let mut sim = load(
-        file,
-        &file.scene_text(simulation, vec![plate], vec![particles])?,
-    )?;
-    let wall = Instant::now();
-    let fail = |e: dem::sim::SimError| format!("{}: simulation failed: {e}", file.name);
-    let chunk = ((0.005 / sim.params.time_step).ceil() as u64).max(1);
-    while sim.time < s.settle_max_time {
-        sim.run(chunk).map_err(fail)?;
-        progress("settle", sim.time)?;
-        if sim.time > 0.05 && rms_speed(&sim) < s.settle_speed {
-            break;
-        }
+            ("angle_deg", Response::Scalar(o.angle_deg)),
+            ("tan_angle", Response::Scalar(o.tan_angle)),
+        ]
     }
-    // Tilt about the y axis through the plate's top centre: +x goes down.
-    let start = sim.time;
-    let omega = s.tilt_rate_deg_s.to_radians();
-    sim.geometries[0].motion.push(Motion::Rotation {
-        axis_point: DVec3::ZERO,
-        axis: DVec3::Y,
-        angular_velocity: omega,
-        start,
-        end: start + tilt_time,
-    });
-    let local = |sim: &Simulation| -> f64 {
-        let g = &sim.geometries[0];
-        let xs = centres(sim);
-        xs.iter()
-            .map(|x| (g.rotation.transpose() * (*x - g.translation)).x)
-            .sum::<f64>()
-            / xs.len() as f64
-    };
-    let at_start = local(&sim);
-    let step_chunk = ((0.001 / sim.params.time_step).ceil() as u64).max(1);
-    let mut slid = false;
-    while sim.time < start + tilt_time {
-        sim.run(step_chunk).map_err(fail)?;
-        if local(&sim) - at_start > s.slide_distance {
-            slid = true;
-            break;
-        }
-        progress("tilt", sim.time)?;
+
+    fn summary(&self, o: &TiltOutcome) -> String {
+        format!(
+            "incline_tilt: angle_deg={:.2} tan={:.3} slid={} particles={} simulated_s={:.2} wall_s={:.1}",
+            o.angle_deg, o.tan_angle, o.slid, o.particles, o.simulated_time_s, o.wall_s
+        )
     }
-    let angle_deg = (omega * (sim.time - start))
-        .to_degrees()
-        .min(s.max_angle_deg);
-    Ok(TiltOutcome {
-        angle_deg,
-        tan_angle: angle_deg.to_radians().tan(),
-        slid,
-        particles: sim.particle_count(),
-        simulated_time_s: sim.time,
-        wall_s: wall.elapsed().as_secs_f64(),
-        seed,
-    })
 }
 
-pub fn run_slide(
+/// A mixture's type names and number shares as the slide test releases them, read from the
+/// `particles` setting (empty for one type given inline).
+fn release_shares(
     file: &TestFile,
-    seed_override: Option<u64>,
-    progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
-) -> Result<SlideOutcome, String> {
-    use toml::Value;
-    let s: SlideSettings = file.settings()?;
-    for (k, v) in [
-        ("ramp_angle_deg", s.ramp_angle_deg),
-        ("ramp_length", s.ramp_length),
-        ("releases", s.releases as f64),
-        ("time_step_percent", s.time_step_percent),
-        ("rest_speed", s.rest_speed),
-        ("max_time", s.max_time),
-    ] {
-        positive(file, k, v)?;
-    }
-    if s.ramp_angle_deg >= 90.0 {
-        return Err(format!(
-            "{}: incline_slide.ramp_angle_deg: expected less than 90, got {}",
-            file.name, s.ramp_angle_deg
-        ));
-    }
-    file.check_particles(&s.particles)?;
-    let seed = seed_override.or(file.seed).unwrap_or(1);
-    let theta = s.ramp_angle_deg.to_radians();
-    let normal = DVec3::new(theta.sin(), 0.0, theta.cos());
-    let top = DVec3::new(
-        -s.ramp_length * theta.cos(),
-        0.0,
-        s.ramp_length * theta.sin(),
-    );
-    let reach = s.ramp_length + 1.0;
-    let simulation = table(vec![
-        ("duration", Value::Float(s.max_time)),
-        ("time_step_percent", Value::Float(s.time_step_percent)),
-        (
-            "domain",
-            table(vec![
-                ("min", arr([-reach, -reach, -0.05])),
-                ("max", arr([reach, reach, reach + 2.0])),
-            ]),
-        ),
-    ]);
-    let plate_material = s.plate_material.clone().unwrap_or(s.ramp_material.clone());
-    let geometries = vec![
-        table(vec![
-            ("name", text("plate")),
-            ("type", text("plane")),
-            ("material", text(&plate_material)),
-            ("point", arr([0.0; 3])),
-            ("normal", arr([0.0, 0.0, 1.0])),
-        ]),
-        table(vec![
-            ("name", text("ramp")),
-            ("type", text("plane")),
-            ("material", text(&s.ramp_material)),
-            ("point", arr([0.0; 3])),
-            ("normal", arr(normal.to_array())),
-        ]),
-    ];
-    // A mixture is released type by type in its number shares (the scene checks the names).
+    particles: &toml::Value,
+) -> Result<(Vec<String>, Vec<f64>), String> {
     let key = format!("{}: incline_slide.particles", file.name);
-    let types: Vec<String> = match s.particles.get("types") {
+    let types: Vec<String> = match particles.get("types") {
         None => Vec::new(),
         Some(t) => t
             .as_array()
@@ -357,7 +309,7 @@ pub fn run_slide(
             .and_then(|v| v.filter(|v| !v.is_empty()))
             .ok_or_else(|| format!("{key}.types: expected a list of particle type names"))?,
     };
-    let fractions: Vec<f64> = match s.particles.get("fractions") {
+    let fractions: Vec<f64> = match particles.get("fractions") {
         None => vec![1.0; types.len()],
         Some(f) => {
             let v: Option<Vec<f64>> = f.as_array().and_then(|a| {
@@ -382,76 +334,184 @@ pub fn run_slide(
             }
         }
     };
-    let mut released = vec![0.0; types.len()];
+    Ok((types, fractions))
+}
 
-    let wall = Instant::now();
-    let mut distances = Vec::new();
-    let mut release_types = Vec::new();
-    let mut stopped_on_ramp = 0;
-    let mut simulated = 0.0;
-    for release in 0..s.releases {
-        let mut particles = s.particles.clone();
-        if !types.is_empty() {
-            let k = furthest_below_share(&released, &fractions);
-            released[k] += 1.0;
-            let t = particles.as_table_mut().unwrap();
-            t.insert("types".into(), Value::Array(vec![text(&types[k])]));
-            t.remove("fractions");
-            t.remove("basis");
-            release_types.push(types[k].clone());
-        } else {
-            release_types.push(
-                s.particles
-                    .get("material")
-                    .and_then(|m| m.as_str())
-                    .unwrap_or("")
-                    .to_string(),
-            );
+impl VirtualTest for InclineSlide {
+    type Settings = SlideSettings;
+    type Outcome = SlideOutcome;
+
+    fn name(&self) -> &'static str {
+        "incline_slide"
+    }
+
+    fn about(&self) -> &'static str {
+        "particles released on a ramp slide onto a plate; their stopping distance"
+    }
+
+    fn response_names(&self) -> &'static [&'static str] {
+        &["distance_m", "distance_std_m"]
+    }
+
+    fn check(&self, file: &TestFile, s: &SlideSettings) -> Result<(), String> {
+        for (k, v) in [
+            ("ramp_angle_deg", s.ramp_angle_deg),
+            ("ramp_length", s.ramp_length),
+            ("releases", s.releases as f64),
+            ("time_step_percent", s.time_step_percent),
+            ("rest_speed", s.rest_speed),
+            ("max_time", s.max_time),
+        ] {
+            positive(file, k, v)?;
         }
-        // Made well above everything, then set down on the ramp (any orientation, from rest).
-        let particles = group(
-            &particles,
-            vec![
-                (
-                    "region",
-                    table(vec![
-                        ("type", text("box")),
-                        ("min", arr([-0.1, -0.1, reach])),
-                        ("max", arr([0.1, 0.1, reach + 0.2])),
-                    ]),
+        if s.ramp_angle_deg >= 90.0 {
+            return Err(file.error(
+                "ramp_angle_deg",
+                format!("expected less than 90, got {}", s.ramp_angle_deg),
+            ));
+        }
+        if s.releases > MAX_RELEASES {
+            return Err(file.error(
+                "releases",
+                format!(
+                    "expected at most {MAX_RELEASES} (each is its own simulation), got {}",
+                    s.releases
                 ),
-                (
-                    "fill",
-                    table(vec![
-                        ("type", text("random")),
-                        ("count", Value::Integer(1)),
-                        ("seed", Value::Integer((seed + release as u64) as i64)),
-                    ]),
-                ),
-            ],
+            ));
+        }
+        file.check_particles(&s.particles)?;
+        release_shares(file, &s.particles)?;
+        file.check_material("ramp_material", &s.ramp_material)?;
+        if let Some(m) = &s.plate_material {
+            file.check_material("plate_material", m)?;
+        }
+        Ok(())
+    }
+
+    fn run(
+        &self,
+        file: &TestFile,
+        s: &SlideSettings,
+        run: &mut Run,
+    ) -> Result<SlideOutcome, String> {
+        let seed = run.seed;
+        let theta = s.ramp_angle_deg.to_radians();
+        let normal = DVec3::new(theta.sin(), 0.0, theta.cos());
+        let top = DVec3::new(
+            -s.ramp_length * theta.cos(),
+            0.0,
+            s.ramp_length * theta.sin(),
         );
-        let mut sim = load(
-            file,
-            &file.scene_text(simulation.clone(), geometries.clone(), vec![particles])?,
-        )?;
-        let com = centres(&sim)[0];
-        let lowest = (0..sim.particles.len())
-            .map(|k| (sim.particles.position[k] - com).dot(normal) - sim.particles.radius[k])
-            .fold(f64::INFINITY, f64::min);
-        // Lowest point a hair above the ramp at the release point.
-        let gap = 1e-5;
-        sim.shift(top + normal * (gap - lowest) - com);
-        let fail = |e: dem::sim::SimError| {
-            format!("{}: release {release}: simulation failed: {e}", file.name)
+        let reach = s.ramp_length + 1.0;
+        let simulation = harness::simulation(
+            s.time_step_percent,
+            (
+                DVec3::new(-reach, -reach, -0.05),
+                DVec3::new(reach, reach, reach + 2.0),
+            ),
+        );
+        let plate_material = s.plate_material.clone().unwrap_or(s.ramp_material.clone());
+        let plane = |name: &str, material: &str, normal: DVec3| GeometryDescription {
+            name: name.into(),
+            material: material.into(),
+            shape: GeometryShape::Plane {
+                point: DVec3::ZERO,
+                normal,
+            },
+            motion: Vec::new(),
+            torque_point: None,
         };
-        let chunk = ((0.005 / sim.params.time_step).ceil() as u64).max(1);
-        loop {
-            sim.run(chunk).map_err(fail)?;
-            progress(&format!("release {}/{}", release + 1, s.releases), sim.time)?;
-            if sim.time > 0.05 && rms_speed(&sim) < s.rest_speed {
-                break;
+        let geometries = vec![
+            plane("plate", &plate_material, DVec3::Z),
+            plane("ramp", &s.ramp_material, normal),
+        ];
+        // A mixture is released type by type in its number shares.
+        let (types, fractions) = release_shares(file, &s.particles)?;
+        let particles = file.particles(&s.particles)?;
+        // Made well above everything, then set down on the ramp (any orientation, from rest).
+        let placement = |release: usize| Placement::Random {
+            region: FillRegion::Box {
+                min: DVec3::new(-0.1, -0.1, reach),
+                max: DVec3::new(0.1, 0.1, reach + 0.2),
+            },
+            amount: FillTarget::Count(1),
+            seed: Some(seed + release as u64),
+        };
+        let mut base = file.scene(
+            simulation,
+            geometries,
+            vec![ParticleGroup {
+                particles,
+                placement: placement(0),
+                velocity: DVec3::ZERO,
+            }],
+        );
+        // Kernel fits and clump mass properties once for all releases.
+        file.prepare(&mut base, "incline_slide.particles")?;
+        let mut released = vec![0.0; types.len()];
+
+        let wall = Instant::now();
+        let mut distances = Vec::new();
+        let mut release_types = Vec::new();
+        let mut stopped_on_ramp = 0;
+        let mut simulated = 0.0;
+        for release in 0..s.releases {
+            let mut description = base.clone();
+            let group = &mut description.particles[0];
+            group.placement = placement(release);
+            if !types.is_empty() {
+                let k = furthest_below_share(&released, &fractions);
+                released[k] += 1.0;
+                group.particles = GroupParticles::Mixture {
+                    types: vec![types[k].clone()],
+                    fractions: None,
+                    by_mass: false,
+                };
+                release_types.push(types[k].clone());
+            } else {
+                release_types.push(
+                    s.particles
+                        .get("material")
+                        .and_then(|m| m.as_str())
+                        .unwrap_or("")
+                        .to_string(),
+                );
             }
-            if sim.time >= s.max_time {
+            let mut sim = file
+                .build(&description, "incline_slide.particles")?
+                .simulation;
+            // Each release has its own time step (its type's smallest sphere).
+            harness::budget(
+                file,
+                sim.params.time_step,
+                &[(
+                    "max_time",
+                    format!(
+                        "{} releases of up to {} s",
+                        s.releases,
+                        harness::number(s.max_time)
+                    ),
+                    s.releases as f64 * s.max_time,
+                )],
+            )?;
+            let com = centres(&sim)[0];
+            let lowest = (0..sim.particles.len())
+                .map(|k| (sim.particles.position[k] - com).dot(normal) - sim.particles.radius[k])
+                .fold(f64::INFINITY, f64::min);
+            // Lowest point a hair above the ramp at the release point.
+            let gap = 1e-5;
+            sim.shift(top + normal * (gap - lowest) - com);
+            let quiet = Quiet {
+                rms_speed: s.rest_speed,
+                min_time: 0.05,
+                max_time: s.max_time,
+                check_every: 0.005,
+                wait_for_factories: false,
+            };
+            let phase = format!("release {}/{}", release + 1, s.releases);
+            let at_rest = harness::settle(&mut sim, &quiet, &phase, run)
+                .map_err(|e| e.message(file, &format!("release {release}: ")))?;
+            if !at_rest {
                 return Err(format!(
                     "{}: incline_slide: release {release} still moves at {:.3} m/s after max_time = {} s; allow more time",
                     file.name,
@@ -459,29 +519,48 @@ pub fn run_slide(
                     s.max_time
                 ));
             }
+            simulated += sim.time;
+            let x = centres(&sim)[0].x;
+            if x < 0.0 {
+                stopped_on_ramp += 1;
+            }
+            distances.push(x.max(0.0));
         }
-        simulated += sim.time;
-        let x = centres(&sim)[0].x;
-        if x < 0.0 {
-            stopped_on_ramp += 1;
-        }
-        distances.push(x.max(0.0));
+        let n = distances.len() as f64;
+        let mean = distances.iter().sum::<f64>() / n;
+        let std = if distances.len() > 1 {
+            (distances.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+        } else {
+            0.0
+        };
+        Ok(SlideOutcome {
+            distance_m: mean,
+            distance_std_m: std,
+            distances_m: distances,
+            release_types,
+            stopped_on_ramp,
+            simulated_time_s: simulated,
+            wall_s: wall.elapsed().as_secs_f64(),
+            seed,
+        })
     }
-    let n = distances.len() as f64;
-    let mean = distances.iter().sum::<f64>() / n;
-    let std = if distances.len() > 1 {
-        (distances.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        0.0
-    };
-    Ok(SlideOutcome {
-        distance_m: mean,
-        distance_std_m: std,
-        distances_m: distances,
-        release_types,
-        stopped_on_ramp,
-        simulated_time_s: simulated,
-        wall_s: wall.elapsed().as_secs_f64(),
-        seed,
-    })
+
+    fn responses(&self, o: &SlideOutcome) -> Vec<(&'static str, Response)> {
+        vec![
+            ("distance_m", Response::Scalar(o.distance_m)),
+            ("distance_std_m", Response::Scalar(o.distance_std_m)),
+        ]
+    }
+
+    fn summary(&self, o: &SlideOutcome) -> String {
+        format!(
+            "incline_slide: distance_m={:.4} std_m={:.4} releases={} stopped_on_ramp={} simulated_s={:.2} wall_s={:.1}",
+            o.distance_m,
+            o.distance_std_m,
+            o.distances_m.len(),
+            o.stopped_on_ramp,
+            o.simulated_time_s,
+            o.wall_s
+        )
+    }
 }

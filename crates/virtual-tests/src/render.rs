@@ -80,13 +80,24 @@ pub fn profiles_svg(res: &ReposeResult) -> Result<String, String> {
     Ok(svg)
 }
 
-/// A side view (looking along +y) of spheres, shaded by their normal, `width` pixels wide.
+/// A side view (looking along +y) of spheres, shaded by their normal, `width` pixels wide,
+/// written as a PNG file.
 pub fn side_view_png(
     positions: &[DVec3],
     radii: &[f64],
     width: u32,
     path: &std::path::Path,
 ) -> Result<(), String> {
+    let bytes = side_view_png_bytes(positions, radii, width)?;
+    std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The side view of [`side_view_png`] as PNG bytes.
+pub fn side_view_png_bytes(
+    positions: &[DVec3],
+    radii: &[f64],
+    width: u32,
+) -> Result<Vec<u8>, String> {
     if positions.is_empty() {
         return Err("side view: no particles".into());
     }
@@ -142,6 +153,11 @@ pub fn side_view_png(
             }
         }
     }
-    img.save(path)
-        .map_err(|e| format!("{}: {e}", path.display()))
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| format!("side view: {e}"))?;
+    Ok(bytes)
 }

@@ -102,7 +102,23 @@ fn file_errors_name_the_key() {
         ),
         (
             file("", 10).replace("material = \"bead\"", "material = \"corn\""),
-            "heap.toml",
+            "heap.toml: angle_of_repose.particles.material: unknown material \"corn\"",
+        ),
+        (
+            file("", 10).replace("wall_material = \"steel\"", "wall_material = \"iron\""),
+            "heap.toml: angle_of_repose.wall_material: unknown material \"iron\" (defined: bead, steel)",
+        ),
+        (
+            file("", 10).replace("radius = 0.002", "radius = -0.002"),
+            "heap.toml: angle_of_repose.particles.size.radius: expected a positive number",
+        ),
+        (
+            file("", 10).replace("fill = { count = 10 }", "fill = { count = 100000 }"),
+            "heap.toml: angle_of_repose.fill: placed only",
+        ),
+        (
+            file("time_step_percent = 150", 10),
+            "heap.toml: angle_of_repose.time_step_percent: time step",
         ),
     ];
     for (text, want) in cases {
@@ -111,5 +127,42 @@ fn file_errors_name_the_key() {
             .unwrap_err();
         assert!(e.contains(want), "{e}\nwanted: {want}");
         assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}
+
+#[test]
+fn settings_that_would_never_end_are_refused_before_the_run() {
+    let cases = [
+        (
+            file("", 10).replace("lift_speed = 0.1", "lift_speed = 1e-9"),
+            "heap.toml: angle_of_repose.lift_speed: lifting 0.06 m at 1e-9 m/s takes 6.000e7 s of simulated time; the test would need",
+        ),
+        (
+            file("settle_max_time = 1e300", 10),
+            "heap.toml: angle_of_repose.settle_max_time: settling takes 1.000e300 s",
+        ),
+        (
+            file("final_max_time = 1e300", 10),
+            "heap.toml: angle_of_repose.final_max_time: the final settling takes 1.000e300 s",
+        ),
+    ];
+    for (text, want) in cases {
+        let start = std::time::Instant::now();
+        let mut reports = 0;
+        let e = TestFile::parse("heap.toml", &text)
+            .and_then(|f| {
+                run_file(&f, None, None, &mut |_, _| {
+                    reports += 1;
+                    Ok(())
+                })
+                .map(|_| ())
+            })
+            .unwrap_err();
+        assert!(e.contains(want), "{e}\nwanted: {want}");
+        assert!(e.contains("more than the 1e9 a test run may take"), "{e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+        // Refused before a single step.
+        assert_eq!(reports, 0);
+        assert!(start.elapsed().as_secs_f64() < 5.0);
     }
 }

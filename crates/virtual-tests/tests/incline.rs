@@ -125,7 +125,22 @@ fn incline_file_errors_name_the_key() {
         (
             "ramp_material = \"steel\"",
             "ramp_material = \"iron\"",
-            "iron",
+            "incline.toml: incline_slide.ramp_material: unknown material \"iron\" (defined: grain, steel)",
+        ),
+        (
+            "ramp_length = 0.2",
+            "ramp_length = 0.2\nmax_time = 1e300",
+            "incline_slide.max_time: 5 releases of up to 1e300 s takes 5.000e300 s of simulated time",
+        ),
+        (
+            "ramp_length = 0.2",
+            "ramp_length = 0.2\nreleases = 1000000000",
+            "incline_slide.releases: expected at most 10000 (each is its own simulation), got 1000000000",
+        ),
+        (
+            "types = [\"tile\"] }",
+            "types = [\"tiles\"] }",
+            "incline.toml: incline_slide.particles.types[0]: no [[particle_type]] named \"tiles\" (defined: tile)",
         ),
         (
             "particles = {",
@@ -145,4 +160,27 @@ fn incline_file_errors_name_the_key() {
         assert!(e.contains(want), "{e}\nwanted: {want}");
         assert_eq!(e.lines().count(), 1, "{e}");
     }
+}
+
+#[test]
+fn a_tilt_that_would_never_end_is_refused_before_the_run() {
+    let text = format!(
+        "test = \"incline_tilt\"\n{}\n[incline_tilt]\nparticles = {{ types = [\"tile\"] }}\nplate_material = \"steel\"\ntilt_rate_deg_s = 1e-12\n",
+        materials(0.4, 0.05, 0.3)
+    );
+    let mut reports = 0;
+    let e = TestFile::parse("incline.toml", &text)
+        .and_then(|f| {
+            run_file(&f, None, None, &mut |_, _| {
+                reports += 1;
+                Ok(())
+            })
+            .map(|_| ())
+        })
+        .unwrap_err();
+    assert!(
+        e.starts_with("incline.toml: incline_tilt.tilt_rate_deg_s: tilting to 60 deg at 1e-12 deg/s takes 6.000e13 s"),
+        "{e}"
+    );
+    assert_eq!(reports, 0);
 }

@@ -1,0 +1,122 @@
+//! Every virtual test, one line each. `demcal test`, a study's check of its response and the CLI
+//! help all read this list; a new test is a module implementing
+//! [`VirtualTest`](crate::virtual_test::VirtualTest) and one line here.
+//!
+//! The test file constructors live here too, since they check the file's `test` against the
+//! list (and [`crate::file`], which the tests use, cannot depend on the tests).
+
+use std::path::Path;
+
+use crate::angle_of_repose::AngleOfRepose;
+use crate::file::{one_line, TestFile};
+use crate::function::Function;
+use crate::incline::{InclineSlide, InclineTilt};
+use crate::virtual_test::Registered;
+
+/// The tests, in the order help texts list them.
+pub static TESTS: &[&dyn Registered] = &[&AngleOfRepose, &InclineTilt, &InclineSlide, &Function];
+
+/// The test called `name`.
+pub fn find(name: &str) -> Option<&'static dyn Registered> {
+    TESTS.iter().copied().find(|t| t.name() == name)
+}
+
+/// The tests' names.
+pub fn names() -> Vec<&'static str> {
+    TESTS.iter().map(|t| t.name()).collect()
+}
+
+impl TestFile {
+    /// Reads a test file; relative paths in it are taken from its folder.
+    pub fn load(path: &Path) -> Result<TestFile, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        let name = path.display().to_string();
+        let value: toml::Table =
+            toml::from_str(&text).map_err(|e| format!("{name}: {}", one_line(&e.to_string())))?;
+        TestFile::from_table_in(&name, &value, path.parent().unwrap_or(Path::new(".")))
+    }
+
+    /// Reads a test file's text (relative paths from the working directory).
+    pub fn parse(name: &str, text: &str) -> Result<TestFile, String> {
+        let value: toml::Table =
+            toml::from_str(text).map_err(|e| format!("{name}: {}", one_line(&e.to_string())))?;
+        TestFile::from_table(name, &value)
+    }
+
+    /// A test file already read as TOML (a study's inline test, or one with parameters set);
+    /// relative paths from the working directory.
+    pub fn from_table(name: &str, value: &toml::Table) -> Result<TestFile, String> {
+        TestFile::from_table_in(name, value, Path::new("."))
+    }
+
+    /// A test file already read as TOML whose relative paths are taken from `folder`.
+    pub fn from_table_in(
+        name: &str,
+        value: &toml::Table,
+        folder: &Path,
+    ) -> Result<TestFile, String> {
+        let list = names().join(", ");
+        let test = match value.get("test") {
+            Some(toml::Value::String(s)) => s.clone(),
+            Some(_) => return Err(format!("{name}: test: expected a string")),
+            None => return Err(format!("{name}: test: missing (expected one of: {list})")),
+        };
+        let registered = find(&test).ok_or_else(|| {
+            format!("{name}: test: unknown test \"{test}\" (expected one of: {list})")
+        })?;
+        TestFile::read(name, folder, value, &test, registered.needs_materials())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_unique_and_every_test_has_responses() {
+        let mut n = names();
+        n.sort_unstable();
+        n.dedup();
+        assert_eq!(n.len(), TESTS.len());
+        for t in TESTS {
+            assert!(!t.response_names().is_empty(), "{}", t.name());
+            assert!(!t.about().is_empty(), "{}", t.name());
+        }
+    }
+
+    #[test]
+    fn the_function_test_reports_its_responses_under_their_json_keys() {
+        let file = TestFile::parse(
+            "f.toml",
+            "test = \"function\"\n[function]\nexpression = \"2*a + 1\"\nvariables = { a = 3 }\n",
+        )
+        .unwrap();
+        let test = find("function").unwrap();
+        let mut progress = |_: &str, _: f64| Ok(());
+        let mut run = crate::virtual_test::Run::new(1, None, &mut progress);
+        let done = test.run_file(&file, &mut run).unwrap();
+        let names: Vec<&str> = done.responses.iter().map(|r| r.0).collect();
+        assert_eq!(names, test.response_names());
+        for (name, r) in &done.responses {
+            let crate::virtual_test::Response::Scalar(v) = r else {
+                panic!("{name} is a scalar")
+            };
+            assert_eq!(done.json[*name].as_f64(), Some(*v), "{name}");
+        }
+        assert_eq!(done.json["exact"], 7.0);
+        assert!(done.pictures.is_empty());
+    }
+
+    #[test]
+    fn a_function_run_asked_to_take_forever_is_refused() {
+        // Duration::from_secs_f64(1e300) would panic, and sleeping that long never ends.
+        let text = "test = \"function\"\n[function]\nexpression = \"1\"\nduration_s = 1e300\n";
+        let file = TestFile::parse("f.toml", text).unwrap();
+        let e = crate::run_file(&file, None, None, &mut |_, _| Ok(())).unwrap_err();
+        assert_eq!(
+            e,
+            "f.toml: function.duration_s: expected at most 3600 s of wall time, got 1e300"
+        );
+    }
+}

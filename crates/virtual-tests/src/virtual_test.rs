@@ -1,0 +1,165 @@
+//! What a virtual test is: a name, its settings, a run that gives an outcome, and from the
+//! outcome its responses (what a study can calibrate against), a summary line and pictures.
+//!
+//! A test implements [`VirtualTest`] with its own settings and outcome types; every
+//! `VirtualTest` is also a [`Registered`] test, the form the registry ([`crate::registry`]) keeps
+//! and `demcal test`, the study runner and the CLI help use: it reads the settings from a test
+//! file (errors naming the key), checks them, runs, and turns the outcome into JSON (the keys of
+//! `demcal test --json`), responses, summary and pictures.
+
+use std::path::Path;
+
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+
+use crate::file::TestFile;
+
+/// A measured response: a number, or a curve (force against displacement, say).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub enum Response {
+    Scalar(f64),
+    Curve {
+        x_name: String,
+        x_unit: String,
+        y_name: String,
+        y_unit: String,
+        x: Vec<f64>,
+        y: Vec<f64>,
+    },
+}
+
+/// A picture a test draws of its outcome, written under `file_name` when asked for.
+#[derive(Clone, Debug)]
+pub struct Picture {
+    pub file_name: String,
+    pub bytes: Vec<u8>,
+}
+
+/// What a run is given: the seed, where pictures go (when they are wanted), and the progress
+/// callback, which hears the phase and the simulated time and stops the run by returning an
+/// error (an interrupted study, a run over its time limit).
+pub struct Run<'a> {
+    pub seed: u64,
+    pub out: Option<&'a Path>,
+    progress: &'a mut dyn FnMut(&str, f64) -> Result<(), String>,
+}
+
+impl<'a> Run<'a> {
+    pub fn new(
+        seed: u64,
+        out: Option<&'a Path>,
+        progress: &'a mut dyn FnMut(&str, f64) -> Result<(), String>,
+    ) -> Run<'a> {
+        Run {
+            seed,
+            out,
+            progress,
+        }
+    }
+
+    /// Reports `phase` at simulated time `t`; an error means stop now.
+    pub fn progress(&mut self, phase: &str, t: f64) -> Result<(), String> {
+        (self.progress)(phase, t)
+    }
+}
+
+/// One virtual lab test.
+pub trait VirtualTest: Sync {
+    /// The table of the test file named after the test (serde, `deny_unknown_fields`).
+    type Settings: DeserializeOwned;
+    /// Everything the run measured; serialised, it is the JSON `demcal test --json` prints.
+    type Outcome: Serialize;
+
+    /// The name a test file gives as `test = "..."`.
+    fn name(&self) -> &'static str;
+    /// A few words for help texts: the set-up.
+    fn about(&self) -> &'static str;
+    /// Whether it simulates particles (and so needs `[[material]]` and `[[interaction]]`).
+    fn needs_materials(&self) -> bool {
+        true
+    }
+    /// The names of its responses, the usual one first.
+    fn response_names(&self) -> &'static [&'static str];
+    /// Checks the settings before anything is built; errors name the key
+    /// ([`TestFile::error`]).
+    fn check(&self, file: &TestFile, settings: &Self::Settings) -> Result<(), String>;
+    /// Builds the set-up, drives it and measures.
+    fn run(
+        &self,
+        file: &TestFile,
+        settings: &Self::Settings,
+        run: &mut Run,
+    ) -> Result<Self::Outcome, String>;
+    /// The responses of an outcome, by name, in the order of [`VirtualTest::response_names`].
+    fn responses(&self, outcome: &Self::Outcome) -> Vec<(&'static str, Response)>;
+    /// One line saying what was measured.
+    fn summary(&self, outcome: &Self::Outcome) -> String;
+    /// Pictures of the outcome (drawn only when they will be written).
+    fn pictures(&self, _outcome: &Self::Outcome) -> Result<Vec<Picture>, String> {
+        Ok(Vec::new())
+    }
+}
+
+/// A finished run, whatever the test.
+#[derive(Clone, Debug)]
+pub struct Finished {
+    /// The outcome as JSON.
+    pub json: serde_json::Value,
+    pub summary: String,
+    pub responses: Vec<(&'static str, Response)>,
+    /// Empty unless the run was given a folder for them.
+    pub pictures: Vec<Picture>,
+}
+
+/// A virtual test as the registry keeps it (any [`VirtualTest`] is one).
+pub trait Registered: Sync {
+    fn name(&self) -> &'static str;
+    fn about(&self) -> &'static str;
+    fn needs_materials(&self) -> bool;
+    fn response_names(&self) -> &'static [&'static str];
+    /// Reads and checks the file's settings without building anything.
+    fn check_file(&self, file: &TestFile) -> Result<(), String>;
+    /// Reads and checks the settings, runs, and gives the outcome in every form.
+    fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, String>;
+}
+
+impl<T: VirtualTest> Registered for T {
+    fn name(&self) -> &'static str {
+        VirtualTest::name(self)
+    }
+
+    fn about(&self) -> &'static str {
+        VirtualTest::about(self)
+    }
+
+    fn needs_materials(&self) -> bool {
+        VirtualTest::needs_materials(self)
+    }
+
+    fn response_names(&self) -> &'static [&'static str] {
+        VirtualTest::response_names(self)
+    }
+
+    fn check_file(&self, file: &TestFile) -> Result<(), String> {
+        let settings: T::Settings = file.settings()?;
+        self.check(file, &settings)
+    }
+
+    fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, String> {
+        let settings: T::Settings = file.settings()?;
+        self.check(file, &settings)?;
+        let outcome = self.run(file, &settings, run)?;
+        let json = serde_json::to_value(&outcome)
+            .map_err(|e| format!("{}: cannot write the outcome: {e}", file.name))?;
+        let pictures = match run.out {
+            Some(_) => self.pictures(&outcome)?,
+            None => Vec::new(),
+        };
+        Ok(Finished {
+            json,
+            summary: self.summary(&outcome),
+            responses: self.responses(&outcome),
+            pictures,
+        })
+    }
+}

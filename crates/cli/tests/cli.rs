@@ -864,7 +864,7 @@ test = "function"
 expression = "30 + 10*((a - 0.6)^2 + (b - 0.3)^2)"
 variables = { a = 0.8, b = 0.5 }
 noise = 0.02
-fail_when = "a - 1.1"
+fail_when = "a + b - 2.0"
 
 [[parameter]]
 name = "a"

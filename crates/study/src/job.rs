@@ -103,6 +103,7 @@ impl From<virtual_tests::TestError> for RunError {
             T::Diverged(_) => RunErrorKind::Diverged,
             T::Escaped(_) => RunErrorKind::Escaped,
             T::Measurement(_) => RunErrorKind::MeasurementFailed,
+            // The study's progress callback records why it stopped a run; this is the fallback.
             T::Stopped(_) => RunErrorKind::Interrupted,
         };
         RunError::new(kind, e.to_string())
@@ -117,6 +118,8 @@ pub struct Job {
     pub test_name: String,
     /// The test file as TOML, with the run's parameter values written in.
     pub test: toml::Table,
+    /// The folder relative paths in the test (STL files) are taken from.
+    pub test_dir: PathBuf,
     pub seed: u64,
     pub stage: usize,
     pub stage_kind: String,
@@ -145,6 +148,7 @@ impl Job {
                 study.test_source.clone()
             },
             test: study.test_with(&spec.values),
+            test_dir: study.test_dir.clone(),
             seed: spec.seed,
             stage: spec.stage,
             stage_kind: spec.stage_kind.to_string(),
@@ -231,22 +235,21 @@ impl Job {
         // Why the progress callback stopped the run, which the test hands back as a plain stop.
         let stopped = std::cell::Cell::new(None::<RunError>);
         let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
-            let file = virtual_tests::TestFile::from_table(&self.test_name, &self.test)
-                .map_err(|e| RunError::new(RunErrorKind::BadSettings, e))?;
-            let mut progress = |phase: &str, t: f64| -> Result<(), virtual_tests::Stop> {
+            let file =
+                virtual_tests::TestFile::from_table_in(&self.test_name, &self.test, &self.test_dir)
+                    .map_err(|e| RunError::new(RunErrorKind::BadSettings, e))?;
+            let mut progress = |phase: &str, t: f64| -> Result<(), String> {
                 if interrupted.load(Ordering::Relaxed) {
                     stopped.set(Some(RunError::new(RunErrorKind::Interrupted, "interrupted")));
-                    return Err(virtual_tests::Stop);
+                    return Err("interrupted".into());
                 }
                 if let Some(l) = limit {
                     if start.elapsed().as_secs_f64() > l {
-                        stopped.set(Some(RunError::new(
-                            RunErrorKind::TimeLimit,
-                            format!(
-                                "stopped: the run took longer than run_time_limit_s = {l} s (in {phase} at t = {t:.3} s)"
-                            ),
-                        )));
-                        return Err(virtual_tests::Stop);
+                        let why = format!(
+                            "stopped: the run took longer than run_time_limit_s = {l} s (in {phase} at t = {t:.3} s)"
+                        );
+                        stopped.set(Some(RunError::new(RunErrorKind::TimeLimit, why.clone())));
+                        return Err(why);
                     }
                 }
                 report(phase, t);

@@ -159,6 +159,9 @@ pub struct Study {
     pub test: toml::Table,
     /// Where the test came from: the test file's path, or "inline".
     pub test_source: String,
+    /// The folder the test's relative paths are taken from: the test file's, or the study's for
+    /// an inline test.
+    pub test_dir: PathBuf,
     pub parameters: Vec<Parameter>,
     pub target: Target,
     pub plan: Vec<Stage>,
@@ -279,7 +282,17 @@ impl Study {
             }
         };
         let test_name = format!("{file}: test");
-        let base = virtual_tests::TestFile::from_table(&test_name, &test)?;
+        let test_dir = match doc.get("test") {
+            Some(toml::Value::String(p)) => dir.join(p).parent().map(Path::to_path_buf),
+            _ => None,
+        }
+        .unwrap_or_else(|| dir.to_path_buf());
+        let test_dir = if test_dir.as_os_str().is_empty() {
+            PathBuf::from(".")
+        } else {
+            test_dir
+        };
+        let base = virtual_tests::TestFile::from_table_in(&test_name, &test, &test_dir)?;
 
         // Parameters.
         let list = match doc.get("parameter") {
@@ -498,6 +511,7 @@ impl Study {
             seed,
             test,
             test_source,
+            test_dir,
             parameters,
             target,
             plan,

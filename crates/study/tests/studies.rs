@@ -107,6 +107,8 @@ fn the_plan_recovers_a_known_optimum_and_keeps_failed_runs() {
     let csv = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 13 + 5 + 13 + 3);
     assert_eq!(csv.matches("fail_when").count(), 3);
+    // A fail_when stands for a simulation that blew up: stored as diverged.
+    assert_eq!(csv.matches(",diverged,").count(), 3);
     let html = std::fs::read_to_string(dir.join("report/index.html")).unwrap();
     for part in [
         "Pareto chart",
@@ -349,6 +351,16 @@ fn runs_over_the_time_limit_fail_and_an_interrupt_stores_nothing() {
     assert!(study::status(&path)
         .unwrap()
         .contains("2 runs: 0 done, 2 failed, 0 pending"));
+    // Stored with their kind, which the results table carries too.
+    let stored = study::Store::open(&dir.join("study.db"), false)
+        .unwrap()
+        .runs()
+        .unwrap();
+    assert!(stored
+        .iter()
+        .all(|r| r.error_kind == Some(study::RunErrorKind::TimeLimit)));
+    let csv = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
+    assert_eq!(csv.matches(",time_limit,").count(), 2, "{csv}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

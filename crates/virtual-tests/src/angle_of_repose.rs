@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::file::TestFile;
 use crate::harness::{self, Quiet};
 use crate::repose::{measure, ReposeMeasurement, ReposeResult};
-use crate::virtual_test::{Picture, Response, Run, VirtualTest};
+use crate::virtual_test::{Picture, Response, Run, TestError, VirtualTest};
 
 /// The lifted-cylinder test.
 pub struct AngleOfRepose;
@@ -325,7 +325,7 @@ impl VirtualTest for AngleOfRepose {
 
     /// When the heap cannot be measured and pictures are wanted, its side view is written
     /// first.
-    fn run(&self, file: &TestFile, s: &Settings, run: &mut Run) -> Result<Outcome, String> {
+    fn run(&self, file: &TestFile, s: &Settings, run: &mut Run) -> Result<Outcome, TestError> {
         let seed = run.seed;
         let description = scene(file, s, seed)?;
         let scene = file.build(&description, "angle_of_repose.fill")?;
@@ -355,7 +355,7 @@ impl VirtualTest for AngleOfRepose {
                 ),
             ],
         )?;
-        let fail = |e: harness::Stop| e.message(file, "");
+        let fail = |e: harness::Stop| e.error(file, "");
 
         // 1. Settle in the cylinder (at least 0.05 s so a fill at rest does not count as settled).
         let quiet = |max_time: f64, min_time: f64, wait_for_factories: bool| Quiet {
@@ -373,13 +373,13 @@ impl VirtualTest for AngleOfRepose {
         )
         .map_err(fail)?;
         if !sim.factories_done() {
-            return Err(file.error(
+            return Err(TestError::Settings(file.error(
                 "settle_max_time",
                 format!(
                     "the factory had not finished pouring after {} s; allow more time or pour faster",
                     s.settle_max_time
                 ),
-            ));
+            )));
         }
         let settle_time = sim.time;
         // 2. Lift.
@@ -416,7 +416,7 @@ impl VirtualTest for AngleOfRepose {
                 crate::render::side_view_png(&positions, &radii, 900, &png).ok()?;
                 Some(format!(" (side view in {})", png.display()))
             });
-            format!("{}: {e}{}", file.name, picture.unwrap_or_default())
+            TestError::Measurement(format!("{}: {e}{}", file.name, picture.unwrap_or_default()))
         })?;
         Ok(Outcome {
             angle_of_repose_deg: res.angle_deg,

@@ -21,7 +21,7 @@ use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
 use crate::file::TestFile;
-use crate::virtual_test::{Response, Run, VirtualTest};
+use crate::virtual_test::{Response, Run, TestError, VirtualTest};
 
 /// The formula test.
 pub struct Function;
@@ -119,22 +119,24 @@ impl VirtualTest for Function {
     }
 
     /// Evaluates the formula; the progress callback hears "evaluate" and may stop the run.
-    fn run(&self, file: &TestFile, s: &Settings, run: &mut Run) -> Result<Outcome, String> {
+    fn run(&self, file: &TestFile, s: &Settings, run: &mut Run) -> Result<Outcome, TestError> {
         let seed = run.seed;
         let wall = Instant::now();
         let exact = evaluate(file, "expression", &s.expression, &s.variables)?;
         if let Some(cond) = &s.fail_when {
             if evaluate(file, "fail_when", cond, &s.variables)? > 0.0 {
-                return Err(format!(
+                // Stands for a simulation that blew up.
+                return Err(TestError::Diverged(format!(
                     "{}: function: simulation failed: fail_when \"{cond}\" holds",
                     file.name
-                ));
+                )));
             }
         }
         // Sleep in slices so that an interrupted study stops the run promptly.
         let end = wall + Duration::from_secs_f64(s.duration_s);
         loop {
-            run.progress("evaluate", wall.elapsed().as_secs_f64())?;
+            run.progress("evaluate", wall.elapsed().as_secs_f64())
+                .map_err(TestError::Stopped)?;
             let now = Instant::now();
             if now >= end {
                 break;
@@ -148,10 +150,10 @@ impl VirtualTest for Function {
         let noise = s.noise * normal;
         let value = exact + noise;
         if !value.is_finite() {
-            return Err(format!(
-                "{}: function: simulation failed: the response is not finite ({value})",
+            return Err(TestError::Measurement(format!(
+                "{}: function: the response is not finite ({value})",
                 file.name
-            ));
+            )));
         }
         Ok(Outcome {
             value,

@@ -12,7 +12,7 @@ use dem::Simulation;
 use glam::DVec3;
 
 use crate::file::TestFile;
-use crate::virtual_test::{Response, Run};
+use crate::virtual_test::{Response, Run, TestError};
 
 /// The most time steps one test run may take: 1e9 steps are hours even for a handful of
 /// particles, so a setting that needs more (a lift at 1e-9 m/s) is a mistake, refused before
@@ -95,11 +95,18 @@ pub enum Stop {
 }
 
 impl Stop {
-    /// The message: a failure as `file: <what>simulation failed: <why>`, a stop as it came.
-    pub fn message(self, file: &TestFile, what: &str) -> String {
+    /// The typed error, with a failure's message `file: <what>simulation failed: <why>` and a
+    /// stop's as it came.
+    pub fn error(self, file: &TestFile, what: &str) -> TestError {
         match self {
-            Stop::Failed(e) => format!("{}: {what}simulation failed: {e}", file.name),
-            Stop::Stopped(m) => m,
+            Stop::Failed(e) => {
+                let m = format!("{}: {what}simulation failed: {e}", file.name);
+                match e {
+                    SimError::NotFinite { .. } => TestError::Diverged(m),
+                    SimError::LeftDomain { .. } => TestError::Escaped(m),
+                }
+            }
+            Stop::Stopped(m) => TestError::Stopped(m),
         }
     }
 }

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::file::TestFile;
 use crate::harness::{self, centres, rms_speed, Quiet};
-use crate::virtual_test::{Response, Run, VirtualTest};
+use crate::virtual_test::{Response, Run, TestError, VirtualTest};
 
 /// The tilted-plate test.
 pub struct InclineTilt;
@@ -187,7 +187,12 @@ impl VirtualTest for InclineTilt {
         file.check_material("plate_material", &s.plate_material)
     }
 
-    fn run(&self, file: &TestFile, s: &TiltSettings, run: &mut Run) -> Result<TiltOutcome, String> {
+    fn run(
+        &self,
+        file: &TestFile,
+        s: &TiltSettings,
+        run: &mut Run,
+    ) -> Result<TiltOutcome, TestError> {
         let seed = run.seed;
         let [length, width] = s.plate_size;
         // The sample is dropped from a few millimetres onto the middle of the plate.
@@ -229,7 +234,7 @@ impl VirtualTest for InclineTilt {
             ],
         )?;
         let wall = Instant::now();
-        let fail = |e: harness::Stop| e.message(file, "");
+        let fail = |e: harness::Stop| e.error(file, "");
         let quiet = Quiet {
             rms_speed: s.settle_speed,
             min_time: 0.05,
@@ -393,7 +398,7 @@ impl VirtualTest for InclineSlide {
         file: &TestFile,
         s: &SlideSettings,
         run: &mut Run,
-    ) -> Result<SlideOutcome, String> {
+    ) -> Result<SlideOutcome, TestError> {
         let seed = run.seed;
         let theta = s.ramp_angle_deg.to_radians();
         let normal = DVec3::new(theta.sin(), 0.0, theta.cos());
@@ -510,14 +515,14 @@ impl VirtualTest for InclineSlide {
             };
             let phase = format!("release {}/{}", release + 1, s.releases);
             let at_rest = harness::settle(&mut sim, &quiet, &phase, run)
-                .map_err(|e| e.message(file, &format!("release {release}: ")))?;
+                .map_err(|e| e.error(file, &format!("release {release}: ")))?;
             if !at_rest {
-                return Err(format!(
+                return Err(TestError::Measurement(format!(
                     "{}: incline_slide: release {release} still moves at {:.3} m/s after max_time = {} s; allow more time",
                     file.name,
                     rms_speed(&sim),
                     s.max_time
-                ));
+                )));
             }
             simulated += sim.time;
             let x = centres(&sim)[0].x;

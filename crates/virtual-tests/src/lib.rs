@@ -21,20 +21,24 @@ pub mod repose;
 pub mod virtual_test;
 
 pub use file::TestFile;
-pub use virtual_test::{Response, Run, VirtualTest};
+pub use virtual_test::{Response, Run, TestError, VirtualTest};
 
 /// Runs the test a file describes and writes its pictures and `result.json` into `out` when
 /// given. Returns the outcome as JSON (the keys `demcal test --json` prints) and a one-line
 /// summary. `progress` hears the phase and the simulated time, and stops the run by returning an
-/// error.
+/// error (the run then ends in [`TestError::Stopped`] with that message).
 pub fn run_file(
     file: &TestFile,
     seed: Option<u64>,
     out: Option<&std::path::Path>,
     progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
-) -> Result<(serde_json::Value, String), String> {
-    let test = registry::find(&file.test)
-        .ok_or_else(|| format!("{}: test: unknown test \"{}\"", file.name, file.test))?;
+) -> Result<(serde_json::Value, String), TestError> {
+    let test = registry::find(&file.test).ok_or_else(|| {
+        TestError::Settings(format!(
+            "{}: test: unknown test \"{}\"",
+            file.name, file.test
+        ))
+    })?;
     let mut run = Run::new(seed.or(file.seed).unwrap_or(1), out, progress);
     let done = test.run_file(file, &mut run)?;
     if let Some(dir) = out {
@@ -43,15 +47,15 @@ pub fn run_file(
             let p = dir.join(name);
             std::fs::write(&p, bytes).map_err(|e| format!("{}: {e}", p.display()))
         };
-        for picture in &done.pictures {
-            write(&picture.file_name, &picture.bytes)?;
-        }
-        write(
-            "result.json",
-            serde_json::to_string_pretty(&done.json)
-                .map_err(|e| e.to_string())?
-                .as_bytes(),
-        )?;
+        let written = done
+            .pictures
+            .iter()
+            .try_for_each(|picture| write(&picture.file_name, &picture.bytes))
+            .and_then(|_| {
+                let json = serde_json::to_string_pretty(&done.json).map_err(|e| e.to_string())?;
+                write("result.json", json.as_bytes())
+            });
+        written.map_err(TestError::Measurement)?;
     }
     Ok((done.json, done.summary))
 }

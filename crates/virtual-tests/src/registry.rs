@@ -116,7 +116,10 @@ mod tests {
         let e = crate::run_file(&file, None, None, &mut |_, _| Ok(())).unwrap_err();
         assert_eq!(
             e,
-            "f.toml: function.duration_s: expected at most 3600 s of wall time, got 1e300"
+            crate::TestError::Settings(
+                "f.toml: function.duration_s: expected at most 3600 s of wall time, got 1e300"
+                    .into()
+            )
         );
     }
 }

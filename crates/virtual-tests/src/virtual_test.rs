@@ -28,6 +28,57 @@ pub enum Response {
     },
 }
 
+/// Why a run gave no outcome, typed so that a study can tell a bad setting from a diverged
+/// simulation. Each holds the one-line message (naming the file and the key where there is one).
+#[derive(Clone, Debug, PartialEq)]
+pub enum TestError {
+    /// The settings, or the scene they make, were refused (before or while building).
+    Settings(String),
+    /// The simulation blew up: positions or velocities not finite.
+    Diverged(String),
+    /// A particle left the simulation domain.
+    Escaped(String),
+    /// The run finished but the measurement could not be made (or its pictures not written).
+    Measurement(String),
+    /// The progress callback stopped the run (an interrupt, a time limit): its message.
+    Stopped(String),
+}
+
+impl TestError {
+    /// The one-line message.
+    pub fn message(&self) -> &str {
+        match self {
+            TestError::Settings(m)
+            | TestError::Diverged(m)
+            | TestError::Escaped(m)
+            | TestError::Measurement(m)
+            | TestError::Stopped(m) => m,
+        }
+    }
+}
+
+impl std::fmt::Display for TestError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.message())
+    }
+}
+
+impl std::error::Error for TestError {}
+
+/// Untyped errors inside a test's run come from setting it up (the scene its settings make, a
+/// geometry it looks for): measurement failures and stops are typed where they happen.
+impl From<String> for TestError {
+    fn from(m: String) -> Self {
+        TestError::Settings(m)
+    }
+}
+
+impl From<TestError> for String {
+    fn from(e: TestError) -> Self {
+        e.to_string()
+    }
+}
+
 /// A picture a test draws of its outcome, written under `file_name` when asked for.
 #[derive(Clone, Debug)]
 pub struct Picture {
@@ -89,7 +140,7 @@ pub trait VirtualTest: Sync {
         file: &TestFile,
         settings: &Self::Settings,
         run: &mut Run,
-    ) -> Result<Self::Outcome, String>;
+    ) -> Result<Self::Outcome, TestError>;
     /// The responses of an outcome, by name, in the order of [`VirtualTest::response_names`].
     fn responses(&self, outcome: &Self::Outcome) -> Vec<(&'static str, Response)>;
     /// One line saying what was measured.
@@ -120,7 +171,7 @@ pub trait Registered: Sync {
     /// Reads and checks the file's settings without building anything.
     fn check_file(&self, file: &TestFile) -> Result<(), String>;
     /// Reads and checks the settings, runs, and gives the outcome in every form.
-    fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, String>;
+    fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError>;
 }
 
 impl<T: VirtualTest> Registered for T {
@@ -145,14 +196,15 @@ impl<T: VirtualTest> Registered for T {
         self.check(file, &settings)
     }
 
-    fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, String> {
+    fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError> {
         let settings: T::Settings = file.settings()?;
         self.check(file, &settings)?;
         let outcome = self.run(file, &settings, run)?;
-        let json = serde_json::to_value(&outcome)
-            .map_err(|e| format!("{}: cannot write the outcome: {e}", file.name))?;
+        let json = serde_json::to_value(&outcome).map_err(|e| {
+            TestError::Measurement(format!("{}: cannot write the outcome: {e}", file.name))
+        })?;
         let pictures = match run.out {
-            Some(_) => self.pictures(&outcome)?,
+            Some(_) => self.pictures(&outcome).map_err(TestError::Measurement)?,
             None => Vec::new(),
         };
         Ok(Finished {

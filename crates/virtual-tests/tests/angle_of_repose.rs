@@ -123,7 +123,11 @@ fn file_errors_name_the_key() {
     ];
     for (text, want) in cases {
         let e = TestFile::parse("heap.toml", &text)
-            .and_then(|f| run_file(&f, None, None, &mut |_, _| Ok(())).map(|_| ()))
+            .and_then(|f| {
+                run_file(&f, None, None, &mut |_, _| Ok(()))
+                    .map(|_| ())
+                    .map_err(String::from)
+            })
             .unwrap_err();
         assert!(e.contains(want), "{e}\nwanted: {want}");
         assert_eq!(e.lines().count(), 1, "{e}");
@@ -156,6 +160,7 @@ fn settings_that_would_never_end_are_refused_before_the_run() {
                     Ok(())
                 })
                 .map(|_| ())
+                .map_err(String::from)
             })
             .unwrap_err();
         assert!(e.contains(want), "{e}\nwanted: {want}");

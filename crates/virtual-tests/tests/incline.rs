@@ -155,7 +155,7 @@ fn incline_file_errors_name_the_key() {
     ] {
         let text = base.replace(from, to);
         let e = TestFile::parse("incline.toml", &text)
-            .and_then(|f| run_file(&f, None, None, &mut |_, _| Ok(())).map(|_| ()))
+            .and_then(|f| run_file(&f, None, None, &mut |_, _| Ok(())).map(|_| ()).map_err(String::from))
             .unwrap_err();
         assert!(e.contains(want), "{e}\nwanted: {want}");
         assert_eq!(e.lines().count(), 1, "{e}");
@@ -176,6 +176,7 @@ fn a_tilt_that_would_never_end_is_refused_before_the_run() {
                 Ok(())
             })
             .map(|_| ())
+            .map_err(String::from)
         })
         .unwrap_err();
     assert!(

@@ -38,6 +38,9 @@ pub struct RunOptions {
 /// Runs (or resumes) a study, then writes its report. Returns what to print.
 pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
     let study = Study::load(path)?;
+    // The first run's scene, built now: a test that cannot even be set up fails before any
+    // store or run exists.
+    study.check_scene()?;
     let db = study.store_path();
     // One `demcal run` per study at a time, held until the report is written.
     let _lock = store::StoreLock::acquire(&db)?;

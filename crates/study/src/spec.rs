@@ -518,12 +518,53 @@ impl Study {
             run_time_limit_s,
             text: text.to_string(),
         };
-        // The test must read with every parameter set (middle values), so errors in the test's
-        // own settings show now rather than in the first run.
+        // The test must read with every parameter set (middle values), and its settings and
+        // materials must hold at each end of every range (the others in the middle), so that
+        // a range the test would refuse (a restitution up to 1.6) shows now rather than after a
+        // stage of failed runs. `check_scene` builds the whole scene before a study runs.
         let middle: Vec<f64> = study.parameters.iter().map(Parameter::middle).collect();
-        let table = study.test_with(&middle);
-        virtual_tests::TestFile::from_table(&test_name, &table)?;
+        study.check_values(&test_name, &middle)?;
+        for (i, p) in study.parameters.iter().enumerate() {
+            for (end, v) in [("min", p.min), ("max", p.max)] {
+                let mut values = middle.clone();
+                values[i] = v;
+                study.check_values(&test_name, &values).map_err(|e| {
+                    err(
+                        &format!("parameter[{i}].{end}"),
+                        format!("{} = {v} is refused by the test: {e}", p.name),
+                    )
+                })?;
+            }
+        }
         Ok(study)
+    }
+
+    /// The test with `values` written in must read, pass its settings checks and have valid
+    /// materials and interactions.
+    fn check_values(&self, test_name: &str, values: &[f64]) -> Result<(), String> {
+        let file = virtual_tests::TestFile::from_table_in(
+            test_name,
+            &self.test_with(values),
+            &self.test_dir,
+        )?;
+        virtual_tests::check_file(&file)?;
+        if !file.parts.materials.is_empty() {
+            file.check_materials()?;
+        }
+        Ok(())
+    }
+
+    /// Builds the test's starting scene at the middle of every range (materials, geometry,
+    /// particles placed, overlaps checked), as the first run would, without simulating.
+    pub fn check_scene(&self) -> Result<(), String> {
+        let middle: Vec<f64> = self.parameters.iter().map(Parameter::middle).collect();
+        let name = format!("{}: test", self.path.display());
+        let file = virtual_tests::TestFile::from_table_in(
+            &name,
+            &self.test_with(&middle),
+            &self.test_dir,
+        )?;
+        virtual_tests::check_scene(&file, Some(self.seed))
     }
 
     /// The test's content with every parameter set to `values` (actual units).

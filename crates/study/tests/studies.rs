@@ -675,3 +675,55 @@ fn the_ccd_alpha_is_typed_when_read() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A range the test would refuse is found when the study is read, naming the parameter and the
+/// end, before any run (issue 11: a restitution up to 1.6 used to fail six simulations first).
+#[test]
+fn a_range_the_test_refuses_is_found_before_the_first_run() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/quickstart/study.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let bad = text.replacen("min = 0.2\nmax = 0.6", "min = 0.2\nmax = 1.6", 1);
+    assert_ne!(bad, text);
+    let e = Study::parse(&path, &bad).unwrap_err();
+    assert!(
+        e.contains("parameter[2].max: restitution = 1.6 is refused by the test:")
+            && e.contains("restitution: expected a value in (0, 1], got 1.6"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    let bad = text.replacen("min = 0.3\nmax = 0.7", "min = -0.5\nmax = 0.7", 1);
+    let e = Study::parse(&path, &bad).unwrap_err();
+    assert!(
+        e.contains("parameter[3].min: wall_friction = -0.5 is refused by the test:")
+            && e.contains("static_friction: expected a number >= 0, got -0.5"),
+        "{e}"
+    );
+}
+
+/// `check_scene` builds the first run's scene (particles placed, overlaps checked) without
+/// simulating: a test whose particles cannot fit its cylinder fails before a store exists.
+#[test]
+fn the_scene_is_built_before_a_study_runs() {
+    let quick = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/quickstart");
+    let dir = fresh_dir("scene-check");
+    let repose = std::fs::read_to_string(quick.join("repose.toml"))
+        .unwrap()
+        .replace("fill = { count = 500 }", "fill = { count = 500000 }");
+    std::fs::write(dir.join("repose.toml"), repose).unwrap();
+    let study = std::fs::read_to_string(quick.join("study.toml")).unwrap();
+    let path = write_study(&dir, &study);
+    let s = Study::load(&path).unwrap();
+    let e = s.check_scene().unwrap_err();
+    assert!(e.contains("angle_of_repose.fill"), "{e}");
+    let t = std::time::Instant::now();
+    let e2 = run(&path, 1).unwrap_err();
+    assert_eq!(e, e2);
+    assert!(t.elapsed().as_secs_f64() < 30.0);
+    assert!(!dir.join("study.db").exists(), "nothing stored");
+    // The quickstart itself builds.
+    Study::load(&quick.join("study.toml"))
+        .unwrap()
+        .check_scene()
+        .unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -323,6 +323,11 @@ impl VirtualTest for AngleOfRepose {
         check(file, s)
     }
 
+    fn check_scene(&self, file: &TestFile, s: &Settings, seed: u64) -> Result<(), String> {
+        file.build(&scene(file, s, seed)?, "angle_of_repose.fill")
+            .map(|_| ())
+    }
+
     /// When the heap cannot be measured and pictures are wanted, its side view is written
     /// first.
     fn run(&self, file: &TestFile, s: &Settings, run: &mut Run) -> Result<Outcome, TestError> {

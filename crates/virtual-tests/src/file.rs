@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 
 use dem::scene::parse::{self, SharedParts};
 use dem::scene::{
-    prepare_shapes, GeometryDescription, GroupParticles, OutputDescription, ParticleGroup, Scene,
-    SceneDescription, SceneError, SimulationSettings,
+    prepare_shapes, GeometryDescription, GroupParticles, OutputDescription, ParticleGroup,
+    RunLength, Scene, SceneDescription, SceneError, SimulationSettings,
 };
 use serde::de::DeserializeOwned;
 
@@ -192,6 +192,15 @@ impl TestFile {
             particle_types: self.parts.particle_types.clone(),
             particles,
         }
+    }
+
+    /// Checks the file's materials and interactions as a scene would (restitution in (0, 1],
+    /// frictions >= 0, every material named), without building anything else.
+    pub fn check_materials(&self) -> Result<(), String> {
+        let scene = self.scene(SimulationSettings::new(RunLength::Steps(1)), vec![], vec![]);
+        Scene::check_materials(&scene, &self.name)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
     }
 
     /// Fits every clump shape of `scene` once (kernel fits, mass properties), so that the

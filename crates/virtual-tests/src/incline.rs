@@ -23,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use crate::file::TestFile;
 use crate::harness::{self, centres, rms_speed, Quiet};
 use crate::virtual_test::{Response, Run, TestError, VirtualTest};
+use dem::scene::SceneDescription;
 
 /// The tilted-plate test.
 pub struct InclineTilt;
@@ -187,6 +188,11 @@ impl VirtualTest for InclineTilt {
         file.check_material("plate_material", &s.plate_material)
     }
 
+    fn check_scene(&self, file: &TestFile, s: &TiltSettings, seed: u64) -> Result<(), String> {
+        file.build(&tilt_scene(file, s, seed)?, "incline_tilt.count")
+            .map(|_| ())
+    }
+
     fn run(
         &self,
         file: &TestFile,
@@ -194,28 +200,8 @@ impl VirtualTest for InclineTilt {
         run: &mut Run,
     ) -> Result<TiltOutcome, TestError> {
         let seed = run.seed;
-        let [length, width] = s.plate_size;
-        // The sample is dropped from a few millimetres onto the middle of the plate.
-        let side = (0.25 * length.min(width)).max(0.01);
         let tilt_time = s.max_angle_deg / s.tilt_rate_deg_s;
-        let simulation = harness::simulation(
-            s.time_step_percent,
-            (DVec3::splat(-length), DVec3::splat(length)),
-        );
-        let plate = harness::plate(&s.plate_material, 0.5 * length, 0.5 * width, 0.0);
-        let group = ParticleGroup {
-            particles: file.particles(&s.particles)?,
-            placement: Placement::Random {
-                region: FillRegion::Box {
-                    min: DVec3::new(-0.5 * side, -0.5 * side, 0.0),
-                    max: DVec3::new(0.5 * side, 0.5 * side, side),
-                },
-                amount: FillTarget::Count(s.count as usize),
-                seed: Some(seed),
-            },
-            velocity: DVec3::ZERO,
-        };
-        let description = file.scene(simulation, vec![plate], vec![group]);
+        let description = tilt_scene(file, s, seed)?;
         let mut sim = file.build(&description, "incline_tilt.count")?.simulation;
         harness::budget(
             file,
@@ -393,6 +379,11 @@ impl VirtualTest for InclineSlide {
         Ok(())
     }
 
+    fn check_scene(&self, file: &TestFile, s: &SlideSettings, seed: u64) -> Result<(), String> {
+        file.build(&slide_scene(file, s, seed)?, "incline_slide.particles")
+            .map(|_| ())
+    }
+
     fn run(
         &self,
         file: &TestFile,
@@ -400,57 +391,11 @@ impl VirtualTest for InclineSlide {
         run: &mut Run,
     ) -> Result<SlideOutcome, TestError> {
         let seed = run.seed;
-        let theta = s.ramp_angle_deg.to_radians();
-        let normal = DVec3::new(theta.sin(), 0.0, theta.cos());
-        let top = DVec3::new(
-            -s.ramp_length * theta.cos(),
-            0.0,
-            s.ramp_length * theta.sin(),
-        );
-        let reach = s.ramp_length + 1.0;
-        let simulation = harness::simulation(
-            s.time_step_percent,
-            (
-                DVec3::new(-reach, -reach, -0.05),
-                DVec3::new(reach, reach, reach + 2.0),
-            ),
-        );
-        let plate_material = s.plate_material.clone().unwrap_or(s.ramp_material.clone());
-        let plane = |name: &str, material: &str, normal: DVec3| GeometryDescription {
-            name: name.into(),
-            material: material.into(),
-            shape: GeometryShape::Plane {
-                point: DVec3::ZERO,
-                normal,
-            },
-            motion: Vec::new(),
-            torque_point: None,
-        };
-        let geometries = vec![
-            plane("plate", &plate_material, DVec3::Z),
-            plane("ramp", &s.ramp_material, normal),
-        ];
+        let (normal, top) = ramp(s);
+        let placement = |release: usize| slide_placement(s, seed, release);
         // A mixture is released type by type in its number shares.
         let (types, fractions) = release_shares(file, &s.particles)?;
-        let particles = file.particles(&s.particles)?;
-        // Made well above everything, then set down on the ramp (any orientation, from rest).
-        let placement = |release: usize| Placement::Random {
-            region: FillRegion::Box {
-                min: DVec3::new(-0.1, -0.1, reach),
-                max: DVec3::new(0.1, 0.1, reach + 0.2),
-            },
-            amount: FillTarget::Count(1),
-            seed: Some(seed + release as u64),
-        };
-        let mut base = file.scene(
-            simulation,
-            geometries,
-            vec![ParticleGroup {
-                particles,
-                placement: placement(0),
-                velocity: DVec3::ZERO,
-            }],
-        );
+        let mut base = slide_scene(file, s, seed)?;
         // Kernel fits and clump mass properties once for all releases.
         file.prepare(&mut base, "incline_slide.particles")?;
         let mut released = vec![0.0; types.len()];
@@ -568,4 +513,93 @@ impl VirtualTest for InclineSlide {
             o.wall_s
         )
     }
+}
+
+/// The ramp's unit normal and its top edge's centre (the plate is z = 0, the ramp meets it at x = 0).
+fn ramp(s: &SlideSettings) -> (DVec3, DVec3) {
+    let theta = s.ramp_angle_deg.to_radians();
+    let normal = DVec3::new(theta.sin(), 0.0, theta.cos());
+    let top = DVec3::new(
+        -s.ramp_length * theta.cos(),
+        0.0,
+        s.ramp_length * theta.sin(),
+    );
+    (normal, top)
+}
+
+/// Where release `release` is made: well above everything, then set down on the ramp (any
+/// orientation, from rest).
+fn slide_placement(s: &SlideSettings, seed: u64, release: usize) -> Placement {
+    let reach = s.ramp_length + 1.0;
+    Placement::Random {
+        region: FillRegion::Box {
+            min: DVec3::new(-0.1, -0.1, reach),
+            max: DVec3::new(0.1, 0.1, reach + 0.2),
+        },
+        amount: FillTarget::Count(1),
+        seed: Some(seed + release as u64),
+    }
+}
+
+/// The slide test's scene for the first release: plate and ramp, and the whole mixture placed
+/// as release 0 (each release then takes one type of it).
+fn slide_scene(file: &TestFile, s: &SlideSettings, seed: u64) -> Result<SceneDescription, String> {
+    let (normal, _) = ramp(s);
+    let reach = s.ramp_length + 1.0;
+    let simulation = harness::simulation(
+        s.time_step_percent,
+        (
+            DVec3::new(-reach, -reach, -0.05),
+            DVec3::new(reach, reach, reach + 2.0),
+        ),
+    );
+    let plate_material = s.plate_material.clone().unwrap_or(s.ramp_material.clone());
+    let plane = |name: &str, material: &str, normal: DVec3| GeometryDescription {
+        name: name.into(),
+        material: material.into(),
+        shape: GeometryShape::Plane {
+            point: DVec3::ZERO,
+            normal,
+        },
+        motion: Vec::new(),
+        torque_point: None,
+    };
+    let geometries = vec![
+        plane("plate", &plate_material, DVec3::Z),
+        plane("ramp", &s.ramp_material, normal),
+    ];
+    Ok(file.scene(
+        simulation,
+        geometries,
+        vec![ParticleGroup {
+            particles: file.particles(&s.particles)?,
+            placement: slide_placement(s, seed, 0),
+            velocity: DVec3::ZERO,
+        }],
+    ))
+}
+
+/// The tilt test's starting scene: the sample dropped onto the middle of the flat plate.
+fn tilt_scene(file: &TestFile, s: &TiltSettings, seed: u64) -> Result<SceneDescription, String> {
+    let [length, width] = s.plate_size;
+    // The sample is dropped from a few millimetres onto the middle of the plate.
+    let side = (0.25 * length.min(width)).max(0.01);
+    let simulation = harness::simulation(
+        s.time_step_percent,
+        (DVec3::splat(-length), DVec3::splat(length)),
+    );
+    let plate = harness::plate(&s.plate_material, 0.5 * length, 0.5 * width, 0.0);
+    let group = ParticleGroup {
+        particles: file.particles(&s.particles)?,
+        placement: Placement::Random {
+            region: FillRegion::Box {
+                min: DVec3::new(-0.5 * side, -0.5 * side, 0.0),
+                max: DVec3::new(0.5 * side, 0.5 * side, side),
+            },
+            amount: FillTarget::Count(s.count as usize),
+            seed: Some(seed),
+        },
+        velocity: DVec3::ZERO,
+    };
+    Ok(file.scene(simulation, vec![plate], vec![group]))
 }

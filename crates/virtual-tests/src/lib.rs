@@ -67,6 +67,14 @@ pub fn check_file(file: &TestFile) -> Result<(), String> {
         .check_file(file)
 }
 
+/// Checks a test file as a run would begin: its settings, then its starting scene built (and
+/// dropped) with `seed`. Nothing is simulated.
+pub fn check_scene(file: &TestFile, seed: Option<u64>) -> Result<(), String> {
+    registry::find(&file.test)
+        .ok_or_else(|| format!("{}: test: unknown test \"{}\"", file.name, file.test))?
+        .check_scene_file(file, seed.or(file.seed).unwrap_or(1))
+}
+
 /// The responses of a test that a study can calibrate against, the usual one first (none for
 /// a test that does not exist).
 pub fn responses(test: &str) -> &'static [&'static str] {

@@ -134,6 +134,18 @@ pub trait VirtualTest: Sync {
     /// Checks the settings before anything is built; errors name the key
     /// ([`TestFile::error`]).
     fn check(&self, file: &TestFile, settings: &Self::Settings) -> Result<(), String>;
+    /// Builds the scene the run starts from, as the run would (materials, geometry, placement,
+    /// overlaps), and drops it: what a study checks before its first run. Tests without a scene
+    /// keep the default.
+    fn check_scene(
+        &self,
+        file: &TestFile,
+        settings: &Self::Settings,
+        seed: u64,
+    ) -> Result<(), String> {
+        let _ = (file, settings, seed);
+        Ok(())
+    }
     /// Builds the set-up, drives it and measures.
     fn run(
         &self,
@@ -170,6 +182,8 @@ pub trait Registered: Sync {
     fn response_names(&self) -> &'static [&'static str];
     /// Reads and checks the file's settings without building anything.
     fn check_file(&self, file: &TestFile) -> Result<(), String>;
+    /// Reads and checks the settings and builds the starting scene, without running.
+    fn check_scene_file(&self, file: &TestFile, seed: u64) -> Result<(), String>;
     /// Reads and checks the settings, runs, and gives the outcome in every form.
     fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError>;
 }
@@ -194,6 +208,12 @@ impl<T: VirtualTest> Registered for T {
     fn check_file(&self, file: &TestFile) -> Result<(), String> {
         let settings: T::Settings = file.settings()?;
         self.check(file, &settings)
+    }
+
+    fn check_scene_file(&self, file: &TestFile, seed: u64) -> Result<(), String> {
+        let settings: T::Settings = file.settings()?;
+        self.check(file, &settings)?;
+        self.check_scene(file, &settings, seed)
     }
 
     fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError> {

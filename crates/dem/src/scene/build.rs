@@ -455,7 +455,7 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
 }
 
 /// The material table: every material, then every interaction.
-fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable, SceneError> {
+pub(super) fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable, SceneError> {
     let mut table = MaterialTable::new();
     if d.materials.is_empty() {
         return Err(ctx.err("material", "no [[material]] given; at least one is needed"));

@@ -23,6 +23,7 @@ pub use build::{MAX_SPHERES, MAX_STEPS};
 pub use description::*;
 pub use particles::prepare_shapes;
 
+use crate::material::MaterialTable;
 use crate::sim::Simulation;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
@@ -98,6 +99,16 @@ impl Scene {
         file: &str,
     ) -> Result<Scene, SceneError> {
         build::build(description, &Ctx { file })
+    }
+
+    /// Checks a description's materials and interactions (the values a calibration varies) and
+    /// builds their table, without placing anything: cheap enough to check every corner of a
+    /// study's parameter ranges.
+    pub fn check_materials(
+        description: &SceneDescription,
+        file: &str,
+    ) -> Result<MaterialTable, SceneError> {
+        build::materials(description, &Ctx { file })
     }
 }
 

@@ -55,7 +55,8 @@ impl RunErrorKind {
         }
     }
 
-    pub fn from_str(s: &str) -> RunErrorKind {
+    /// The kind stored as `s` (`unknown` for anything else).
+    pub fn from_stored(s: &str) -> RunErrorKind {
         [
             RunErrorKind::Interrupted,
             RunErrorKind::TimeLimit,

@@ -198,7 +198,7 @@ impl Store {
                         r.get::<_, Option<String>>(8)?,
                         r.get::<_, Option<String>>(14)?,
                     ) {
-                        (_, Some(k)) => Some(RunErrorKind::from_str(&k)),
+                        (_, Some(k)) => Some(RunErrorKind::from_stored(&k)),
                         (Some(_), None) => Some(RunErrorKind::Unknown),
                         (None, None) => None,
                     },

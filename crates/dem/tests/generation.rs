@@ -2,39 +2,32 @@
 
 use dem::scene::Scene;
 use std::path::Path;
+use test_support::{Material, Materials};
 
-const MATERIALS: &str = r#"
-[[material]]
-name = "steel"
-density = 7800
-poisson_ratio = 0.3
-shear_modulus = 7e10
-
-[[material]]
-name = "crop"
-density = 1000
-poisson_ratio = 0.3
-shear_modulus = 1e7
-
-[[interaction]]
-materials = ["crop", "crop"]
-restitution = 0.3
-static_friction = 0.5
-rolling_friction = 0.1
-
-[[interaction]]
-materials = ["crop", "steel"]
-restitution = 0.5
-static_friction = 0.5
-rolling_friction = 0.1
-
+/// Crop and steel, and a steel floor.
+fn crop_on_a_steel_floor() -> String {
+    let crop = Materials {
+        particle: Material {
+            name: "crop",
+            density: 1000.0,
+            ..Materials::default().particle
+        },
+        wall_first: true,
+        ..Materials::default()
+    };
+    format!(
+        r#"
+{}
 [[geometry]]
 name = "floor"
 type = "plane"
 material = "steel"
 point = [0.0, 0.0, 0.0]
 normal = [0.0, 0.0, 1.0]
-"#;
+"#,
+        crop.toml()
+    )
+}
 
 fn load(text: &str) -> Scene {
     Scene::from_toml(text, "scene.toml", Path::new(".")).unwrap_or_else(|e| panic!("{e}"))
@@ -42,10 +35,11 @@ fn load(text: &str) -> Scene {
 
 #[test]
 fn a_mass_mixture_of_rods_kernels_and_spheres() {
+    let materials = crop_on_a_steel_floor();
     let text = format!(
         r#"[simulation]
 duration = 0.02
-{MATERIALS}
+{materials}
 [[particle_type]]
 name = "long"
 material = "crop"
@@ -112,10 +106,11 @@ fill = {{ type = "random", mass = 0.1 }}
 
 #[test]
 fn a_factory_creates_at_its_rate_without_overlap() {
+    let materials = crop_on_a_steel_floor();
     let text = format!(
         r#"[simulation]
 duration = 0.3
-{MATERIALS}
+{materials}
 [[geometry]]
 name = "box"
 type = "box"

@@ -2,36 +2,40 @@
 
 use dem::scene::Scene;
 use std::path::Path;
+use std::sync::LazyLock;
+use test_support::{Interaction, Material, Materials};
 
-const GOOD: &str = r#"
+/// A good scene; each test breaks one thing in it. The tests replace lines of the materials'
+/// blocks as written here (`restitution = 0.3` is the first interaction's, `density = 1200` the
+/// kernel's, material[1]).
+static GOOD: LazyLock<String> = LazyLock::new(|| {
+    let kernel = Materials {
+        particle: Material {
+            name: "kernel",
+            density: 1200.0,
+            poisson_ratio: 0.4,
+            shear_modulus: 1e7,
+        },
+        particle_particle: Interaction {
+            restitution: 0.3,
+            static_friction: 0.3,
+            rolling_friction: 0.1,
+        },
+        particle_wall: Interaction {
+            restitution: 0.5,
+            static_friction: 0.5,
+            rolling_friction: 0.2,
+        },
+        wall_first: true,
+        ..Materials::default()
+    };
+    format!(
+        r#"
 [simulation]
 duration = 0.01
 time_step_percent = 20
 
-[[material]]
-name = "steel"
-density = 7800
-poisson_ratio = 0.3
-shear_modulus = 7e10
-
-[[material]]
-name = "kernel"
-density = 1200
-poisson_ratio = 0.4
-shear_modulus = 1e7
-
-[[interaction]]
-materials = ["kernel", "kernel"]
-restitution = 0.3
-static_friction = 0.3
-rolling_friction = 0.1
-
-[[interaction]]
-materials = ["kernel", "steel"]
-restitution = 0.5
-static_friction = 0.5
-rolling_friction = 0.2
-
+{}
 [[geometry]]
 name = "floor"
 type = "plane"
@@ -41,10 +45,13 @@ normal = [0.0, 0.0, 1.0]
 
 [[particles]]
 material = "kernel"
-size = { type = "fixed", radius = 0.004 }
-region = { type = "box", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }
-fill = { type = "lattice", lattice = "sc", spacing = 0.01 }
-"#;
+size = {{ type = "fixed", radius = 0.004 }}
+region = {{ type = "box", min = [0.0, 0.0, 0.005], max = [0.05, 0.05, 0.05] }}
+fill = {{ type = "lattice", lattice = "sc", spacing = 0.01 }}
+"#,
+        kernel.toml()
+    )
+});
 
 fn load(text: &str) -> Result<Scene, String> {
     Scene::from_toml(text, "scene.toml", Path::new(".")).map_err(|e| e.to_string())
@@ -75,7 +82,7 @@ fn assert_has(e: &str, parts: &[&str]) {
 
 #[test]
 fn the_good_scene_loads() {
-    let s = load(GOOD).unwrap();
+    let s = load(&GOOD).unwrap();
     assert_eq!(s.simulation.particles.len(), 6 * 6 * 5);
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     let dt = s.simulation.params.time_step;

@@ -1,37 +1,32 @@
 //! The lifted-cylinder test end to end on a small heap, and its file errors.
 
+use test_support::{Interaction, Material, Materials};
 use virtual_tests::{run_file, TestFile};
 
 fn file(settings_extra: &str, count: u32) -> String {
+    let beads = Materials {
+        particle: Material {
+            name: "bead",
+            shear_modulus: 5e6,
+            ..Materials::default().particle
+        },
+        wall: Material {
+            density: 7850.0,
+            ..Materials::default().wall
+        },
+        particle_particle: Interaction {
+            restitution: 0.4,
+            ..Materials::default().particle_particle
+        },
+        ..Materials::default()
+    };
+    let materials = beads.toml();
     format!(
         r#"
 test = "angle_of_repose"
 seed = 3
 
-[[material]]
-name = "bead"
-density = 1200
-poisson_ratio = 0.3
-shear_modulus = 5.0e6
-
-[[material]]
-name = "steel"
-density = 7850
-poisson_ratio = 0.3
-shear_modulus = 7.0e10
-
-[[interaction]]
-materials = ["bead", "bead"]
-restitution = 0.4
-static_friction = 0.5
-rolling_friction = 0.1
-
-[[interaction]]
-materials = ["bead", "steel"]
-restitution = 0.5
-static_friction = 0.5
-rolling_friction = 0.1
-
+{materials}
 [angle_of_repose]
 particles = {{ material = "bead", size = {{ type = "fixed", radius = 0.002 }} }}
 wall_material = "steel"

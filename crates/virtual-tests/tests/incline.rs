@@ -2,41 +2,34 @@
 //! friction, a sphere rolls at tan(angle) = rolling friction (constant directional torque), and a
 //! flat clump's slide distance is bounded by the work of friction.
 
+use test_support::{Interaction, Material, Materials};
 use virtual_tests::{run_file, TestFile};
 
+/// Grain on steel with the particle-wall coefficients under test, and a flat "tile" clump.
 fn materials(static_friction: f64, rolling_friction: f64, restitution: f64) -> String {
+    let grain_on_steel = Materials {
+        wall: Material {
+            density: 7850.0,
+            shear_modulus: 7.9e10,
+            ..Materials::default().wall
+        },
+        particle_wall: Interaction {
+            restitution,
+            static_friction,
+            rolling_friction,
+        },
+        ..Materials::default()
+    };
     format!(
         r#"
-[[material]]
-name = "grain"
-density = 1200
-poisson_ratio = 0.3
-shear_modulus = 1e7
-
-[[material]]
-name = "steel"
-density = 7850
-poisson_ratio = 0.3
-shear_modulus = 7.9e10
-
-[[interaction]]
-materials = ["grain", "grain"]
-restitution = 0.3
-static_friction = 0.5
-rolling_friction = 0.1
-
-[[interaction]]
-materials = ["grain", "steel"]
-restitution = {restitution}
-static_friction = {static_friction}
-rolling_friction = {rolling_friction}
-
+{}
 [[particle_type]]
 name = "tile"
 material = "grain"
 # Four spheres in a square: it cannot roll, so it slides.
 shape = {{ type = "spheres", spheres = [[0.0, 0.0, 0.0, 0.002], [0.003, 0.0, 0.0, 0.002], [0.0, 0.003, 0.0, 0.002], [0.003, 0.003, 0.0, 0.002]] }}
-"#
+"#,
+        grain_on_steel.toml()
     )
 }
 

@@ -1,0 +1,181 @@
+//! Test fixtures shared by the demcal crates' tests.
+//!
+//! Scene files and virtual-test files all start with the same blocks: a particle material, a wall
+//! material and the two `[[interaction]]`s between them. [`Materials`] writes those blocks, so a
+//! test states only the numbers it cares about and each test file keeps its own values (the
+//! assertions were written against them). Numbers are written so that the text reads as a person
+//! would type it (`density = 7800`, `shear_modulus = 7e10`), since tests edit the text by
+//! replacing such lines.
+
+use std::fmt::Write;
+
+/// One `[[material]]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    pub name: &'static str,
+    /// kg/m^3.
+    pub density: f64,
+    pub poisson_ratio: f64,
+    /// Pa.
+    pub shear_modulus: f64,
+}
+
+/// The coefficients of one `[[interaction]]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interaction {
+    pub restitution: f64,
+    pub static_friction: f64,
+    pub rolling_friction: f64,
+}
+
+/// A particle material, a wall material and their interactions: particle-particle and
+/// particle-wall (wall-wall contacts never happen, so there is none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Materials {
+    /// Default: "grain", 1200 kg/m^3, Poisson ratio 0.3, shear modulus 1e7 Pa.
+    pub particle: Material,
+    /// Default: "steel", 7800 kg/m^3, Poisson ratio 0.3, shear modulus 7e10 Pa.
+    pub wall: Material,
+    /// Default: restitution 0.3, static friction 0.5, rolling friction 0.1.
+    pub particle_particle: Interaction,
+    /// Default: restitution 0.5, static friction 0.5, rolling friction 0.1.
+    pub particle_wall: Interaction,
+    /// Write the wall's `[[material]]` before the particle's. Material indices in error keys
+    /// (`material[1]`) and the "(defined: ...)" lists follow the file's order, so a test that
+    /// asserts them picks the order it was written with. Default: false.
+    pub wall_first: bool,
+}
+
+impl Default for Materials {
+    fn default() -> Self {
+        Materials {
+            particle: Material {
+                name: "grain",
+                density: 1200.0,
+                poisson_ratio: 0.3,
+                shear_modulus: 1e7,
+            },
+            wall: Material {
+                name: "steel",
+                density: 7800.0,
+                poisson_ratio: 0.3,
+                shear_modulus: 7e10,
+            },
+            particle_particle: Interaction {
+                restitution: 0.3,
+                static_friction: 0.5,
+                rolling_friction: 0.1,
+            },
+            particle_wall: Interaction {
+                restitution: 0.5,
+                static_friction: 0.5,
+                rolling_friction: 0.1,
+            },
+            wall_first: false,
+        }
+    }
+}
+
+impl Materials {
+    /// The two `[[material]]` and two `[[interaction]]` blocks, separated by blank lines and
+    /// ending in a newline. Plain numbers are written as Rust displays them (`0.3`, `7800`), the
+    /// shear modulus in exponent form (`7e10`, `7.9e10`); TOML reads back the same `f64`.
+    pub fn toml(&self) -> String {
+        let (first, second) = if self.wall_first {
+            (&self.wall, &self.particle)
+        } else {
+            (&self.particle, &self.wall)
+        };
+        let p = self.particle.name;
+        let mut text = String::new();
+        material(&mut text, first);
+        text.push('\n');
+        material(&mut text, second);
+        text.push('\n');
+        interaction(&mut text, [p, p], &self.particle_particle);
+        text.push('\n');
+        interaction(&mut text, [p, self.wall.name], &self.particle_wall);
+        text
+    }
+}
+
+fn material(text: &mut String, m: &Material) {
+    // Writing to a String cannot fail.
+    let _ = write!(
+        text,
+        "[[material]]\nname = \"{}\"\ndensity = {}\npoisson_ratio = {}\nshear_modulus = {:e}\n",
+        m.name, m.density, m.poisson_ratio, m.shear_modulus
+    );
+}
+
+fn interaction(text: &mut String, [a, b]: [&str; 2], i: &Interaction) {
+    let _ = write!(
+        text,
+        "[[interaction]]\nmaterials = [\"{a}\", \"{b}\"]\nrestitution = {}\nstatic_friction = {}\nrolling_friction = {}\n",
+        i.restitution, i.static_friction, i.rolling_friction
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_blocks_read_as_typed() {
+        assert_eq!(
+            Materials::default().toml(),
+            r#"[[material]]
+name = "grain"
+density = 1200
+poisson_ratio = 0.3
+shear_modulus = 1e7
+
+[[material]]
+name = "steel"
+density = 7800
+poisson_ratio = 0.3
+shear_modulus = 7e10
+
+[[interaction]]
+materials = ["grain", "grain"]
+restitution = 0.3
+static_friction = 0.5
+rolling_friction = 0.1
+
+[[interaction]]
+materials = ["grain", "steel"]
+restitution = 0.5
+static_friction = 0.5
+rolling_friction = 0.1
+"#
+        );
+    }
+
+    #[test]
+    fn wall_first_swaps_only_the_materials() {
+        let m = Materials {
+            wall_first: true,
+            ..Materials::default()
+        };
+        let text = m.toml();
+        let steel = text.find("name = \"steel\"").unwrap();
+        let grain = text.find("name = \"grain\"").unwrap();
+        assert!(steel < grain);
+        assert!(text.contains("materials = [\"grain\", \"steel\"]"));
+    }
+
+    #[test]
+    fn exponents_and_fractions_are_written_as_typed() {
+        let m = Materials {
+            wall: Material {
+                shear_modulus: 7.9e10,
+                density: 7850.0,
+                ..Materials::default().wall
+            },
+            ..Materials::default()
+        };
+        let text = m.toml();
+        assert!(text.contains("shear_modulus = 7.9e10\n"), "{text}");
+        assert!(text.contains("density = 7850\n"), "{text}");
+    }
+}

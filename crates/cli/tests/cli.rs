@@ -915,6 +915,18 @@ value = 30.0
     }
     // Pb with a high half failing: some of each.
     assert!(checked.0 > 0 && checked.1 > 0, "{checked:?}");
+    // A job whose output folder is not a run folder is refused before anything is cleared.
+    let mut job = study::Job::new(&study, &stage.runs[0]);
+    job.out_dir = dir.clone();
+    let evil = dir.join("evil.json");
+    std::fs::write(&evil, job.to_json()).unwrap();
+    let out = demcal().arg("run-one").arg(&evil).output().unwrap();
+    let e = one_line_error(&out);
+    assert!(
+        e.contains("evil.json: out_dir: expected a run folder named run<digits>"),
+        "{e}"
+    );
+    assert!(path.exists(), "the study beside it is untouched");
     // A broken job file names the file and the key.
     let bad = dir.join("bad.json");
     std::fs::write(&bad, r#"{"test_name": "x", "seed": "three"}"#).unwrap();

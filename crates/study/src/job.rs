@@ -15,100 +15,29 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use crate::run_error::{RunError, RunErrorKind};
 use crate::spec::Study;
 use crate::stages::RunSpec;
 use crate::store::{now_utc, RunRecord, Status};
 
-/// Why a run gave no result.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RunErrorKind {
-    /// Stopped by Ctrl-C (never stored: the run is made again next time).
-    Interrupted,
-    /// Ran longer than the study's `run_time_limit_s`.
-    TimeLimit,
-    /// The simulation blew up (non-finite positions or velocities).
-    Diverged,
-    /// A particle left the simulation domain.
-    Escaped,
-    /// The test's settings (with the run's values) were refused.
-    BadSettings,
-    /// The simulation ran but the measurement could not be made, or gave no finite response.
-    MeasurementFailed,
-    /// The code panicked (a bug: the message says where).
-    Panic,
-    /// Stored by a demcal version that did not record kinds.
-    Unknown,
+/// The folder a run writes its pictures and result into: `<study>.runs/stageN-kind/runNNN`.
+pub fn run_dir(study: &Study, spec: &RunSpec) -> PathBuf {
+    study
+        .runs_dir()
+        .join(format!("stage{}-{}", spec.stage + 1, spec.stage_kind))
+        .join(format!("run{:03}", spec.index + 1))
 }
 
-impl RunErrorKind {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            RunErrorKind::Interrupted => "interrupted",
-            RunErrorKind::TimeLimit => "time_limit",
-            RunErrorKind::Diverged => "diverged",
-            RunErrorKind::Escaped => "escaped",
-            RunErrorKind::BadSettings => "bad_settings",
-            RunErrorKind::MeasurementFailed => "measurement_failed",
-            RunErrorKind::Panic => "panic",
-            RunErrorKind::Unknown => "unknown",
-        }
-    }
-
-    /// The kind stored as `s` (`unknown` for anything else).
-    pub fn from_stored(s: &str) -> RunErrorKind {
-        [
-            RunErrorKind::Interrupted,
-            RunErrorKind::TimeLimit,
-            RunErrorKind::Diverged,
-            RunErrorKind::Escaped,
-            RunErrorKind::BadSettings,
-            RunErrorKind::MeasurementFailed,
-            RunErrorKind::Panic,
-        ]
-        .into_iter()
-        .find(|k| k.as_str() == s)
-        .unwrap_or(RunErrorKind::Unknown)
-    }
-}
-
-/// A run that gave no result: its kind and a one-line message.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RunError {
-    pub kind: RunErrorKind,
-    pub message: String,
-}
-
-impl RunError {
-    pub fn new(kind: RunErrorKind, message: impl Into<String>) -> Self {
-        RunError {
-            kind,
-            message: message.into(),
-        }
-    }
-}
-
-impl std::fmt::Display for RunError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.message)
-    }
-}
-
-impl std::error::Error for RunError {}
-
-impl From<virtual_tests::TestError> for RunError {
-    fn from(e: virtual_tests::TestError) -> Self {
-        use virtual_tests::TestError as T;
-        let kind = match &e {
-            T::Settings(_) => RunErrorKind::BadSettings,
-            T::Diverged(_) => RunErrorKind::Diverged,
-            T::Escaped(_) => RunErrorKind::Escaped,
-            T::Measurement(_) => RunErrorKind::MeasurementFailed,
-            // The study's progress callback records why it stopped a run; this is the fallback.
-            T::Stopped(_) => RunErrorKind::Interrupted,
-        };
-        RunError::new(kind, e.to_string())
-    }
+/// Whether `dir` is a run folder (`run` and digits, no `..` in the path): the only kind of
+/// folder a job clears before it runs, so a job file cannot point it at anything else.
+fn is_run_dir(dir: &Path) -> bool {
+    let name = dir.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    name.len() > 3
+        && name.starts_with("run")
+        && name[3..].bytes().all(|b| b.is_ascii_digit())
+        && !dir
+            .components()
+            .any(|c| matches!(c, std::path::Component::ParentDir))
 }
 
 /// One run of a study, ready to execute anywhere.
@@ -149,7 +78,8 @@ impl Job {
                 study.test_source.clone()
             },
             test: study.test_with(&spec.values),
-            test_dir: study.test_dir.clone(),
+            // Absolute, so that `demcal run-one` finds them from any working folder.
+            test_dir: absolute(&study.test_dir),
             seed: spec.seed,
             stage: spec.stage,
             stage_kind: spec.stage_kind.to_string(),
@@ -158,7 +88,7 @@ impl Job {
             inputs: spec.inputs(study),
             response: study.target.response.clone(),
             run_time_limit_s: study.run_time_limit_s,
-            out_dir: crate::runner::run_dir(study, spec),
+            out_dir: absolute(&run_dir(study, spec)),
             fingerprint: spec.fingerprint(study),
         }
     }
@@ -168,10 +98,18 @@ impl Job {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("{}: cannot read the job file: {e}", path.display()))?;
         let de = &mut serde_json::Deserializer::from_str(&text);
-        serde_path_to_error::deserialize(de).map_err(|e| {
+        let job: Job = serde_path_to_error::deserialize(de).map_err(|e| {
             let key = e.path().to_string();
             format!("{}: {key}: {}", path.display(), e.into_inner())
-        })
+        })?;
+        if !is_run_dir(&job.out_dir) {
+            return Err(format!(
+                "{}: out_dir: expected a run folder named run<digits> (it is cleared before the run), got \"{}\"",
+                path.display(),
+                job.out_dir.display()
+            ));
+        }
+        Ok(job)
     }
 
     /// The job as JSON.
@@ -188,8 +126,10 @@ impl Job {
         report: &dyn Fn(&str, f64),
     ) -> Option<RunRecord> {
         let start = Instant::now();
-        // A run killed before may have left pictures behind.
-        let _ = std::fs::remove_dir_all(&self.out_dir);
+        // A run killed before may have left pictures behind; only a run folder is cleared.
+        if is_run_dir(&self.out_dir) {
+            let _ = std::fs::remove_dir_all(&self.out_dir);
+        }
         let result = self.simulate(interrupted, start, report);
         let (status, response, outputs, error) = match result {
             Err(e) if e.kind == RunErrorKind::Interrupted => return None,
@@ -276,4 +216,8 @@ impl Job {
             (result, _) => result,
         }
     }
+}
+
+fn absolute(p: &Path) -> PathBuf {
+    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf())
 }

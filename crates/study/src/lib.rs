@@ -10,6 +10,7 @@
 pub mod job;
 pub mod paths;
 pub mod report;
+pub mod run_error;
 pub mod runner;
 pub mod spec;
 pub mod stages;
@@ -20,7 +21,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
-pub use job::{Job, RunError, RunErrorKind};
+pub use job::Job;
+pub use run_error::{RunError, RunErrorKind};
 pub use spec::Study;
 pub use stages::{replay, Replay, State};
 pub use store::Store;
@@ -38,12 +40,12 @@ pub struct RunOptions {
 /// Runs (or resumes) a study, then writes its report. Returns what to print.
 pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
     let study = Study::load(path)?;
-    // The first run's scene, built now: a test that cannot even be set up fails before any
-    // store or run exists.
-    study.check_scene()?;
     let db = study.store_path();
     // One `demcal run` per study at a time, held until the report is written.
     let _lock = store::StoreLock::acquire(&db)?;
+    // The first run's scene, built now: a test that cannot even be set up fails before any
+    // store or run exists.
+    study.check_scene()?;
     if opts.restart && db.exists() {
         let aside = db.with_extension(format!(
             "db.old-{}",

@@ -55,14 +55,6 @@ impl<'a> LocalExecutor<'a> {
     }
 }
 
-/// The folder a run writes its pictures and result into.
-pub fn run_dir(study: &Study, spec: &RunSpec) -> std::path::PathBuf {
-    study
-        .runs_dir()
-        .join(format!("stage{}-{}", spec.stage + 1, spec.stage_kind))
-        .join(format!("run{:03}", spec.index + 1))
-}
-
 impl Execute for LocalExecutor<'_> {
     fn execute(
         &mut self,

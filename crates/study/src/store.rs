@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use rusqlite::{params, Connection, OptionalExtension};
 
-use crate::job::RunErrorKind;
+use crate::run_error::RunErrorKind;
 
 /// How a finished run ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -96,16 +96,20 @@ impl Store {
         // FULL: a finished transaction survives a power cut, not just a killed process.
         conn.execute_batch("PRAGMA journal_mode = DELETE; PRAGMA synchronous = FULL;")
             .map_err(db_err(path))?;
-        conn.execute_batch(SCHEMA).map_err(db_err(path))?;
-        // Stores written before run errors had kinds get the column (their failures read as
-        // kind "unknown").
-        let has_kind = conn.prepare("SELECT error_kind FROM runs LIMIT 0").is_ok();
-        if !has_kind {
-            conn.execute_batch("ALTER TABLE runs ADD COLUMN error_kind TEXT")
-                .map_err(db_err(path))?;
-        }
+        // Wait for a reader or another process rather than fail at once.
         conn.busy_timeout(std::time::Duration::from_secs(10))
             .map_err(db_err(path))?;
+        conn.execute_batch(SCHEMA).map_err(db_err(path))?;
+        // Stores written before run errors had kinds get the column (their failures read as
+        // kind "unknown"). Another process may add it at the same moment: that is fine too.
+        let has_kind = conn.prepare("SELECT error_kind FROM runs LIMIT 0").is_ok();
+        if !has_kind {
+            if let Err(e) = conn.execute_batch("ALTER TABLE runs ADD COLUMN error_kind TEXT") {
+                if !e.to_string().contains("duplicate column") {
+                    return Err(db_err(path)(e));
+                }
+            }
+        }
         Ok(Store {
             conn,
             path: path.to_path_buf(),
@@ -358,6 +362,42 @@ pub fn now_utc() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A store written before failed runs had kinds opens with the column added: its failures
+    /// read as kind "unknown", its done runs as none.
+    #[test]
+    fn a_store_from_before_error_kinds_is_migrated() {
+        let dir = std::env::temp_dir().join(format!("demcal-store-old-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("old.db");
+        let _ = std::fs::remove_file(&path);
+        let old = SCHEMA.replace("    error_kind TEXT,\n", "");
+        assert_ne!(old, SCHEMA);
+        let conn = Connection::open(&path).unwrap();
+        conn.execute_batch(&old).unwrap();
+        for (idx, status, response, error) in [
+            (0, "done", Some(31.0), None),
+            (1, "failed", None, Some("diverged at t = 0.1 s")),
+        ] {
+            conn.execute(
+                "INSERT INTO runs (stage, stage_kind, idx, inputs, seed, status, response, outputs,
+                     error, wall_s, finished_at, version, out_dir, fingerprint)
+                 VALUES (0, 'screening', ?1, '{}', 1, ?2, ?3, 'null', ?4, 1.0, 't', '0.1.0', 'd', 'f')",
+                params![idx, status, response, error],
+            )
+            .unwrap();
+        }
+        drop(conn);
+        let s = Store::open(&path, false).unwrap();
+        let runs = s.runs().unwrap();
+        assert_eq!(runs[0].error_kind, None);
+        assert_eq!(runs[1].error_kind, Some(RunErrorKind::Unknown));
+        assert_eq!(runs[1].error.as_deref(), Some("diverged at t = 0.1 s"));
+        drop(s);
+        // Opening it again finds the column there.
+        assert_eq!(Store::open(&path, false).unwrap().runs().unwrap().len(), 2);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn runs_round_trip_and_failed_runs_can_be_retried() {

@@ -378,7 +378,7 @@ impl VirtualTest for AngleOfRepose {
         )
         .map_err(fail)?;
         if !sim.factories_done() {
-            return Err(TestError::Settings(file.error(
+            return Err(TestError::Measurement(file.error(
                 "settle_max_time",
                 format!(
                     "the factory had not finished pouring after {} s; allow more time or pour faster",

@@ -165,7 +165,7 @@ pub struct Quiet {
     pub max_time: f64,
     /// Simulated seconds between checks.
     pub check_every: f64,
-    /// Not quiet while a factory is still pouring.
+    /// Not quiet while a factory (or any per-step extension) has work left.
     pub wait_for_factories: bool,
 }
 
@@ -182,7 +182,7 @@ pub fn settle(
     while sim.time < end {
         advance(sim, chunk, phase, run, None)?;
         if (quiet.min_time <= 0.0 || sim.time - start > quiet.min_time)
-            && (!quiet.wait_for_factories || sim.factories_done())
+            && (!quiet.wait_for_factories || sim.extensions_finished())
             && rms_speed(sim) < quiet.rms_speed
         {
             return Ok(true);
@@ -193,16 +193,13 @@ pub fn settle(
 
 /// The index of the geometry called `name`.
 pub fn geometry(sim: &Simulation, name: &str) -> Result<usize, String> {
-    sim.geometries
-        .iter()
-        .position(|g| g.name == name)
-        .ok_or_else(|| {
-            let names: Vec<&str> = sim.geometries.iter().map(|g| g.name.as_str()).collect();
-            format!(
-                "no geometry named \"{name}\" (the scene has: {})",
-                names.join(", ")
-            )
-        })
+    sim.geometry_index(name).ok_or_else(|| {
+        let names: Vec<&str> = sim.geometries.iter().map(|g| g.name.as_str()).collect();
+        format!(
+            "no geometry named \"{name}\" (the scene has: {})",
+            names.join(", ")
+        )
+    })
 }
 
 /// Moves the geometry called `name` at `velocity` from now for `duration` seconds; returns the

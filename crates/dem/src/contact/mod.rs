@@ -290,18 +290,6 @@ macro_rules! contact_laws {
             pub fn collision_time(&self, p: &PairParams, m_eff: f64, r_eff: f64, speed: f64) -> f64 {
                 match self { $(Self::$law(l) => l.collision_time(p, m_eff, r_eff, speed),)+ }
             }
-
-            /// Normal and tangential force with the concrete law (tests and single contacts; the
-            /// engine's loops use [`Self::dispatch`]).
-            pub fn force(
-                &self,
-                p: &PairParams,
-                c: &ContactPoint,
-                history: &mut ContactHistory,
-                dt: f64,
-            ) -> ContactForce {
-                match self { $(Self::$law(l) => l.force(p, c, history, dt),)+ }
-            }
         }
     };
 }

@@ -6,6 +6,7 @@
 
 use super::description::*;
 use super::particles::{self, Planned};
+use super::MAX_STEPS;
 use super::{Ctx, OutputSettings, Scene, SceneError};
 use crate::contact::{ContactModel, RollingModel};
 use crate::factory::Factory;
@@ -16,15 +17,6 @@ use crate::particles::Particles;
 use crate::sim::{Simulation, SimulationParams};
 use crate::timestep;
 use glam::DVec3;
-
-/// The most time steps a scene may ask for: 1e10 steps take days even for a handful of
-/// particles, so more is a typo (a duration in the wrong unit) rather than a plan.
-pub const MAX_STEPS: u64 = 10_000_000_000;
-
-/// The most spheres a scene may hold (a clump counts its spheres): each costs about 1 kB with
-/// its neighbour list, so this is about what a workstation's memory holds. Fills are checked
-/// against it before anything is allocated.
-pub const MAX_SPHERES: usize = 10_000_000;
 
 /// Particle radii above this (m) look like millimetres typed as metres.
 const LARGE_RADIUS: f64 = 0.5;
@@ -76,7 +68,10 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
     let rolling_model = RollingModel::from_name(rolling_name, damping).ok_or_else(|| {
         ctx.err(
             "simulation.rolling_friction_model",
-            format!("unknown model \"{rolling_name}\" (expected cdt or epsd)"),
+            format!(
+                "unknown model \"{rolling_name}\" (expected {})",
+                RollingModel::NAMES.join(" or ")
+            ),
         )
     })?;
 
@@ -339,7 +334,9 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
         skin,
         domain,
         max_initial_overlap: max_overlap,
-        ..Default::default()
+        // What the chosen values are as fractions, for whoever reads the parameters back.
+        time_step_fraction: dt / rayleigh,
+        skin_fraction: skin / min_r,
     };
 
     // Place the particles group by group, each avoiding those before it.

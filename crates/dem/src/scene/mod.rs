@@ -19,7 +19,6 @@ mod geometry;
 pub mod parse;
 mod particles;
 
-pub use build::{MAX_SPHERES, MAX_STEPS};
 pub use description::*;
 pub use particles::prepare_shapes;
 
@@ -27,6 +26,15 @@ use crate::material::MaterialTable;
 use crate::sim::Simulation;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
+
+/// The most time steps a scene may ask for: 1e10 steps take days even for a handful of
+/// particles, so more is a typo (a duration in the wrong unit) rather than a plan.
+pub const MAX_STEPS: u64 = 10_000_000_000;
+
+/// The most spheres a scene may hold (a clump counts its spheres): each costs about 1 kB with
+/// its neighbour list, so this is about what a workstation's memory holds. Fills are checked
+/// against it before anything is allocated.
+pub const MAX_SPHERES: usize = 10_000_000;
 
 /// A scene problem: `file: key: message`.
 #[derive(Clone, Debug, PartialEq)]

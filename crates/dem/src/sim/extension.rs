@@ -18,8 +18,10 @@ pub trait StepExtension: Send + Any {
     }
 
     /// Adds forces and torques to `particles` after the contacts and before the second half kick
-    /// (bonds, springs). `index_of[id]` is the current index of the particle with stable id `id`
-    /// (particles are reordered when the lists are rebuilt).
+    /// (bonds, springs), for the state at `time`. `index_of[id]` is the current index of the
+    /// particle with stable id `id` (particles are reordered when the lists are rebuilt). Also
+    /// called when forces are recomputed without a step (after particles are added or moved), so
+    /// it must not count calls as steps.
     fn add_forces(&mut self, particles: &mut Particles, index_of: &[u32], time: f64, dt: f64) {
         let _ = (particles, index_of, time, dt);
     }

@@ -299,29 +299,6 @@ impl Simulation {
         self.particles.total_mass() + self.bodies.mass.iter().sum::<f64>()
     }
 
-    /// Root-mean-square speed of the free spheres and clump bodies (0 without particles): what
-    /// "settled" is judged by.
-    pub fn rms_speed(&self) -> f64 {
-        let p = &self.particles;
-        let mut sum = 0.0;
-        let mut count = 0usize;
-        for k in 0..p.len() {
-            if p.body[k] == NO_BODY {
-                sum += p.velocity[k].length_squared();
-                count += 1;
-            }
-        }
-        for v in &self.bodies.velocity {
-            sum += v.length_squared();
-            count += 1;
-        }
-        if count == 0 {
-            0.0
-        } else {
-            (sum / count as f64).sqrt()
-        }
-    }
-
     /// One velocity-Verlet step through the pipeline (see the module documentation).
     pub fn step(&mut self) -> Result<(), SimError> {
         if !self.forces_ready {
@@ -438,7 +415,9 @@ impl Simulation {
             kick && !force_hooks,
         );
         if force_hooks {
-            let (time, dt) = (self.time, self.params.time_step);
+            // With the kick the forces are those at the end of the step being taken.
+            let dt = self.params.time_step;
+            let time = if kick { self.time + dt } else { self.time };
             for e in self.extensions.iter_mut().filter(|e| e.adds_forces()) {
                 e.add_forces(&mut self.particles, &self.index_of, time, dt);
             }

@@ -32,14 +32,40 @@ pub struct WallOutput {
 }
 
 /// Candidates in CSR rows over particles (`start[i]..start[i + 1]`) and their output slots.
+/// The rows are only built here ([`WallLists::rebuild`]): the CPU back end hands each row to one
+/// task as a mutable slice, which is sound only while rows are increasing and end at the
+/// candidates' length, so other code reads them and writes slots but cannot change the rows.
 #[derive(Default)]
 pub struct WallLists {
-    pub start: Vec<u32>,
-    pub candidates: Vec<WallCandidate>,
-    pub output: Vec<WallOutput>,
+    pub(crate) start: Vec<u32>,
+    pub(crate) candidates: Vec<WallCandidate>,
+    pub(crate) output: Vec<WallOutput>,
 }
 
 impl WallLists {
+    /// Row starts: particle i's candidates are `start[i]..start[i + 1]`.
+    pub fn start(&self) -> &[u32] {
+        &self.start
+    }
+
+    pub fn candidates(&self) -> &[WallCandidate] {
+        &self.candidates
+    }
+
+    /// Candidates with their history, for a back end to update in place.
+    pub fn candidates_mut(&mut self) -> &mut [WallCandidate] {
+        &mut self.candidates
+    }
+
+    pub fn output(&self) -> &[WallOutput] {
+        &self.output
+    }
+
+    /// Output slots, for a back end to write.
+    pub fn output_mut(&mut self) -> &mut [WallOutput] {
+        &mut self.output
+    }
+
     /// The candidates of particle `i`.
     pub fn row(&self, i: usize) -> std::ops::Range<usize> {
         self.start[i] as usize..self.start[i + 1] as usize

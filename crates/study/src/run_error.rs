@@ -1,0 +1,96 @@
+//! Why a run gave no result: a kind that code can tell apart and a message for people. Stored
+//! with each failed run (`store`), made by the job that ran it (`job`).
+
+use serde::{Deserialize, Serialize};
+
+/// Why a run gave no result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunErrorKind {
+    /// Stopped by Ctrl-C (never stored: the run is made again next time).
+    Interrupted,
+    /// Ran longer than the study's `run_time_limit_s`.
+    TimeLimit,
+    /// The simulation blew up (non-finite positions or velocities).
+    Diverged,
+    /// A particle left the simulation domain.
+    Escaped,
+    /// The test's settings (with the run's values) were refused.
+    BadSettings,
+    /// The simulation ran but the measurement could not be made, or gave no finite response.
+    MeasurementFailed,
+    /// The code panicked (a bug: the message says where).
+    Panic,
+    /// Stored by a demcal version that did not record kinds.
+    Unknown,
+}
+
+impl RunErrorKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RunErrorKind::Interrupted => "interrupted",
+            RunErrorKind::TimeLimit => "time_limit",
+            RunErrorKind::Diverged => "diverged",
+            RunErrorKind::Escaped => "escaped",
+            RunErrorKind::BadSettings => "bad_settings",
+            RunErrorKind::MeasurementFailed => "measurement_failed",
+            RunErrorKind::Panic => "panic",
+            RunErrorKind::Unknown => "unknown",
+        }
+    }
+
+    /// The kind stored as `s` (`unknown` for anything else).
+    pub fn from_stored(s: &str) -> RunErrorKind {
+        [
+            RunErrorKind::Interrupted,
+            RunErrorKind::TimeLimit,
+            RunErrorKind::Diverged,
+            RunErrorKind::Escaped,
+            RunErrorKind::BadSettings,
+            RunErrorKind::MeasurementFailed,
+            RunErrorKind::Panic,
+        ]
+        .into_iter()
+        .find(|k| k.as_str() == s)
+        .unwrap_or(RunErrorKind::Unknown)
+    }
+}
+
+/// A run that gave no result: its kind and a one-line message.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunError {
+    pub kind: RunErrorKind,
+    pub message: String,
+}
+
+impl RunError {
+    pub fn new(kind: RunErrorKind, message: impl Into<String>) -> Self {
+        RunError {
+            kind,
+            message: message.into(),
+        }
+    }
+}
+
+impl std::fmt::Display for RunError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for RunError {}
+
+impl From<virtual_tests::TestError> for RunError {
+    fn from(e: virtual_tests::TestError) -> Self {
+        use virtual_tests::TestError as T;
+        let kind = match &e {
+            T::Settings(_) => RunErrorKind::BadSettings,
+            T::Diverged(_) => RunErrorKind::Diverged,
+            T::Escaped(_) => RunErrorKind::Escaped,
+            T::Measurement(_) => RunErrorKind::MeasurementFailed,
+            // The study's progress callback records why it stopped a run; this is the fallback.
+            T::Stopped(_) => RunErrorKind::Interrupted,
+        };
+        RunError::new(kind, e.to_string())
+    }
+}

@@ -77,7 +77,7 @@ impl ParamPath {
     pub fn check(&self, root: &toml::Table) -> Result<f64, String> {
         let mut copy = root.clone();
         let slot = self.slot(&mut copy)?;
-        crate::spec::number(slot).ok_or_else(|| format!("holds {slot}, not a number"))
+        number(slot).ok_or_else(|| format!("holds {slot}, not a number"))
     }
 
     /// Writes `value` at the path.
@@ -163,6 +163,15 @@ impl ParamPath {
             table = next;
         }
         unreachable!()
+    }
+}
+
+/// A TOML integer or float as a number.
+pub fn number(v: &toml::Value) -> Option<f64> {
+    match v {
+        toml::Value::Float(f) => Some(*f),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
     }
 }
 

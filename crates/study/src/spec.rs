@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use doe::design::CcdAlpha;
 use doe::{Factor, Scale};
 
-use crate::paths::ParamPath;
+use crate::paths::{number, ParamPath};
 use virtual_tests::file::one_line;
 
 /// A parameter to calibrate: one value written into one or more places of the test.
@@ -844,13 +844,5 @@ fn ccd_alpha(v: Option<&toml::Value>) -> Result<CcdAlpha, String> {
             Some(a) => positive(a),
             None => Err(format!("{v}: {EXPECTED}")),
         },
-    }
-}
-
-pub fn number(v: &toml::Value) -> Option<f64> {
-    match v {
-        toml::Value::Float(f) => Some(*f),
-        toml::Value::Integer(i) => Some(*i as f64),
-        _ => None,
     }
 }

@@ -122,7 +122,8 @@ enum Command {
     },
     /// Run a peer benchmark and print particle-steps per second.
     Bench {
-        #[arg(value_parser = ["settle"])]
+        /// settle: 21 160 spheres settling in a box; bonded: the seed-000 stalk specimen crushed.
+        #[arg(value_parser = ["settle", "bonded"])]
         name: String,
         #[arg(long)]
         steps: Option<u64>,
@@ -503,10 +504,10 @@ fn main() -> ExitCode {
             json,
         } => heap_angle(&file, planes, &axis, base, out.as_deref(), json),
         Command::Bench {
-            name: _,
+            name,
             steps,
             threads,
-        } => set_threads(threads).and_then(|_| bench_settle(steps)),
+        } => set_threads(threads).and_then(|_| bench(&name, steps)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -646,6 +647,15 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
             sim.time,
         )
         .map_err(io)?;
+        if let Some(bonds) = sim.bonds() {
+            dem::bond::output::write_bonds_vtk(
+                &dir.join(format!("bonds_{:06}.vtk", sim.steps)),
+                bonds,
+                &sim.particles,
+                sim.time,
+            )
+            .map_err(io)?;
+        }
         snapshots += 1;
         Ok(())
     };
@@ -692,6 +702,25 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     }
     bar.finish_and_clear();
     loads.finish().map_err(io)?;
+    // The breakage log and the bond counts are written even when the run failed: they say how.
+    let bond_summary = match simulation.bonds() {
+        Some(bonds) => {
+            dem::bond::output::write_breakage_csv(&dir.join("bond_breakage.csv"), bonds)
+                .map_err(io)?;
+            dem::bond::output::write_bond_counts_csv(&dir.join("bond_counts.csv"), bonds)
+                .map_err(io)?;
+            for w in bonds.warnings().iter().filter(|w| !warnings.contains(w)) {
+                eprintln!("warning: {w}");
+            }
+            format!(
+                " bonds={} bonds_intact={} bonds_broken={}",
+                bonds.len(),
+                bonds.intact_count(),
+                bonds.broken_count()
+            )
+        }
+        None => String::new(),
+    };
     if let Some(e) = failure {
         return Err(format!("{}: {e}", path.display()));
     }
@@ -701,7 +730,7 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     let wall = start.elapsed().as_secs_f64();
     eprintln!("stages: {}", simulation.timers.breakdown());
     println!(
-        "simulate: particles={} steps={} simulated_s={:.4} wall_s={:.1} particle_steps_per_s={:.2e} kinetic_energy_j={:.3e} snapshots={} output={}",
+        "simulate: particles={} steps={} simulated_s={:.4} wall_s={:.1} particle_steps_per_s={:.2e} kinetic_energy_j={:.3e}{bond_summary} snapshots={} output={}",
         simulation.particles.len(),
         simulation.steps,
         simulation.time,
@@ -714,16 +743,21 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     Ok(())
 }
 
-fn bench_settle(steps: Option<u64>) -> Result<(), String> {
-    let total = steps.unwrap_or(50_000);
+fn bench(name: &str, steps: Option<u64>) -> Result<(), String> {
+    let total = steps.unwrap_or(if name == "bonded" { 20_000 } else { 50_000 });
     let bar = progress_bar(total);
     let mut log = LogLine::new();
-    let r = dem::bench::settle(steps, |done| {
+    let progress = |done| {
         bar.set_position(done);
         if let Some(elapsed) = log.due() {
-            eprintln!("settle: {}", LogLine::steps(done, total, "", elapsed));
+            eprintln!("{name}: {}", LogLine::steps(done, total, "", elapsed));
         }
-    })?;
+    };
+    let r = if name == "bonded" {
+        dem::bench::bonded(steps, progress)?
+    } else {
+        dem::bench::settle(steps, progress)?
+    };
     bar.finish_and_clear();
     println!("stages: {}", r.stages);
     println!(
@@ -731,6 +765,6 @@ fn bench_settle(steps: Option<u64>) -> Result<(), String> {
         r.neighbour_rebuilds,
         rayon::current_num_threads()
     );
-    println!("{}", r.line("settle"));
+    println!("{}", r.line(name));
     Ok(())
 }

@@ -9,6 +9,10 @@ use std::time::Instant;
 /// same file, which a test checks.
 pub const SETTLE_SCENE: &str = include_str!("../data/settle.toml");
 
+/// The bonded benchmark: the seed-000 stalk specimen crushed between plates
+/// (`examples/scenes/bonded.toml`, the same file).
+pub const BONDED_SCENE: &str = include_str!("../data/bonded.toml");
+
 /// Result of one benchmark run.
 #[derive(Clone, Debug)]
 pub struct BenchResult {
@@ -19,6 +23,11 @@ pub struct BenchResult {
     pub kinetic_energy_j: f64,
     pub stages: String,
     pub neighbour_rebuilds: u64,
+    /// Bonds formed and broken (0 without bonds).
+    pub bonds: usize,
+    pub bonds_broken: usize,
+    /// Share of the step time spent on bond forces.
+    pub bond_share: f64,
 }
 
 impl BenchResult {
@@ -26,10 +35,20 @@ impl BenchResult {
         self.particles as f64 * self.steps as f64 / self.wall_s
     }
 
-    /// The line `demcal bench settle` ends with.
+    /// The line `demcal bench NAME` ends with.
     pub fn line(&self, name: &str) -> String {
+        let bonds = if self.bonds > 0 {
+            format!(
+                " bonds={} bonds_broken={} bond_share={:.1}%",
+                self.bonds,
+                self.bonds_broken,
+                100.0 * self.bond_share
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "{name}: particles={} steps={} wall_s={:.1} particle_steps_per_s={:.1e} bed_height_m={:.4} kinetic_energy_j={:.1e}",
+            "{name}: particles={} steps={} wall_s={:.1} particle_steps_per_s={:.1e}{bonds} bed_height_m={:.4} kinetic_energy_j={:.1e}",
             self.particles,
             self.steps,
             self.wall_s,
@@ -56,9 +75,30 @@ pub fn bed_height(particles: &crate::Particles) -> f64 {
 
 /// Runs the settle scene for `steps` steps (default: the scene's 50 000), calling `progress`
 /// with the number of steps done from time to time.
-pub fn settle(steps: Option<u64>, mut progress: impl FnMut(u64)) -> Result<BenchResult, String> {
-    let scene = Scene::from_toml(SETTLE_SCENE, "examples/scenes/settle.toml", Path::new("."))
-        .map_err(|e| e.to_string())?;
+pub fn settle(steps: Option<u64>, progress: impl FnMut(u64)) -> Result<BenchResult, String> {
+    run(SETTLE_SCENE, "examples/scenes/settle.toml", steps, progress)
+}
+
+/// Runs the bonded scene for `steps` steps (default: the scene's 20 000).
+pub fn bonded(steps: Option<u64>, progress: impl FnMut(u64)) -> Result<BenchResult, String> {
+    run(BONDED_SCENE, "examples/scenes/bonded.toml", steps, progress)
+}
+
+/// The most steps a benchmark may be asked for (a day of the settle scene on one core).
+pub const MAX_BENCH_STEPS: u64 = 100_000_000;
+
+fn run(
+    text: &str,
+    name: &str,
+    steps: Option<u64>,
+    mut progress: impl FnMut(u64),
+) -> Result<BenchResult, String> {
+    if let Some(n) = steps {
+        if n == 0 || n > MAX_BENCH_STEPS {
+            return Err(format!("--steps: expected 1 to {MAX_BENCH_STEPS}, got {n}"));
+        }
+    }
+    let scene = Scene::from_toml(text, name, Path::new(".")).map_err(|e| e.to_string())?;
     let steps = steps.unwrap_or(scene.steps);
     let mut sim = scene.simulation;
     let start = Instant::now();
@@ -71,6 +111,10 @@ pub fn settle(steps: Option<u64>, mut progress: impl FnMut(u64)) -> Result<Bench
         progress(done);
     }
     let wall_s = start.elapsed().as_secs_f64();
+    let (bonds, bonds_broken) = sim
+        .bonds()
+        .map(|b| (b.len(), b.broken_count()))
+        .unwrap_or((0, 0));
     Ok(BenchResult {
         particles: sim.particles.len(),
         steps,
@@ -79,6 +123,10 @@ pub fn settle(steps: Option<u64>, mut progress: impl FnMut(u64)) -> Result<Bench
         kinetic_energy_j: sim.kinetic_energy(),
         stages: sim.timers.breakdown(),
         neighbour_rebuilds: sim.neighbour_rebuilds(),
+        bonds,
+        bonds_broken,
+        bond_share: sim.timers.extension_forces.as_secs_f64()
+            / sim.timers.total().as_secs_f64().max(1e-12),
     })
 }
 
@@ -100,19 +148,23 @@ mod tests {
         assert!((bed_height(&p) - 0.032).abs() < 1e-15);
     }
 
-    /// The scene built into the crate is the example users run and LIGGGHTS compares against.
+    /// The scenes built into the crate are the examples users run (and LIGGGHTS compares
+    /// against).
     #[test]
-    fn the_built_in_scene_is_the_example() {
-        let example =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/settle.toml");
-        // The crate alone (packaged) has no examples folder to compare with.
-        if let Ok(text) = std::fs::read_to_string(&example) {
-            assert_eq!(
-                text,
-                SETTLE_SCENE,
-                "{} and the built-in copy differ",
-                example.display()
-            );
+    fn the_built_in_scenes_are_the_examples() {
+        for (file, built_in) in [("settle.toml", SETTLE_SCENE), ("bonded.toml", BONDED_SCENE)] {
+            let example = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../examples/scenes")
+                .join(file);
+            // The crate alone (packaged) has no examples folder to compare with.
+            if let Ok(text) = std::fs::read_to_string(&example) {
+                assert_eq!(
+                    text,
+                    built_in,
+                    "{} and the built-in copy differ",
+                    example.display()
+                );
+            }
         }
     }
 }

@@ -7,6 +7,7 @@
 //! scene files. The physics contract is `shared/spec/physics.md`; [`sim`] explains the step pipeline.
 
 pub mod bench;
+pub mod bond;
 pub mod clump;
 pub mod contact;
 pub mod factory;

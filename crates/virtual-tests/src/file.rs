@@ -52,12 +52,13 @@ impl TestFile {
                 "material",
                 "interaction",
                 "particle_type",
+                "bond",
                 test,
             ]
             .contains(&key.as_str())
             {
                 return Err(format!(
-                    "{name}: {key}: unknown key (expected test, seed, material, interaction, particle_type, {test})"
+                    "{name}: {key}: unknown key (expected test, seed, material, interaction, particle_type, bond, {test})"
                 ));
             }
         }
@@ -191,6 +192,7 @@ impl TestFile {
             geometries,
             particle_types: self.parts.particle_types.clone(),
             particles,
+            bonds: self.parts.bonds.clone(),
         }
     }
 

@@ -104,6 +104,8 @@ impl Stop {
                 match e {
                     SimError::NotFinite { .. } => TestError::Diverged(m),
                     SimError::LeftDomain { .. } => TestError::Escaped(m),
+                    // An extension refusing its settings (bonds that cannot form).
+                    SimError::Extension { .. } => TestError::Settings(m),
                 }
             }
             Stop::Stopped(m) => TestError::Stopped(m),

@@ -32,6 +32,7 @@ struct Group {
 
 pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError> {
     let table = materials(d, ctx)?;
+    let bonds = super::bonds::bonds(d, ctx, &table)?;
     let material_id = |name: &str, key: String| material_lookup(ctx, &table, name, key);
 
     // Simulation settings that the particles and walls need. The contact law is checked here
@@ -435,6 +436,9 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
                 100.0 * rel, 100.0 * max_overlap
             ))));
         }
+    }
+    if let Some(bonds) = bonds {
+        super::bonds::attach(bonds, &mut simulation, ctx, &mut warnings, &mut notes)?;
     }
     Ok(Scene {
         simulation,

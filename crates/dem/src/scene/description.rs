@@ -6,6 +6,7 @@
 //! failing key as a scene file would spell it (`particles[0].fill.count`). Units are SI
 //! throughout: metres, seconds, kilograms, pascals.
 
+use crate::bond::{BondRadius, ContactRadius};
 use crate::factory::Rate;
 use crate::fill::{FillRegion, Lattice, SizeDistribution};
 use crate::geometry::Motion;
@@ -28,6 +29,8 @@ pub struct SceneDescription {
     pub particle_types: Vec<ParticleTypeDescription>,
     /// Groups of particles with their placement (`[[particles]]`); at least one.
     pub particles: Vec<ParticleGroup>,
+    /// Bonds between the spheres of material pairs (`[[bond]]`).
+    pub bonds: Vec<BondDescription>,
 }
 
 impl SceneDescription {
@@ -41,6 +44,7 @@ impl SceneDescription {
             geometries: Vec::new(),
             particle_types: Vec::new(),
             particles: Vec::new(),
+            bonds: Vec::new(),
         }
     }
 
@@ -172,6 +176,29 @@ pub struct InteractionDescription {
     pub rolling_friction: f64,
     /// JKR cohesion (J/m^2); 0 for none.
     pub surface_energy: f64,
+}
+
+/// `[[bond]]`: EDEM's "Hertz-Mindlin with bonding" between two materials' spheres (see
+/// [`crate::bond`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BondDescription {
+    pub materials: [String; 2],
+    /// k_n (N/m^3).
+    pub normal_stiffness: f64,
+    /// k_t (N/m^3).
+    pub shear_stiffness: f64,
+    /// sigma_c (Pa).
+    pub critical_normal_stress: f64,
+    /// tau_c (Pa).
+    pub critical_shear_stress: f64,
+    /// `bond_radius` (m) or `bonded_disk_scale`.
+    pub radius: BondRadius,
+    /// `contact_radius` (m) or `contact_radius_scale`.
+    pub contact_radius: ContactRadius,
+    /// s; default 0.
+    pub formation_time: f64,
+    /// PFC local damping fraction; default 0 (off).
+    pub damping: f64,
 }
 
 /// `[[geometry]]`: a wall, box, cylinder or mesh with its material and motion.

@@ -13,6 +13,7 @@
 //! Every failure of either step is one [`SceneError`] line naming the file, the key as the scene
 //! file spells it, and what was expected.
 
+mod bonds;
 pub mod build;
 pub mod description;
 mod geometry;
@@ -116,7 +117,10 @@ impl Scene {
         description: &SceneDescription,
         file: &str,
     ) -> Result<MaterialTable, SceneError> {
-        build::materials(description, &Ctx { file })
+        let ctx = Ctx { file };
+        let table = build::materials(description, &ctx)?;
+        bonds::bonds(description, &ctx, &table)?;
+        Ok(table)
     }
 }
 

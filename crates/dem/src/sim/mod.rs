@@ -11,8 +11,8 @@
 //! 4. **pair forces**: every candidate pair evaluates its contact once, into its own slot.
 //! 5. **wall forces**: every particle's geometry candidates evaluate their contacts into theirs.
 //! 6. **particle sums**: every particle sums gravity and its slots, then the second half kick
-//!    (extensions that add forces, e.g. bonds, come in before the kick; clumps gather their
-//!    members' forces and are kicked as bodies).
+//!    (**extension forces**, e.g. bonds, come in before the kick and are timed apart; clumps
+//!    gather their members' forces and are kicked as bodies).
 //! 7. **geometry loads**: each geometry's force and torque, summed from its wall slots.
 //! 8. **extensions**: per-step extensions ([`StepExtension`]): factories creating particles now,
 //!    recorders and servo-controlled plates next.
@@ -391,6 +391,7 @@ impl Simulation {
     fn compute_forces(&mut self, kick: bool) {
         let clumps = !self.bodies.is_empty();
         let force_hooks = self.extensions.iter().any(|e| e.adds_forces());
+        let extension_before = self.timers.extension_forces;
         let inputs = StepInputs {
             materials: &self.materials,
             geometries: &self.geometries,
@@ -418,15 +419,19 @@ impl Simulation {
             // With the kick the forces are those at the end of the step being taken.
             let dt = self.params.time_step;
             let time = if kick { self.time + dt } else { self.time };
+            let t = Instant::now();
             for e in self.extensions.iter_mut().filter(|e| e.adds_forces()) {
                 e.add_forces(&mut self.particles, &self.index_of, time, dt);
             }
+            self.timers.extension_forces += t.elapsed();
             if kick {
                 extension::kick(&mut self.particles, &self.params, clumps);
             }
         }
         let t3 = Instant::now();
-        self.timers.particle_sums += t3 - t2;
+        // Extension forces are timed on their own inside this span.
+        self.timers.particle_sums +=
+            (t3 - t2).saturating_sub(self.timers.extension_forces - extension_before);
         if clumps {
             self.gather_bodies();
             if kick {

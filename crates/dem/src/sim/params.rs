@@ -62,6 +62,11 @@ pub enum SimError {
         particle: u32,
         position: DVec3,
     },
+    /// A step extension stopped the run (bonds that cannot form, say): its one-line reason.
+    Extension {
+        time: f64,
+        message: String,
+    },
 }
 
 impl std::fmt::Display for SimError {
@@ -81,6 +86,9 @@ impl std::fmt::Display for SimError {
                 "particle {particle} left the simulation domain at t = {time:.6} s (at [{:.4}, {:.4}, {:.4}] m)",
                 position.x, position.y, position.z
             ),
+            SimError::Extension { time, message } => {
+                write!(f, "stopped at t = {time:.6} s: {message}")
+            }
         }
     }
 }
@@ -100,13 +108,15 @@ pub struct StageTimers {
     pub wall_forces: Duration,
     /// Summing each particle's contacts, gravity, and the second half kick.
     pub particle_sums: Duration,
+    /// Forces that extensions add before the kick (bonds).
+    pub extension_forces: Duration,
     pub geometry_loads: Duration,
     /// Per-step extensions (factories, ...).
     pub extensions: Duration,
 }
 
 impl StageTimers {
-    fn stages(&self) -> [(&'static str, Duration); 9] {
+    fn stages(&self) -> [(&'static str, Duration); 10] {
         [
             ("integrate", self.integrate),
             ("bodies", self.bodies),
@@ -115,6 +125,7 @@ impl StageTimers {
             ("pair forces", self.pair_forces),
             ("wall forces", self.wall_forces),
             ("particle sums", self.particle_sums),
+            ("extension forces", self.extension_forces),
             ("geometry loads", self.geometry_loads),
             ("extensions", self.extensions),
         ]

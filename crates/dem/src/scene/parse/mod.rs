@@ -6,6 +6,7 @@
 //! two alternatives (`duration` or `steps`). Values (positive sizes, names that exist) are the
 //! builder's business, so that a description written in Rust gets the same checks.
 
+mod bonds;
 mod particles;
 
 use super::description::*;
@@ -80,12 +81,13 @@ fn from_value<T: DeserializeOwned>(
 }
 
 /// The parts of a scene that a virtual test file carries in the scene format: `[[material]]`,
-/// `[[interaction]]` and `[[particle_type]]` (each may be absent).
+/// `[[interaction]]`, `[[particle_type]]` and `[[bond]]` (each may be absent).
 #[derive(Clone, Debug, Default)]
 pub struct SharedParts {
     pub materials: Vec<MaterialDescription>,
     pub interactions: Vec<InteractionDescription>,
     pub particle_types: Vec<ParticleTypeDescription>,
+    pub bonds: Vec<BondDescription>,
 }
 
 /// Reads the `material`, `interaction` and `particle_type` arrays of `table` (other keys are the
@@ -105,7 +107,12 @@ pub fn shared_parts(table: &toml::Table, file: &str) -> Result<SharedParts, Scen
         Some(v) => from_value(&ctx, "particle_type", v)?,
         None => Vec::new(),
     };
+    let bond_entries: Vec<bonds::BondEntry> = match get("bond") {
+        Some(v) => from_value(&ctx, "bond", v)?,
+        None => Vec::new(),
+    };
     Ok(SharedParts {
+        bonds: bonds::bonds(&ctx, bond_entries)?,
         materials: materials
             .into_iter()
             .enumerate()
@@ -149,6 +156,8 @@ struct SceneFile {
     particle_types: Vec<ParticleTypeEntry>,
     #[serde(rename = "particles", default)]
     particles: Vec<ParticleEntry>,
+    #[serde(rename = "bond", default)]
+    bonds: Vec<bonds::BondEntry>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -277,8 +286,10 @@ fn describe(f: SceneFile, ctx: &Ctx, base: &Path) -> Result<SceneDescription, Sc
         .enumerate()
         .map(|(k, p)| particle_group(ctx, k, p))
         .collect::<Result<_, _>>()?;
+    let bonds = bonds::bonds(ctx, f.bonds)?;
     let o = f.output;
     Ok(SceneDescription {
+        bonds,
         simulation,
         output: OutputDescription {
             directory: base.join(o.directory.as_deref().unwrap_or("out")),

@@ -21,6 +21,7 @@ pub mod output;
 pub mod particles;
 pub mod scene;
 pub mod sim;
+pub mod specimen;
 pub mod timestep;
 
 pub use geometry::{Element, Geometry, Load, Motion};

@@ -15,6 +15,7 @@ use crate::material::{Interaction, Material, MaterialTable};
 use crate::mixture::{self, Item, Mixture, ParticleType};
 use crate::particles::Particles;
 use crate::sim::{Simulation, SimulationParams};
+use crate::specimen::StalkSpecimen;
 use crate::timestep;
 use glam::DVec3;
 
@@ -150,8 +151,48 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
                 ));
             }
         }
+        if let Placement::Specimen(specimen) = &p.placement {
+            let size = specimen.length.max(specimen.diameter);
+            if size > LARGE_GEOMETRY && size.is_finite() {
+                warnings.push(format!(
+                    "particles[{k}].fill: a stalk {size:.4} m across looks like the wrong unit: scene values are in metres ({size:.4} mm would be {:.4e})",
+                    size / 1000.0
+                ));
+            }
+        }
         let planned = particles::plan(ctx, k, &p.placement, &mixture, &mut spheres)
             .map_err(|e| with_unit_warnings(e, &warnings))?;
+        if let (Placement::Specimen(specimen), Planned::Specimen { spheres }) =
+            (&p.placement, &planned)
+        {
+            let volume: f64 = spheres
+                .iter()
+                .map(|s| 4.0 / 3.0 * std::f64::consts::PI * s.radius.powi(3))
+                .sum();
+            notes.push(format!(
+                "particles[{k}]: stalk specimen of {} spheres ({} in the core), solid fraction {:.3}",
+                spheres.len(),
+                spheres.iter().filter(|s| s.core).count(),
+                volume / specimen.volume()
+            ));
+        }
+        // A specimen's core spheres are a second type: the group's, in the core's material.
+        let mut mixture = mixture;
+        if let Placement::Specimen(StalkSpecimen {
+            core: Some(core), ..
+        }) = &p.placement
+        {
+            let mat = material_id(&core.material, format!("particles[{k}].fill.core_material"))?;
+            let rind = &mixture.types[0];
+            let core_type = ParticleType::sphere(
+                &format!("{} core", rind.name),
+                mat,
+                table.material(mat).density,
+                rind.size.clone(),
+            );
+            mixture.types.push(core_type);
+            mixture.fractions.push(0.0);
+        }
         groups.push(Group {
             mixture,
             planned,
@@ -346,6 +387,7 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
     let mut group_of: Vec<usize> = Vec::new();
     for (k, g) in groups.into_iter().enumerate() {
         let seed = |s: Option<u64>| s.unwrap_or(1) + k as u64;
+        let specimen = matches!(g.planned, Planned::Specimen { .. });
         let items = match g.planned {
             Planned::Lattice { points, seed: s } => {
                 let mut rng = <rand_pcg::Pcg64 as rand::SeedableRng>::seed_from_u64(s.unwrap_or(1));
@@ -360,6 +402,15 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
                     })
                     .collect()
             }
+            Planned::Specimen { spheres } => spheres
+                .into_iter()
+                .map(|s| Item {
+                    kind: usize::from(s.core && g.mixture.types.len() > 1),
+                    size: s.radius,
+                    position: s.position,
+                    orientation: glam::DQuat::IDENTITY,
+                })
+                .collect(),
             Planned::Random {
                 region,
                 target,
@@ -398,9 +449,17 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
             }
         };
         if items.is_empty() {
+            let (key, place) = if specimen {
+                (
+                    "fill",
+                    "specimen (its wall is thinner than the lattice can fill)",
+                )
+            } else {
+                ("region", "region")
+            };
             return Err(with_units(ctx.err(
-                format!("particles[{k}].region"),
-                "no particle fits in the region",
+                format!("particles[{k}].{key}"),
+                format!("no particle fits in the {place}"),
             )));
         }
         simulation.add_items(&g.mixture, &items, g.velocity);

@@ -13,6 +13,7 @@ use crate::geometry::Motion;
 use crate::maize_kernel::KernelShape;
 use crate::mixture::{FillTarget, Shape};
 use crate::sim::SimulationParams;
+use crate::specimen::StalkSpecimen;
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -335,6 +336,9 @@ pub enum Placement {
         start: f64,
         seed: Option<u64>,
     },
+    /// A stalk specimen: a cylinder packed with spheres of the group's one sphere type (radii
+    /// from its size), core spheres given the core's material (`fill.type = "stalk"`).
+    Specimen(StalkSpecimen),
 }
 
 /// The face a factory creates particles from.

@@ -7,6 +7,7 @@ use crate::clump::ClumpTemplate;
 use crate::factory::{perpendicular_axes, FactoryShape, Rate};
 use crate::fill::{self, FillRegion, Lattice, SizeDistribution};
 use crate::mixture::{self, FillTarget, Mixture, ParticleType, Shape};
+use crate::specimen::{Packing, SpecimenSphere, StalkSpecimen};
 use glam::DVec3;
 
 /// Checks a size (sphere radius) or scale (clump) distribution; `prefix` is its key.
@@ -306,6 +307,9 @@ pub(super) enum Planned {
         start: f64,
         seed: Option<u64>,
     },
+    Specimen {
+        spheres: Vec<SpecimenSphere>,
+    },
 }
 
 impl Planned {
@@ -315,6 +319,10 @@ impl Planned {
             Planned::Lattice { points, .. } => points.iter().fold(
                 (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
                 |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            ),
+            Planned::Specimen { spheres } => spheres.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), s| (lo.min(s.position), hi.max(s.position)),
             ),
             Planned::Random { region, .. } => region.bounds(),
             Planned::Factory { shape, normal, .. } => {
@@ -569,7 +577,50 @@ pub(super) fn plan(
                 seed: *seed,
             }
         }
+        Placement::Specimen(specimen) => Planned::Specimen {
+            spheres: specimen_spheres(ctx, k, specimen, mixture, &mut budget)?,
+        },
     };
     *budget_total = budget.total;
     Ok(planned)
+}
+
+/// Checks a stalk specimen against the group's one sphere type and packs it, refusing one that
+/// would take the scene past [`super::MAX_SPHERES`] before anything is allocated.
+fn specimen_spheres(
+    ctx: &Ctx,
+    k: usize,
+    specimen: &StalkSpecimen,
+    mixture: &Mixture,
+    budget: &mut SphereBudget,
+) -> Result<Vec<SpecimenSphere>, SceneError> {
+    let fk = |s: &str| {
+        if s.is_empty() {
+            format!("particles[{k}].fill")
+        } else {
+            format!("particles[{k}].fill.{s}")
+        }
+    };
+    if mixture.types.len() != 1 || !matches!(mixture.types[0].shape, mixture::Shape::Sphere) {
+        return Err(ctx.err(
+            fk("type"),
+            "a stalk specimen is built of spheres of one type (give material and size; the core's material is core_material), not of clumps or a mixture",
+        ));
+    }
+    let sizes = &mixture.types[0].size;
+    let most = specimen
+        .check(sizes)
+        .map_err(|e| ctx.err(fk(e.key), e.message))?;
+    let (key, what) = match specimen.packing {
+        Packing::Hcp { .. } => (
+            "spacing",
+            format!("the lattice may place up to {most:.3e} spheres in this specimen"),
+        ),
+        Packing::Random { count, .. } => ("count", format!("{count} spheres")),
+    };
+    budget.take(fk(key), most, what)?;
+    let packed = specimen
+        .build(sizes, super::MAX_SPHERES)
+        .map_err(|e| ctx.err(fk(e.key), e.message))?;
+    Ok(packed.spheres)
 }

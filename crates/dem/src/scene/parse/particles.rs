@@ -7,6 +7,7 @@ use crate::maize_kernel::KernelShape;
 use crate::mixture::FillTarget;
 use crate::scene::description::*;
 use crate::scene::{Ctx, SceneError};
+use crate::specimen::{Core, Packing, StalkSpecimen};
 use glam::DVec3;
 use serde::Deserialize;
 
@@ -131,6 +132,16 @@ struct FillEntry {
     rate: Option<f64>,
     mass_rate: Option<f64>,
     start: Option<f64>,
+    // stalk specimen
+    length: Option<f64>,
+    diameter: Option<f64>,
+    packing: Option<String>,
+    hollow_diameter: Option<f64>,
+    core_material: Option<String>,
+    core_diameter: Option<f64>,
+    #[serde(alias = "center")]
+    centre: Option<V3>,
+    axis: Option<V3>,
 }
 
 pub(super) fn particle_type(
@@ -523,6 +534,14 @@ pub(super) fn particle_group(
         ("rate", fe.rate.is_some()),
         ("mass_rate", fe.mass_rate.is_some()),
         ("start", fe.start.is_some()),
+        ("length", fe.length.is_some()),
+        ("diameter", fe.diameter.is_some()),
+        ("packing", fe.packing.is_some()),
+        ("hollow_diameter", fe.hollow_diameter.is_some()),
+        ("core_material", fe.core_material.is_some()),
+        ("core_diameter", fe.core_diameter.is_some()),
+        ("centre", fe.centre.is_some()),
+        ("axis", fe.axis.is_some()),
     ];
     let amount = || -> Result<FillTarget, SceneError> {
         match (fe.count, fe.mass) {
@@ -654,10 +673,42 @@ pub(super) fn particle_group(
                 seed: fe.seed,
             }
         }
+        "stalk" => {
+            ctx.only(
+                &key("fill"),
+                "stalk",
+                &given,
+                &[
+                    "length",
+                    "diameter",
+                    "packing",
+                    "spacing",
+                    "count",
+                    "seed",
+                    "hollow_diameter",
+                    "core_material",
+                    "core_diameter",
+                    "centre",
+                    "axis",
+                ],
+            )?;
+            for (name, given) in [
+                ("region", p.region.is_some()),
+                ("factory", p.factory.is_some()),
+            ] {
+                if given {
+                    return Err(ctx.err(
+                        key(name),
+                        "not used by a stalk fill (the specimen's length, diameter, centre and axis place it)",
+                    ));
+                }
+            }
+            Placement::Specimen(stalk(ctx, k, fe)?)
+        }
         other => {
             return Err(ctx.err(
                 fk("type"),
-                format!("unknown fill \"{other}\" (expected lattice, random or factory)"),
+                format!("unknown fill \"{other}\" (expected lattice, random, factory or stalk)"),
             ))
         }
     };
@@ -665,5 +716,68 @@ pub(super) fn particle_group(
         particles,
         placement,
         velocity: v3(p.velocity.unwrap_or([0.0; 3])),
+    })
+}
+
+/// A `fill = { type = "stalk", ... }`: a stalk specimen (its values are checked when built).
+fn stalk(ctx: &Ctx, k: usize, fe: &FillEntry) -> Result<StalkSpecimen, SceneError> {
+    let fk = |s: &str| format!("particles[{k}].fill.{s}");
+    let packing = match fe.packing.as_deref().unwrap_or("hcp") {
+        "hcp" | "hexagonal_close_packed" => {
+            for (name, given) in [("count", fe.count.is_some()), ("seed", fe.seed.is_some())] {
+                if given {
+                    return Err(ctx.err(
+                        fk(name),
+                        "not used by packing \"hcp\" (the lattice sets the count; give spacing, or packing = \"random\")",
+                    ));
+                }
+            }
+            Packing::Hcp {
+                spacing: fe.spacing,
+            }
+        }
+        "random" => {
+            if fe.spacing.is_some() {
+                return Err(ctx.err(fk("spacing"), "not used by packing \"random\" (give count)"));
+            }
+            Packing::Random {
+                count: ctx.require(fe.count, fk("count"), "the number of spheres")?,
+                seed: fe.seed.unwrap_or(1),
+            }
+        }
+        other => {
+            return Err(ctx.err(
+                fk("packing"),
+                format!("unknown packing \"{other}\" (expected hcp or random)"),
+            ))
+        }
+    };
+    let core = match (&fe.core_material, fe.core_diameter) {
+        (Some(material), Some(diameter)) => Some(Core {
+            material: material.clone(),
+            diameter,
+        }),
+        (None, None) => None,
+        (Some(_), None) => {
+            return Err(ctx.err(
+                fk("core_diameter"),
+                "missing; expected the core's diameter (m) with core_material",
+            ))
+        }
+        (None, Some(_)) => {
+            return Err(ctx.err(
+                fk("core_material"),
+                "missing; expected the core's material with core_diameter",
+            ))
+        }
+    };
+    Ok(StalkSpecimen {
+        length: ctx.require(fe.length, fk("length"), "the specimen's length (m)")?,
+        diameter: ctx.require(fe.diameter, fk("diameter"), "the specimen's diameter (m)")?,
+        packing,
+        hollow_diameter: fe.hollow_diameter.unwrap_or(0.0),
+        core,
+        centre: v3(fe.centre.unwrap_or([0.0; 3])),
+        axis: v3(fe.axis.unwrap_or([1.0, 0.0, 0.0])),
     })
 }

@@ -15,6 +15,7 @@ pub mod file;
 pub mod function;
 pub mod harness;
 pub mod incline;
+pub mod mechanical;
 pub mod registry;
 pub mod render;
 pub mod repose;

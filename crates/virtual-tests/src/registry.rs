@@ -11,10 +11,21 @@ use crate::angle_of_repose::AngleOfRepose;
 use crate::file::{one_line, TestFile};
 use crate::function::Function;
 use crate::incline::{InclineSlide, InclineTilt};
+use crate::mechanical::tests::{Bending, Cantilever, Compression, Shear, Tension};
 use crate::virtual_test::Registered;
 
 /// The tests, in the order help texts list them.
-pub static TESTS: &[&dyn Registered] = &[&AngleOfRepose, &InclineTilt, &InclineSlide, &Function];
+pub static TESTS: &[&dyn Registered] = &[
+    &AngleOfRepose,
+    &InclineTilt,
+    &InclineSlide,
+    &Shear,
+    &Compression,
+    &Bending,
+    &Tension,
+    &Cantilever,
+    &Function,
+];
 
 /// The test called `name`.
 pub fn find(name: &str) -> Option<&'static dyn Registered> {

@@ -161,3 +161,45 @@ pub fn side_view_png_bytes(
     .map_err(|e| format!("side view: {e}"))?;
     Ok(bytes)
 }
+
+/// A force-displacement curve (displacement in mm, force in N).
+pub fn curve_svg(test: &str, displacement: &[f64], force: &[f64]) -> Result<String, String> {
+    let xmax = displacement
+        .iter()
+        .cloned()
+        .fold(0.0f64, f64::max)
+        .max(1e-12)
+        * 1e3;
+    let fmax = force.iter().cloned().fold(0.0f64, f64::max);
+    let fmin = force.iter().cloned().fold(0.0f64, f64::min);
+    let pad = 0.05 * (fmax - fmin).max(1e-12);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 480)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{test}: force against displacement (peak {fmax:.3} N)"),
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..xmax, (fmin - pad)..(fmax + pad))
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("displacement (mm)")
+            .y_desc("force (N)")
+            .draw()
+            .map_err(err)?;
+        chart
+            .draw_series(LineSeries::new(
+                displacement.iter().zip(force).map(|(d, f)| (d * 1e3, *f)),
+                COLOURS[0].stroke_width(2),
+            ))
+            .map_err(err)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}

@@ -1,0 +1,673 @@
+//! The mechanical tests of bonded stalks (lab-tests.md sections 3-6): a bonded specimen, a
+//! fixture, and a tool driven at a set speed while its force is recorded against its travel.
+//!
+//! Every test here shares one loop ([`load`]): the tool (a moving geometry, or a grip of spheres
+//! driven at a set velocity) advances at `speed` until `max_displacement`, or until the force has
+//! dropped below `stop_force_fraction` of its peak after the peak. The force-displacement curve is
+//! the test's curve response (`force_displacement`); from it come the peak force, the mean force,
+//! the initial stiffness (least-squares slope of the rising branch between 10 % and 50 % of the
+//! peak), the displacement at the peak, and the bond counts. A quasi-static check compares the
+//! specimen's kinetic energy with the work done: above 5 % after the first tenth of the travel the
+//! outcome carries a warning (inertia shows in the curve; slow the tool).
+//!
+//! The tests differ only in their fixture and tool: see [`tests`].
+
+pub mod tests;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use dem::bond::output::{write_bond_counts_csv, write_bonds_vtk, write_breakage_csv};
+use dem::fill::SizeDistribution;
+use dem::scene::{GroupParticles, ParticleGroup, ParticleShape, Placement};
+use dem::specimen::{Core, Packing, StalkSpecimen};
+use dem::Simulation;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::file::TestFile;
+use crate::harness::{self, Stop};
+use crate::virtual_test::{Picture, Response, Run, TestError};
+
+/// `specimen = { ... }`: a cylindrical stalk along x, centred at the origin.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpecimenSettings {
+    /// The rind's (or the whole stalk's) material.
+    pub material: String,
+    /// Sphere radius (m): an hcp packing, or equal spheres packed at random.
+    pub radius: Option<f64>,
+    /// Radii (m) of a random packing's size classes, with their number `fractions`.
+    pub radii: Option<Vec<f64>>,
+    pub fractions: Option<Vec<f64>>,
+    /// m.
+    pub length: f64,
+    /// m.
+    pub diameter: f64,
+    /// "hcp" (default) or "random".
+    #[serde(default = "default_packing")]
+    pub packing: String,
+    /// hcp: nearest-neighbour distance (m); default one sphere diameter.
+    pub spacing: Option<f64>,
+    /// random: how many spheres.
+    pub count: Option<usize>,
+    /// m; default 0 (solid).
+    #[serde(default)]
+    pub hollow_diameter: f64,
+    /// Pith: spheres within `core_diameter` of the axis get this material.
+    pub core_material: Option<String>,
+    pub core_diameter: Option<f64>,
+}
+
+fn default_packing() -> String {
+    "hcp".into()
+}
+
+/// How the tool is driven, common to every mechanical test.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadingSettings {
+    /// Tool speed (m/s).
+    pub speed: f64,
+    /// Travel at which the test ends (m).
+    pub max_displacement: f64,
+    /// End early once the force has fallen below this fraction of its peak after the peak
+    /// (0: run to `max_displacement`).
+    #[serde(default)]
+    pub stop_force_fraction: f64,
+    /// Points on the curve (default 500 over `max_displacement`).
+    #[serde(default = "default_points")]
+    pub curve_points: usize,
+    /// Time step as a percentage of the Rayleigh step (default 10 %, as the stalk studies).
+    #[serde(default = "default_time_step_percent")]
+    pub time_step_percent: f64,
+    /// Particle and bond snapshots (VTK) written into the output folder over the loading.
+    #[serde(default)]
+    pub snapshots: usize,
+}
+
+fn default_points() -> usize {
+    500
+}
+fn default_time_step_percent() -> f64 {
+    10.0
+}
+
+/// The most curve points and snapshots one run may ask for.
+const MAX_CURVE_POINTS: usize = 1_000_000;
+const MAX_SNAPSHOTS: usize = 10_000;
+
+/// Kinetic energy over work above which the loading is not quasi-static.
+pub const QUASI_STATIC_LIMIT: f64 = 0.05;
+
+/// What every mechanical test measures (the keys of `demcal test --json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct MechanicalOutcome {
+    pub particles: usize,
+    pub bonds: usize,
+    pub bonds_broken: usize,
+    pub bonds_broken_tension: usize,
+    pub bonds_broken_shear: usize,
+    pub peak_force_n: f64,
+    pub mean_force_n: f64,
+    pub stiffness_n_per_m: f64,
+    pub displacement_at_peak_m: f64,
+    /// Tool travel when the test ended.
+    pub displacement_m: f64,
+    /// Largest kinetic energy of the specimen over the work done so far (after the first tenth
+    /// of the travel).
+    pub kinetic_to_work_ratio: f64,
+    pub warnings: Vec<String>,
+    /// The curve as CSV (displacement_m, force_n), when an output folder was given.
+    pub curve_csv: Option<PathBuf>,
+    pub breakage_csv: Option<PathBuf>,
+    /// The specimen's cross-section (m^2) and length along the load (m), for stress-strain.
+    pub specimen_area_m2: f64,
+    pub specimen_length_m: f64,
+    pub time_step_s: f64,
+    pub simulated_time_s: f64,
+    pub wall_s: f64,
+    pub seed: u64,
+    #[serde(skip)]
+    pub displacement: Vec<f64>,
+    #[serde(skip)]
+    pub force: Vec<f64>,
+}
+
+/// Checks the loading settings.
+pub fn check_loading(file: &TestFile, table: &str, l: &LoadingSettings) -> Result<(), String> {
+    let key = |k: &str| format!("{table}.{k}");
+    for (k, v) in [
+        ("speed", l.speed),
+        ("max_displacement", l.max_displacement),
+        ("time_step_percent", l.time_step_percent),
+    ] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(format!(
+                "{}: {}: expected a positive number, got {v}",
+                file.name,
+                key(k)
+            ));
+        }
+    }
+    if !(0.0..1.0).contains(&l.stop_force_fraction) {
+        return Err(format!(
+            "{}: {}: expected a fraction from 0 (off) to below 1, got {}",
+            file.name,
+            key("stop_force_fraction"),
+            l.stop_force_fraction
+        ));
+    }
+    if !(2..=MAX_CURVE_POINTS).contains(&l.curve_points) {
+        return Err(format!(
+            "{}: {}: expected 2 to {MAX_CURVE_POINTS}, got {}",
+            file.name,
+            key("curve_points"),
+            l.curve_points
+        ));
+    }
+    if l.snapshots > MAX_SNAPSHOTS {
+        return Err(format!(
+            "{}: {}: expected at most {MAX_SNAPSHOTS}, got {}",
+            file.name,
+            key("snapshots"),
+            l.snapshots
+        ));
+    }
+    Ok(())
+}
+
+/// The specimen as a particle group (checked as the scene builder checks it).
+pub fn specimen_group(
+    file: &TestFile,
+    table: &str,
+    s: &SpecimenSettings,
+    seed: u64,
+) -> Result<ParticleGroup, String> {
+    let key = |k: &str| format!("{}: {table}.specimen.{k}", file.name);
+    file.check_material(&format!("{table}.specimen.material"), &s.material)?;
+    let size = match (s.radius, &s.radii) {
+        (Some(r), None) => SizeDistribution::Fixed { radius: r },
+        (None, Some(radii)) => {
+            let fractions = s
+                .fractions
+                .clone()
+                .unwrap_or_else(|| vec![1.0; radii.len()]);
+            if fractions.len() != radii.len() || radii.is_empty() {
+                return Err(format!(
+                    "{}: expected one number fraction per radius ({} radii)",
+                    key("fractions"),
+                    radii.len()
+                ));
+            }
+            SizeDistribution::Classes {
+                radii: radii.clone(),
+                fractions,
+                by_mass: false,
+            }
+        }
+        (Some(_), Some(_)) => {
+            return Err(format!("{}: give radius or radii, not both", key("radii")))
+        }
+        (None, None) => {
+            return Err(format!(
+                "{}: missing; expected radius (m) or radii = [..] with fractions",
+                key("radius")
+            ))
+        }
+    };
+    let packing = match s.packing.as_str() {
+        "hcp" => {
+            if s.count.is_some() {
+                return Err(format!("{}: not used by packing \"hcp\"", key("count")));
+            }
+            Packing::Hcp { spacing: s.spacing }
+        }
+        "random" => {
+            if s.spacing.is_some() {
+                return Err(format!(
+                    "{}: not used by packing \"random\"",
+                    key("spacing")
+                ));
+            }
+            Packing::Random {
+                count: s.count.ok_or_else(|| {
+                    format!("{}: missing; a random packing needs count", key("count"))
+                })?,
+                seed,
+            }
+        }
+        other => {
+            return Err(format!(
+                "{}: unknown packing \"{other}\" (expected hcp or random)",
+                key("packing")
+            ))
+        }
+    };
+    let core = match (&s.core_material, s.core_diameter) {
+        (Some(m), Some(d)) => {
+            file.check_material(&format!("{table}.specimen.core_material"), m)?;
+            Some(Core {
+                material: m.clone(),
+                diameter: d,
+            })
+        }
+        (None, None) => None,
+        _ => {
+            return Err(format!(
+                "{}: give core_material and core_diameter together",
+                key("core_material")
+            ))
+        }
+    };
+    Ok(ParticleGroup {
+        particles: GroupParticles::Inline {
+            material: s.material.clone(),
+            shape: ParticleShape::Sphere,
+            size,
+        },
+        placement: Placement::Specimen(StalkSpecimen {
+            length: s.length,
+            diameter: s.diameter,
+            packing,
+            hollow_diameter: s.hollow_diameter,
+            core,
+            centre: DVec3::ZERO,
+            axis: DVec3::X,
+        }),
+        velocity: DVec3::ZERO,
+    })
+}
+
+/// The largest sphere radius a specimen can hold.
+pub fn largest_radius(s: &SpecimenSettings) -> f64 {
+    s.radius
+        .or_else(|| {
+            s.radii
+                .as_ref()
+                .map(|r| r.iter().cloned().fold(0.0, f64::max))
+        })
+        .unwrap_or(0.0)
+}
+
+/// What drives the loading.
+pub enum Tool {
+    /// A geometry moving along `direction`; its force is what the particles put on it, against
+    /// the motion.
+    Geometry { name: String, direction: DVec3 },
+    /// Spheres (stable ids) driven at the tool velocity, held against turning; their force is the
+    /// sum of what acts on them, against the motion. `fixed` spheres are held still.
+    Grip {
+        moving: Vec<u32>,
+        fixed: Vec<u32>,
+        direction: DVec3,
+    },
+}
+
+impl Tool {
+    fn direction(&self) -> DVec3 {
+        match self {
+            Tool::Geometry { direction, .. } | Tool::Grip { direction, .. } => *direction,
+        }
+    }
+}
+
+/// Holds the spheres of a grip: infinite mass and inertia, the given velocity.
+fn hold(sim: &mut Simulation, ids: &[u32], velocity: DVec3) {
+    let p = &mut sim.particles;
+    for k in 0..p.len() {
+        if ids.binary_search(&p.id[k]).is_ok() {
+            p.inv_mass[k] = 0.0;
+            p.inv_inertia[k] = 0.0;
+            p.velocity[k] = velocity;
+            p.angular_velocity[k] = DVec3::ZERO;
+        }
+    }
+}
+
+/// The force against the tool's motion now.
+fn tool_force(sim: &Simulation, tool: &Tool) -> f64 {
+    match tool {
+        Tool::Geometry { name, direction } => sim
+            .geometry(name)
+            .map(|g| -g.load.force.dot(*direction))
+            .unwrap_or(0.0),
+        Tool::Grip {
+            moving, direction, ..
+        } => {
+            let p = &sim.particles;
+            -(0..p.len())
+                .filter(|&k| moving.binary_search(&p.id[k]).is_ok())
+                .map(|k| p.force[k] - sim.params.gravity * p.mass[k])
+                .sum::<DVec3>()
+                .dot(*direction)
+        }
+    }
+}
+
+/// Kinetic energy of the specimen's free spheres (grips excluded: their mass is infinite).
+fn specimen_kinetic_energy(sim: &Simulation) -> f64 {
+    let p = &sim.particles;
+    (0..p.len())
+        .filter(|&k| p.inv_mass[k] > 0.0)
+        .map(|k| {
+            0.5 * p.mass[k] * p.velocity[k].length_squared()
+                + 0.5 * p.angular_velocity[k].length_squared() / p.inv_inertia[k]
+        })
+        .sum()
+}
+
+/// Drives the tool over `approach` (its distance from the specimen) and `max_displacement`, and
+/// records the curve.
+#[allow(clippy::too_many_arguments)]
+pub fn load(
+    file: &TestFile,
+    test: &str,
+    mut sim: Simulation,
+    tool: Tool,
+    loading: &LoadingSettings,
+    approach: f64,
+    area: f64,
+    length: f64,
+    run: &mut Run,
+) -> Result<MechanicalOutcome, TestError> {
+    let wall = Instant::now();
+    let dt = sim.params.time_step;
+    let duration = (approach + loading.max_displacement) / loading.speed;
+    harness::budget(
+        file,
+        dt,
+        &[(
+            "speed",
+            format!(
+                "{} m of travel at {} m/s",
+                harness::number(approach + loading.max_displacement),
+                harness::number(loading.speed)
+            ),
+            duration,
+        )],
+    )?;
+    let direction = tool.direction().normalize();
+    let velocity = direction * loading.speed;
+    match &tool {
+        Tool::Geometry { name, .. } => {
+            harness::translate(&mut sim, name, velocity, duration)?;
+        }
+        Tool::Grip { moving, fixed, .. } => {
+            hold(&mut sim, fixed, DVec3::ZERO);
+            hold(&mut sim, moving, velocity);
+        }
+    }
+    let start = sim.time;
+    let steps_total = (duration / dt).ceil() as u64;
+    let every = (steps_total / loading.curve_points as u64).max(1);
+    let snapshot_every = if loading.snapshots > 0 {
+        (steps_total / loading.snapshots as u64).max(1)
+    } else {
+        u64::MAX
+    };
+    let fail = |e: Stop| e.error(file, "");
+    let mut displacement = vec![0.0];
+    let mut force = vec![tool_force(&sim, &tool)];
+    let mut work = 0.0;
+    let mut ratio: f64 = 0.0;
+    let out = run.out.map(|d| d.to_path_buf());
+    let snapshot = |sim: &Simulation| -> Result<(), TestError> {
+        if let Some(dir) = &out {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| TestError::Measurement(format!("{}: {e}", dir.display())))?;
+            let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
+            dem::output::write_vtk(
+                &dir.join(format!("particles_{:08}.vtk", sim.steps)),
+                &sim.particles,
+                sim.time,
+            )
+            .map_err(io)?;
+            if let Some(b) = sim.bonds() {
+                write_bonds_vtk(
+                    &dir.join(format!("bonds_{:08}.vtk", sim.steps)),
+                    b,
+                    &sim.particles,
+                    sim.time,
+                )
+                .map_err(io)?;
+            }
+        }
+        Ok(())
+    };
+    if loading.snapshots > 0 {
+        snapshot(&sim)?;
+    }
+    let mut done = 0u64;
+    let phase = format!("{test}: loading");
+    while done < steps_total {
+        let n = every.min(steps_total - done);
+        harness::advance(&mut sim, n, &phase, run, None).map_err(fail)?;
+        done += n;
+        if let Tool::Grip { moving, .. } = &tool {
+            // Grips keep their velocity whatever acts on them; re-assert it after reordering.
+            hold(&mut sim, moving, velocity);
+        }
+        let d = (sim.time - start) * loading.speed;
+        let f = tool_force(&sim, &tool);
+        work += 0.5 * (f + force[force.len() - 1]) * (d - displacement[displacement.len() - 1]);
+        displacement.push(d);
+        force.push(f);
+        if d > 0.1 * loading.max_displacement && work > 0.0 {
+            ratio = ratio.max(specimen_kinetic_energy(&sim) / work);
+        }
+        if done % snapshot_every < n && loading.snapshots > 0 {
+            snapshot(&sim)?;
+        }
+        if loading.stop_force_fraction > 0.0 {
+            let (k_peak, peak) = peak_of(&force);
+            if k_peak + 1 < force.len() && peak > 0.0 && f < loading.stop_force_fraction * peak {
+                break;
+            }
+        }
+    }
+    // Displacement counts from first contact, as a lab machine's from its preload: drop the
+    // approach before the tool touched (the fixture starts at the specimen's envelope).
+    let first = force
+        .iter()
+        .position(|f| *f > 0.0)
+        .unwrap_or(0)
+        .saturating_sub(1);
+    let offset = displacement[first];
+    let displacement: Vec<f64> = displacement[first..].iter().map(|d| d - offset).collect();
+    let force: Vec<f64> = force[first..].to_vec();
+    let mut warnings: Vec<String> = sim
+        .bonds()
+        .map(|b| b.warnings().to_vec())
+        .unwrap_or_default();
+    if ratio > QUASI_STATIC_LIMIT {
+        warnings.push(format!(
+            "not quasi-static: the specimen's kinetic energy reached {:.1} % of the work done (limit {:.0} %); inertia shows in the curve, lower {test}.speed",
+            100.0 * ratio,
+            100.0 * QUASI_STATIC_LIMIT
+        ));
+    }
+    let (k_peak, peak) = peak_of(&force);
+    let bonds = sim.bonds();
+    let (count, broken, tension) = bonds
+        .map(|b| {
+            let tension = b
+                .breakages()
+                .iter()
+                .filter(|x| x.mode == dem::bond::BreakMode::Tension)
+                .count();
+            (b.len(), b.broken_count(), tension)
+        })
+        .unwrap_or((0, 0, 0));
+    let mut outcome = MechanicalOutcome {
+        particles: sim.particle_count(),
+        bonds: count,
+        bonds_broken: broken,
+        bonds_broken_tension: tension,
+        bonds_broken_shear: broken - tension,
+        peak_force_n: peak,
+        mean_force_n: mean_force(&displacement, &force),
+        stiffness_n_per_m: initial_stiffness(&displacement, &force),
+        displacement_at_peak_m: displacement[k_peak],
+        displacement_m: displacement[displacement.len() - 1],
+        kinetic_to_work_ratio: ratio,
+        warnings,
+        curve_csv: None,
+        breakage_csv: None,
+        specimen_area_m2: area,
+        specimen_length_m: length,
+        time_step_s: dt,
+        simulated_time_s: sim.time,
+        wall_s: wall.elapsed().as_secs_f64(),
+        seed: run.seed,
+        displacement,
+        force,
+    };
+    if let Some(dir) = run.out {
+        let absolute = |p: PathBuf| std::path::absolute(&p).unwrap_or(p);
+        // Written with the pictures (see [`pictures`]).
+        outcome.curve_csv = Some(absolute(dir.join(CURVE_FILE)));
+        if let Some(b) = bonds {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| TestError::Measurement(format!("{}: {e}", dir.display())))?;
+            let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
+            write_breakage_csv(&dir.join("bond_breakage.csv"), b).map_err(io)?;
+            write_bond_counts_csv(&dir.join("bond_counts.csv"), b).map_err(io)?;
+            outcome.breakage_csv = Some(absolute(dir.join("bond_breakage.csv")));
+        }
+    }
+    Ok(outcome)
+}
+
+/// The curve as CSV and as an SVG plot.
+pub fn pictures(test: &str, o: &MechanicalOutcome) -> Result<Vec<Picture>, String> {
+    Ok(vec![
+        Picture {
+            file_name: CURVE_FILE.into(),
+            bytes: curve_csv(o).into_bytes(),
+        },
+        Picture {
+            file_name: "force_displacement.svg".into(),
+            bytes: crate::render::curve_svg(test, &o.displacement, &o.force)?.into_bytes(),
+        },
+    ])
+}
+
+/// The curve file's name in the output folder.
+pub const CURVE_FILE: &str = "force_displacement.csv";
+
+fn curve_csv(o: &MechanicalOutcome) -> String {
+    let mut s = String::from("displacement_m,force_n\n");
+    for (d, f) in o.displacement.iter().zip(&o.force) {
+        s.push_str(&format!("{d:e},{f:e}\n"));
+    }
+    s
+}
+
+/// Index and value of the largest force (the first, if several).
+pub fn peak_of(force: &[f64]) -> (usize, f64) {
+    force
+        .iter()
+        .enumerate()
+        .fold((0, f64::NEG_INFINITY), |best, (k, &f)| {
+            if f > best.1 {
+                (k, f)
+            } else {
+                best
+            }
+        })
+}
+
+/// Mean force over the travel (trapezoids; the curve's area over its length).
+pub fn mean_force(displacement: &[f64], force: &[f64]) -> f64 {
+    let span = displacement[displacement.len() - 1] - displacement[0];
+    if span <= 0.0 {
+        return force[0];
+    }
+    let area: f64 = (1..force.len())
+        .map(|k| 0.5 * (force[k] + force[k - 1]) * (displacement[k] - displacement[k - 1]))
+        .sum();
+    area / span
+}
+
+/// Least-squares slope of the rising branch between 10 % and 50 % of the peak force (before the
+/// peak); the secant from the start to the peak when too few points lie there.
+pub fn initial_stiffness(displacement: &[f64], force: &[f64]) -> f64 {
+    let (k_peak, peak) = peak_of(force);
+    if peak <= 0.0 || k_peak == 0 {
+        return 0.0;
+    }
+    let points: Vec<(f64, f64)> = (0..=k_peak)
+        .filter(|&k| force[k] >= 0.1 * peak && force[k] <= 0.5 * peak)
+        .map(|k| (displacement[k], force[k]))
+        .collect();
+    if points.len() < 3 {
+        return (peak - force[0]) / (displacement[k_peak] - displacement[0]).max(f64::MIN_POSITIVE);
+    }
+    let n = points.len() as f64;
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx > 0.0 {
+        sxy / sxx
+    } else {
+        0.0
+    }
+}
+
+/// The responses every mechanical test offers, the usual first.
+pub const RESPONSES: &[&str] = &[
+    "peak_force_n",
+    "mean_force_n",
+    "stiffness_n_per_m",
+    "displacement_at_peak_m",
+    "bonds_broken",
+    "force_displacement",
+];
+
+pub fn responses(o: &MechanicalOutcome) -> Vec<(&'static str, Response)> {
+    vec![
+        ("peak_force_n", Response::Scalar(o.peak_force_n)),
+        ("mean_force_n", Response::Scalar(o.mean_force_n)),
+        ("stiffness_n_per_m", Response::Scalar(o.stiffness_n_per_m)),
+        (
+            "displacement_at_peak_m",
+            Response::Scalar(o.displacement_at_peak_m),
+        ),
+        ("bonds_broken", Response::Scalar(o.bonds_broken as f64)),
+        (
+            "force_displacement",
+            Response::Curve {
+                x_name: "displacement".into(),
+                x_unit: "m".into(),
+                y_name: "force".into(),
+                y_unit: "N".into(),
+                x: o.displacement.clone(),
+                y: o.force.clone(),
+            },
+        ),
+    ]
+}
+
+pub fn summary(test: &str, o: &MechanicalOutcome) -> String {
+    let mut s = format!(
+        "{test}: peak_force_n={:.4} mean_force_n={:.4} stiffness_n_per_m={:.4e} displacement_at_peak_m={:.4e} particles={} bonds={} intact={} broken={} (tension {}, shear {}) simulated_s={:.4} wall_s={:.1}",
+        o.peak_force_n,
+        o.mean_force_n,
+        o.stiffness_n_per_m,
+        o.displacement_at_peak_m,
+        o.particles,
+        o.bonds,
+        o.bonds - o.bonds_broken,
+        o.bonds_broken,
+        o.bonds_broken_tension,
+        o.bonds_broken_shear,
+        o.simulated_time_s,
+        o.wall_s
+    );
+    for w in &o.warnings {
+        s.push_str(&format!("\nwarning: {w}"));
+    }
+    s
+}

@@ -352,13 +352,13 @@ fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> R
     };
     let result = virtual_tests::run_file(&file, seed, out, &mut progress);
     bar.finish_and_clear();
-    let (value, summary) = result?;
-    println!("{summary}");
+    let done = result?;
+    println!("{}", done.summary);
     if let Some(dir) = out {
         println!("wrote the results to {}", dir.display());
     }
     if json {
-        println!("{value}");
+        println!("{}", done.json);
     }
     Ok(())
 }

@@ -197,7 +197,7 @@ impl Job {
                 Ok(())
             };
             virtual_tests::run_file(&file, Some(self.seed), Some(&self.out_dir), &mut progress)
-                .map(|(json, _)| json)
+                .map(|done| done.json)
                 .map_err(RunError::from)
         }))
         .unwrap_or_else(|panic| {

@@ -103,9 +103,7 @@ impl Normalisation {
         let (sx, sy) = match self {
             Normalisation::None => (1.0, 1.0),
             Normalisation::LabPeak => (1.0, 1.0 / lab_peak_n),
-            Normalisation::StressStrain { area_m2, length_m } => {
-                (1.0 / length_m, 1e-6 / area_m2)
-            }
+            Normalisation::StressStrain { area_m2, length_m } => (1.0 / length_m, 1e-6 / area_m2),
         };
         Curve {
             x: c.x.iter().map(|x| x * sx).collect(),
@@ -125,11 +123,7 @@ impl Curve {
     /// Checks a curve; the error says what is wrong and at which point (0-based).
     pub fn new(x: Vec<f64>, y: Vec<f64>) -> Result<Curve, String> {
         if x.len() != y.len() {
-            return Err(format!(
-                "{} x values but {} y values",
-                x.len(),
-                y.len()
-            ));
+            return Err(format!("{} x values but {} y values", x.len(), y.len()));
         }
         if x.len() < 2 {
             return Err(format!("{} point(s): a curve needs at least 2", x.len()));
@@ -268,7 +262,9 @@ pub fn common_range<'a>(curves: impl IntoIterator<Item = &'a Curve>) -> Option<(
     let (lo, hi) = curves
         .into_iter()
         .map(Curve::range)
-        .fold((f64::MIN, f64::MAX), |(a, b), (lo, hi)| (a.max(lo), b.min(hi)));
+        .fold((f64::MIN, f64::MAX), |(a, b), (lo, hi)| {
+            (a.max(lo), b.min(hi))
+        });
     (lo < hi).then_some((lo, hi))
 }
 
@@ -457,7 +453,9 @@ mod tests {
 
     #[test]
     fn bad_curves_are_refused_with_the_point() {
-        assert!(Curve::new(vec![0.0], vec![1.0]).unwrap_err().contains("at least 2"));
+        assert!(Curve::new(vec![0.0], vec![1.0])
+            .unwrap_err()
+            .contains("at least 2"));
         let e = Curve::new(vec![0.0, 1.0, 1.0], vec![0.0; 3]).unwrap_err();
         assert!(e.starts_with("point 3: x = 1 does not increase"), "{e}");
         let e = Curve::new(vec![0.0, f64::NAN], vec![0.0; 2]).unwrap_err();

@@ -245,7 +245,11 @@ impl Job {
             Some((
                 _,
                 virtual_tests::Response::Curve {
-                    x, y, x_unit, y_unit, ..
+                    x,
+                    y,
+                    x_unit,
+                    y_unit,
+                    ..
                 },
             )) => {
                 if x_unit != "m" || y_unit != "N" {

@@ -17,7 +17,13 @@ pub const MAX_ROWS: usize = 1_000_000;
 pub const MAX_COLUMNS: usize = 1000;
 
 /// The keys of `[target]` that only a curve target takes.
-pub const CURVE_KEYS: &[&str] = &["curve", "lab_curves", "normalisation", "area_m2", "length_m"];
+pub const CURVE_KEYS: &[&str] = &[
+    "curve",
+    "lab_curves",
+    "normalisation",
+    "area_m2",
+    "length_m",
+];
 
 /// One replicate: where it came from and its curve (m, N).
 #[derive(Clone, Debug, PartialEq)]
@@ -123,9 +129,9 @@ impl CurveTarget {
         let positive = |k: &str| -> Result<Option<f64>, String> {
             t.get(k)
                 .map(|v| {
-                    number(v).filter(|a| a.is_finite() && *a > 0.0).ok_or_else(|| {
-                        err(&format!("target.{k}"), "expected a number > 0".into())
-                    })
+                    number(v)
+                        .filter(|a| a.is_finite() && *a > 0.0)
+                        .ok_or_else(|| err(&format!("target.{k}"), "expected a number > 0".into()))
                 })
                 .transpose()
         };
@@ -204,24 +210,25 @@ impl LabCurves {
                 replicates,
             });
         }
-        let (lo, hi) = curve::common_range(replicates.iter().map(|r| &r.curve)).ok_or_else(|| {
-            // Name the two that share nothing: the one ending first and the one starting last.
-            let end = replicates
-                .iter()
-                .min_by(|a, b| a.curve.range().1.total_cmp(&b.curve.range().1))
-                .expect("several");
-            let start = replicates
-                .iter()
-                .max_by(|a, b| a.curve.range().0.total_cmp(&b.curve.range().0))
-                .expect("several");
-            format!(
+        let (lo, hi) =
+            curve::common_range(replicates.iter().map(|r| &r.curve)).ok_or_else(|| {
+                // Name the two that share nothing: the one ending first and the one starting last.
+                let end = replicates
+                    .iter()
+                    .min_by(|a, b| a.curve.range().1.total_cmp(&b.curve.range().1))
+                    .expect("several");
+                let start = replicates
+                    .iter()
+                    .max_by(|a, b| a.curve.range().0.total_cmp(&b.curve.range().0))
+                    .expect("several");
+                format!(
                 "the replicates share no displacement range: {} ends at {} m, {} starts at {} m",
                 end.label,
                 end.curve.range().1,
                 start.label,
                 start.curve.range().0
             )
-        })?;
+            })?;
         let x = Curve::grid(lo, hi, COMPARE_POINTS);
         let n = replicates.len() as f64;
         let (mut y, mut min, mut max, mut std) = (vec![], vec![], vec![], vec![]);
@@ -302,12 +309,16 @@ pub fn read_csv(path: &Path) -> Result<Vec<Replicate>, String> {
             ));
         }
         for (j, cell) in rec.iter().enumerate() {
-            let v: f64 = cell.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| {
-                format!(
-                    "{name}: line {line}, column {}: expected a number, got \"{cell}\"",
-                    heads[j]
-                )
-            })?;
+            let v: f64 = cell
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "{name}: line {line}, column {}: expected a number, got \"{cell}\"",
+                        heads[j]
+                    )
+                })?;
             cols[j].push(if j == 0 { v * scale } else { v });
         }
     }
@@ -362,7 +373,11 @@ mod tests {
             "displacement_mm,force_1,force_2\n0,0,0\n1,10,20\n2,20,40\n",
         )
         .unwrap();
-        std::fs::write(d.join("b.csv"), "displacement_m,force\n0.0005,0\n0.0015,30\n").unwrap();
+        std::fs::write(
+            d.join("b.csv"),
+            "displacement_m,force\n0.0005,0\n0.0015,30\n",
+        )
+        .unwrap();
         let mut reps = read_csv(&d.join("a.csv")).unwrap();
         assert_eq!(reps.len(), 2);
         assert_eq!(reps[0].curve.x, vec![0.0, 0.001, 0.002]);
@@ -372,7 +387,12 @@ mod tests {
         assert_eq!(lab.mean.range(), (0.0005, 0.0015));
         assert_eq!(lab.mean.x.len(), COMPARE_POINTS);
         // At 1 mm: 10, 20 and 15 -> mean 15, band 10 .. 20, std 5.
-        let k = lab.mean.x.iter().position(|x| (x - 0.001).abs() < 6e-7).unwrap();
+        let k = lab
+            .mean
+            .x
+            .iter()
+            .position(|x| (x - 0.001).abs() < 6e-7)
+            .unwrap();
         let x = lab.mean.x[k];
         let (a, b, c) = (1e4 * x, 2e4 * x, 3e4 * (x - 0.0005));
         assert!((lab.mean.y[k] - (a + b + c) / 3.0).abs() < 1e-9);
@@ -419,14 +439,19 @@ mod tests {
         }
         let p = d.join("big.csv");
         std::fs::write(&p, big).unwrap();
-        assert!(read_csv(&p).unwrap_err().contains("more than 1000000 data rows"));
+        assert!(read_csv(&p)
+            .unwrap_err()
+            .contains("more than 1000000 data rows"));
         // Replicates that share no range.
         std::fs::write(d.join("x.csv"), "displacement_m,f\n0,1\n1,1\n").unwrap();
         std::fs::write(d.join("y.csv"), "displacement_m,g\n2,1\n3,1\n").unwrap();
         let mut reps = read_csv(&d.join("x.csv")).unwrap();
         reps.extend(read_csv(&d.join("y.csv")).unwrap());
         let e = LabCurves::average(reps).unwrap_err();
-        assert!(e.contains("share no displacement range") && e.contains("x.csv: f ends at 1 m"), "{e}");
+        assert!(
+            e.contains("share no displacement range") && e.contains("x.csv: f ends at 1 m"),
+            "{e}"
+        );
         std::fs::remove_dir_all(&d).unwrap();
     }
 
@@ -441,7 +466,13 @@ mod tests {
         };
         assert_eq!(parse("value = 3").unwrap(), None);
         let ok = parse("curve = \"force_displacement\"\nlab_curves = \"lab.csv\"\nnormalisation = \"stress_strain\"\narea_m2 = 1e-4\nlength_m = 0.02").unwrap().unwrap();
-        assert_eq!(ok.normalisation, Normalisation::StressStrain { area_m2: 1e-4, length_m: 0.02 });
+        assert_eq!(
+            ok.normalisation,
+            Normalisation::StressStrain {
+                area_m2: 1e-4,
+                length_m: 0.02
+            }
+        );
         // 10 N on 1 cm² is 0.1 MPa.
         let peak = ok.replicate_measures("curve_peak");
         assert!(peak.len() == 1 && (peak[0] - 0.1).abs() < 1e-15, "{peak:?}");

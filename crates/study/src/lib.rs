@@ -145,7 +145,10 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
             study.name,
             study.test_kind(),
             t.response,
-            t.curve.as_ref().map(|c| c.curve.as_str()).unwrap_or("curve"),
+            t.curve
+                .as_ref()
+                .map(|c| c.curve.as_str())
+                .unwrap_or("curve"),
         )
         .unwrap();
     } else {

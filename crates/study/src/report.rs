@@ -219,7 +219,11 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
             esc(&t.response)
         )
     } else {
-        format!("calibrated against the lab's {} = {}{unit}", esc(&t.response), sig(t.value))
+        format!(
+            "calibrated against the lab's {} = {}{unit}",
+            esc(&t.response),
+            sig(t.value)
+        )
     };
     write!(
         h,
@@ -275,7 +279,11 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         };
         card(&mut h, &s, &format!("validation mean ({} runs)", v.runs));
         if let Some(e) = v.relative_error_percent {
-            card(&mut h, &format!("{e:.2} %"), "relative error |sim - lab| / lab");
+            card(
+                &mut h,
+                &format!("{e:.2} %"),
+                "relative error |sim - lab| / lab",
+            );
         }
     }
     card(

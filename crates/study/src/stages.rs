@@ -818,20 +818,21 @@ fn conclude(
                     st.runs[b].values[pi]
                 };
             }
-            st.notes.push(match study.target.relative_error_percent(best_y) {
-                Some(e) => format!(
-                    "step {} gives {} against the lab's {} (relative error {e:.2} %)",
-                    b + 1,
-                    sig(best_y),
-                    sig(target),
-                ),
-                None => format!(
-                    "step {} gives the smallest {}: {}",
-                    b + 1,
-                    study.target.response,
-                    sig(best_y)
-                ),
-            });
+            st.notes
+                .push(match study.target.relative_error_percent(best_y) {
+                    Some(e) => format!(
+                        "step {} gives {} against the lab's {} (relative error {e:.2} %)",
+                        b + 1,
+                        sig(best_y),
+                        sig(target),
+                    ),
+                    None => format!(
+                        "step {} gives the smallest {}: {}",
+                        b + 1,
+                        study.target.response,
+                        sig(best_y)
+                    ),
+                });
             st.best_step = Some(b);
         }
         Stage::Rsm {
@@ -876,7 +877,12 @@ fn conclude(
                 // Minimise the model itself: below the lower limit every point would be equally
                 // desirable, so the limit is put under the model's least value in the ±1 box
                 // (each term of a coded polynomial lies in -1..1 there).
-                let reach: f64 = fit.coefficients.iter().skip(1).map(|c| c.estimate.abs()).sum();
+                let reach: f64 = fit
+                    .coefficients
+                    .iter()
+                    .skip(1)
+                    .map(|c| c.estimate.abs())
+                    .sum();
                 let floor = fit.coefficients.first().map(|c| c.estimate).unwrap_or(0.0) - reach;
                 let hi = observed.iter().copied().fold(f64::MIN, f64::max);
                 let lo = floor.min(hi) - 1e-9 * (1.0 + hi.abs() + reach);

@@ -153,6 +153,34 @@ fn minimising_the_curve_mse_recovers_the_lab_parameters() {
         "{status}"
     );
 
+    // A job carries the lab curve, reads back from its JSON and gives the stored record's
+    // response on its own (what `demcal run-one` does on another machine).
+    let stored = study::Store::open(&s.store_path(), false)
+        .unwrap()
+        .runs()
+        .unwrap();
+    let replay = study::replay(&s, &stored, None).unwrap();
+    let (spec, rec) = (
+        &replay.stages[0].runs[0],
+        replay.stages[0].records[0].as_ref().unwrap(),
+    );
+    let job = study::Job::new(&s, spec);
+    assert!(job.curve.is_some());
+    let job_path = dir.join("job.json");
+    std::fs::write(&job_path, job.to_json()).unwrap();
+    let back = study::Job::load(&job_path).unwrap();
+    assert_eq!(back, job);
+    let again = back.execute(&AtomicBool::new(false), &|_, _| {}).unwrap();
+    assert_eq!(again.response, rec.response);
+    assert_eq!(again.fingerprint, rec.fingerprint);
+    assert!(
+        again.outputs["curve_simulated"]["x"]
+            .as_array()
+            .unwrap()
+            .len()
+            == 101
+    );
+
     // Changed lab curves make the stored comparisons stale, and the message says so.
     write_lab(&dir, 0.1);
     let e = study::status(&path).unwrap_err();

@@ -334,6 +334,20 @@ fn doe_command(action: DoeCommand) -> Result<(), String> {
 
 fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> Result<(), String> {
     let file = virtual_tests::TestFile::load(path)?;
+    // A test with a curve writes it (and its logs) by default next to the file, so that the
+    // curve_csv it reports exists.
+    let default_out;
+    let out = match out {
+        Some(o) => Some(o),
+        None if virtual_tests::responses(&file.test).contains(&"force_displacement")
+            && file.test != "function" =>
+        {
+            let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+            default_out = path.with_file_name(format!("{stem}_out"));
+            Some(default_out.as_path())
+        }
+        None => None,
+    };
     let bar = ProgressBar::new_spinner();
     bar.set_style(
         ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}")
@@ -353,13 +367,13 @@ fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> R
     };
     let result = virtual_tests::run_file(&file, seed, out, &mut progress);
     bar.finish_and_clear();
-    let (value, summary) = result?;
-    println!("{summary}");
+    let done = result?;
+    println!("{}", done.summary);
     if let Some(dir) = out {
         println!("wrote the results to {}", dir.display());
     }
     if json {
-        println!("{value}");
+        println!("{}", done.json);
     }
     Ok(())
 }

@@ -15,6 +15,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use crate::curve::Comparison;
 use crate::run_error::{RunError, RunErrorKind};
 use crate::spec::Study;
 use crate::stages::RunSpec;
@@ -66,6 +67,11 @@ pub struct Job {
     pub out_dir: PathBuf,
     /// The exact test and seed; a stored record is reused only while it matches.
     pub fingerprint: String,
+    /// The lab curve the test's curve is compared with, when the target is a curve: the run
+    /// adds `curve_mse`, `curve_peak`, `curve_mean`, `curve_stiffness` and `curve_simulated`
+    /// to its outputs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve: Option<Comparison>,
 }
 
 impl Job {
@@ -90,6 +96,7 @@ impl Job {
             run_time_limit_s: study.run_time_limit_s,
             out_dir: absolute(&run_dir(study, spec)),
             fingerprint: spec.fingerprint(study),
+            curve: study.target.curve.as_ref().map(|c| c.comparison()),
         }
     }
 
@@ -196,9 +203,14 @@ impl Job {
                 report(phase, t);
                 Ok(())
             };
-            virtual_tests::run_file(&file, Some(self.seed), Some(&self.out_dir), &mut progress)
-                .map(|(json, _)| json)
-                .map_err(RunError::from)
+            let done = virtual_tests::run_file(
+                &file,
+                Some(self.seed),
+                Some(&self.out_dir),
+                &mut progress,
+            )
+            .map_err(RunError::from)?;
+            self.with_curve(done)
         }))
         .unwrap_or_else(|panic| {
             let msg = panic
@@ -215,6 +227,59 @@ impl Job {
             (Err(_), Some(why)) => Err(why),
             (result, _) => result,
         }
+    }
+}
+
+impl Job {
+    /// The test's outcome as JSON, with the curve measures added when the study compares a
+    /// curve. A missing curve, one in other units, or one that does not overlap the lab's is a
+    /// failed measurement.
+    fn with_curve(&self, done: virtual_tests::Finished) -> Result<serde_json::Value, RunError> {
+        let mut json = done.json;
+        let Some(cmp) = &self.curve else {
+            return Ok(json);
+        };
+        let fail = |m: String| RunError::new(RunErrorKind::MeasurementFailed, m);
+        let names: Vec<&str> = done.responses.iter().map(|r| r.0).collect();
+        let (x, y) = match done.responses.iter().find(|r| r.0 == cmp.curve) {
+            Some((
+                _,
+                virtual_tests::Response::Curve {
+                    x,
+                    y,
+                    x_unit,
+                    y_unit,
+                    ..
+                },
+            )) => {
+                if x_unit != "m" || y_unit != "N" {
+                    return Err(fail(format!(
+                        "the test's {} curve is in {x_unit} and {y_unit}; the comparison needs m and N",
+                        cmp.curve
+                    )));
+                }
+                (x, y)
+            }
+            Some(_) => {
+                return Err(fail(format!(
+                    "the test's {} is a number, not a curve",
+                    cmp.curve
+                )))
+            }
+            None => {
+                return Err(fail(format!(
+                    "the test gave no {} curve (it gave: {})",
+                    cmp.curve,
+                    names.join(", ")
+                )))
+            }
+        };
+        let measures = cmp.evaluate(x, y).map_err(fail)?;
+        match &mut json {
+            serde_json::Value::Object(m) => m.extend(measures),
+            _ => return Err(fail("the test's outcome is not a JSON object".into())),
+        }
+        Ok(json)
     }
 }
 

@@ -5,9 +5,14 @@
 //! steepest path, response surface, optimisation, validation ([`stages`]). [`run`] replays the
 //! plan against the results store ([`store`], SQLite next to the study) and runs what is missing
 //! on this machine ([`runner`]); [`status`] and [`report`] replay without running. The report
-//! ([`report`]) is one self-contained HTML page plus `results.csv` and `summary.json`.
+//! ([`report`]) is one self-contained HTML page plus `results.csv` and `summary.json`. A target
+//! may be a curve: the lab's curves ([`lab_curve`]) against the test's, compared as
+//! [`curve`] says.
 
+pub mod curve;
+mod curve_report;
 pub mod job;
+pub mod lab_curve;
 pub mod paths;
 pub mod report;
 pub mod run_error;
@@ -133,20 +138,35 @@ pub fn report(path: &Path, out: Option<&Path>) -> Result<PathBuf, String> {
 pub fn status_text(study: &Study, r: &Replay) -> String {
     let mut s = String::new();
     let t = &study.target;
-    writeln!(
-        s,
-        "{}: {} calibrated against {} = {}{}",
-        study.name,
-        study.test_kind(),
-        t.response,
-        stages::sig(t.value),
-        if t.unit.is_empty() {
-            String::new()
-        } else {
-            format!(" {}", t.unit)
-        }
-    )
-    .unwrap();
+    if t.minimised() {
+        writeln!(
+            s,
+            "{}: {} calibrated by minimising {} (the test's {} against the lab curves)",
+            study.name,
+            study.test_kind(),
+            t.response,
+            t.curve
+                .as_ref()
+                .map(|c| c.curve.as_str())
+                .unwrap_or("curve"),
+        )
+        .unwrap();
+    } else {
+        writeln!(
+            s,
+            "{}: {} calibrated against {} = {}{}",
+            study.name,
+            study.test_kind(),
+            t.response,
+            stages::sig(t.value),
+            if t.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" {}", t.unit)
+            }
+        )
+        .unwrap();
+    }
     for (i, stage) in study.plan.iter().enumerate() {
         let line = match r.stages.get(i) {
             Some(st) if stage.runs_simulations() => format!(
@@ -173,7 +193,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
             if let Some(v) = &st.validation {
                 writeln!(
                     s,
-                    "     validation: {} = {}{} over {} runs, relative error {:.2} %",
+                    "     validation: {} = {}{} over {} runs{}",
                     t.response,
                     stages::sig(v.mean),
                     v.std
@@ -181,6 +201,8 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
                         .unwrap_or_default(),
                     v.runs,
                     v.relative_error_percent
+                        .map(|e| format!(", relative error {e:.2} %"))
+                        .unwrap_or_default()
                 )
                 .unwrap();
             }
@@ -189,12 +211,14 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
     if let Some((spec, y)) = stages::best_run(study, &r.stages) {
         writeln!(
             s,
-            "best run so far: stage {} run {}: {} = {} (relative error {:.2} %)",
+            "best run so far: stage {} run {}: {} = {}{}",
             spec.stage + 1,
             spec.index + 1,
             t.response,
             stages::sig(y),
             t.relative_error_percent(y)
+                .map(|e| format!(" (relative error {e:.2} %)"))
+                .unwrap_or_default()
         )
         .unwrap();
     }

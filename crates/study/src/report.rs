@@ -76,7 +76,8 @@ fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String, String> {
         row.push(r.response.map(|v| v.to_string()).unwrap_or_default());
         row.push(
             r.response
-                .map(|v| format!("{:.4}", study.target.relative_error_percent(v)))
+                .and_then(|v| study.target.relative_error_percent(v))
+                .map(|e| format!("{e:.4}"))
                 .unwrap_or_default(),
         );
         row.push(format!("{:.3}", r.wall_s));
@@ -117,6 +118,13 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             "response": study.target.response,
             "value": study.target.value,
             "unit": study.target.unit,
+            "minimised": study.target.minimised(),
+            "curve": study.target.curve.as_ref().map(|c| json!({
+                "curve": c.curve,
+                "lab_curves": c.files,
+                "normalisation": c.normalisation,
+                "replicates": c.lab.replicates.len(),
+            })),
             "replicates": study.target.replicates,
             "std": study.target.std(),
         },
@@ -131,7 +139,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         "validation_mean": validation.as_ref().map(|v| v.mean),
         "validation_std": validation.as_ref().and_then(|v| v.std),
         "validation_runs": validation.as_ref().map(|v| v.runs),
-        "relative_error_percent": validation.as_ref().map(|v| v.relative_error_percent),
+        "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
         "stages": r.stages.iter().map(|s| json!({
             "stage": s.index + 1,
             "kind": s.kind,
@@ -205,15 +213,24 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         esc(&study.name)
     )
     .unwrap();
+    let against = if t.minimised() {
+        format!(
+            "calibrated by minimising {}, the mean squared difference between its curve and the lab's",
+            esc(&t.response)
+        )
+    } else {
+        format!(
+            "calibrated against the lab's {} = {}{unit}",
+            esc(&t.response),
+            sig(t.value)
+        )
+    };
     write!(
         h,
-        "<h1>Calibration report: {}</h1><p class=\"sub\">Virtual test <b>{}</b> ({}), calibrated against the lab's {} = {}{}. Study file <span class=\"mono\">{}</span>, seed {}, demcal {}.</p>",
+        "<h1>Calibration report: {}</h1><p class=\"sub\">Virtual test <b>{}</b> ({}), {against}. Study file <span class=\"mono\">{}</span>, seed {}, demcal {}.</p>",
         esc(&study.name),
         esc(study.test_kind()),
         esc(&study.test_source),
-        esc(&t.response),
-        sig(t.value),
-        unit,
         esc(&study.path.display().to_string()),
         study.seed,
         env!("CARGO_PKG_VERSION")
@@ -243,22 +260,31 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         Some(sd) => format!("{} ± {}{unit}", sig(t.value), sig(sd)),
         None => format!("{}{unit}", sig(t.value)),
     };
-    card(
-        &mut h,
-        &lab,
-        &format!("lab value ({} replicates)", t.replicates.len()),
-    );
+    match &t.curve {
+        Some(c) if t.minimised() => card(
+            &mut h,
+            &format!("{} curve(s)", c.lab.replicates.len()),
+            &format!("lab replicates of {}", c.curve),
+        ),
+        _ => card(
+            &mut h,
+            &lab,
+            &format!("lab value ({} replicates)", t.replicates.len()),
+        ),
+    }
     if let Some(v) = &validation {
         let s = match v.std {
             Some(sd) => format!("{} ± {}{unit}", sig(v.mean), sig(sd)),
             None => format!("{}{unit}", sig(v.mean)),
         };
         card(&mut h, &s, &format!("validation mean ({} runs)", v.runs));
-        card(
-            &mut h,
-            &format!("{:.2} %", v.relative_error_percent),
-            "relative error |sim - lab| / lab",
-        );
+        if let Some(e) = v.relative_error_percent {
+            card(
+                &mut h,
+                &format!("{e:.2} %"),
+                "relative error |sim - lab| / lab",
+            );
+        }
     }
     card(
         &mut h,
@@ -304,6 +330,16 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
     )
     .unwrap();
 
+    if let Some(c) = crate::curve_report::section(study, r) {
+        h.push_str("<h2>Curves</h2>");
+        for p in &c.paragraphs {
+            write!(h, "<p>{}</p>", esc(p)).unwrap();
+        }
+        match c.svg {
+            Ok(svg) => plots_div(&mut h, &[svg]),
+            Err(e) => write!(h, "<p class=\"note\">No curve plot: {}</p>", esc(&e)).unwrap(),
+        }
+    }
     for st in &r.stages {
         stage_html(&mut h, study, st);
     }
@@ -416,11 +452,18 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
         }
         "optimize" => {
             if let Some(fit) = &st.fit {
+                let goal = if study.target.minimised() {
+                    "minimised (lower limit: below the model's least value)".to_string()
+                } else {
+                    format!(
+                        "on target {} (limits: the observed range)",
+                        sig(study.target.value)
+                    )
+                };
                 write!(
                     h,
-                    "<p>Goal: {} on target {} (limits: the observed range), factors within their ±1 ranges. The first solution is validated.</p>",
+                    "<p>Goal: {} {goal}, factors within their ±1 ranges. The first solution is validated.</p>",
                     esc(&fit.experiment.response_name),
-                    sig(study.target.value)
                 )
                 .unwrap();
                 h.push_str("<table><tr><th>#</th>");
@@ -459,13 +502,18 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
             if let Some(v) = &st.validation {
                 write!(
                     h,
-                    "<p>Simulated {} = <b>{}</b>{} over {} runs against the lab's {}: relative error <b>{:.2} %</b>.</p>",
+                    "<p>Simulated {} = <b>{}</b>{} over {} runs{}.</p>",
                     esc(&study.target.response),
                     sig(v.mean),
                     v.std.map(|d| format!(" ± {}", sig(d))).unwrap_or_default(),
                     v.runs,
-                    sig(study.target.value),
-                    v.relative_error_percent
+                    match v.relative_error_percent {
+                        Some(e) => format!(
+                            " against the lab's {}: relative error <b>{e:.2} %</b>",
+                            sig(study.target.value)
+                        ),
+                        None => " (minimised: 0 would be the lab curve itself)".into(),
+                    }
                 )
                 .unwrap();
             }
@@ -574,7 +622,8 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
                 let y = r.response.map(sig).unwrap_or_default();
                 let e = r
                     .response
-                    .map(|y| format!("{:.2}", study.target.relative_error_percent(y)))
+                    .and_then(|y| study.target.relative_error_percent(y))
+                    .map(|e| format!("{e:.2}"))
                     .unwrap_or_default();
                 let status = match r.status {
                     Status::Done => "done".to_string(),

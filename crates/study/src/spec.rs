@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use doe::design::CcdAlpha;
 use doe::{Factor, Scale};
 
+use crate::curve::CURVE_RESPONSES;
+use crate::lab_curve::{CurveTarget, CURVE_KEYS};
 use crate::paths::{number, ParamPath};
 use virtual_tests::file::one_line;
 
@@ -61,11 +63,29 @@ pub struct Target {
     pub value: f64,
     pub replicates: Vec<f64>,
     pub unit: String,
+    /// The lab curves the test's curve is compared with, when the target has a curve.
+    pub curve: Option<CurveTarget>,
 }
 
 impl Target {
-    pub fn relative_error_percent(&self, simulated: f64) -> f64 {
-        100.0 * (simulated - self.value).abs() / self.value.abs()
+    /// Whether the response is minimised rather than matched: the curve MSE, whose target is 0.
+    pub fn minimised(&self) -> bool {
+        self.response == "curve_mse"
+    }
+
+    /// |sim - lab| / lab in %; none for a minimised response (a relative error of a target of
+    /// 0 means nothing: the response itself says how far off the run is).
+    pub fn relative_error_percent(&self, simulated: f64) -> Option<f64> {
+        (!self.minimised()).then(|| 100.0 * (simulated - self.value).abs() / self.value.abs())
+    }
+
+    /// How far a simulated response is from the lab, in words: the relative error, or the
+    /// minimised response itself.
+    pub fn misfit(&self, simulated: f64) -> String {
+        match self.relative_error_percent(simulated) {
+            Some(e) => format!("relative error {e:.2} %"),
+            None => format!("{} {}", self.response, doe::fit::fmt_sig(simulated)),
+        }
     }
 
     /// Standard deviation of the replicates, when there are two or more.
@@ -424,15 +444,35 @@ impl Study {
             }
         };
         for k in target_table.keys() {
-            if !["response", "value", "replicates", "unit"].contains(&k.as_str()) {
+            if !["response", "value", "replicates", "unit"].contains(&k.as_str())
+                && !CURVE_KEYS.contains(&k.as_str())
+            {
                 return Err(err(
                     &format!("target.{k}"),
-                    "unknown key (expected response, value, replicates, unit)".into(),
+                    format!(
+                        "unknown key (expected response, value, replicates, unit, {})",
+                        CURVE_KEYS.join(", ")
+                    ),
                 ));
             }
         }
         let outputs = virtual_tests::responses(&base.test);
+        let curve = CurveTarget::parse(target_table, dir, &err)?;
+        if let Some(c) = &curve {
+            if !outputs.contains(&c.curve.as_str()) {
+                return Err(err(
+                    "target.curve",
+                    format!(
+                        "\"{}\" is not a response of {} (expected one of: {})",
+                        c.curve,
+                        base.test,
+                        outputs.join(", ")
+                    ),
+                ));
+            }
+        }
         let response = match target_table.get("response") {
+            None if curve.is_some() => "curve_mse".to_string(),
             None => outputs
                 .first()
                 .ok_or_else(|| {
@@ -443,20 +483,50 @@ impl Study {
                 })?
                 .to_string(),
             Some(toml::Value::String(r)) if outputs.contains(&r.as_str()) => r.clone(),
+            Some(toml::Value::String(r))
+                if curve.is_some() && CURVE_RESPONSES.contains(&r.as_str()) =>
+            {
+                r.clone()
+            }
+            Some(toml::Value::String(r)) if CURVE_RESPONSES.contains(&r.as_str()) => {
+                return Err(err(
+                    "target.response",
+                    format!("{r} compares the test's curve with the lab's: give target.curve, target.lab_curves and target.normalisation"),
+                ))
+            }
             Some(v) => {
+                let mut expected = outputs.to_vec();
+                if curve.is_some() {
+                    expected.extend(CURVE_RESPONSES);
+                }
                 return Err(err(
                     "target.response",
                     format!(
                         "{v} is not an outcome of {} (expected one of: {})",
                         base.test,
-                        outputs.join(", ")
+                        expected.join(", ")
                     ),
-                ))
+                ));
             }
         };
-        let replicates: Vec<f64> = match target_table.get("replicates") {
-            None => Vec::new(),
-            Some(toml::Value::Array(a)) => a
+        let minimised = response == "curve_mse";
+        if minimised {
+            if let Some(k) = ["value", "replicates"]
+                .iter()
+                .find(|k| target_table.contains_key(**k))
+            {
+                return Err(err(
+                    &format!("target.{k}"),
+                    "curve_mse is minimised (its target is 0): give no value".into(),
+                ));
+            }
+        }
+        let replicates: Vec<f64> = match (target_table.get("replicates"), &curve) {
+            (None, Some(c)) if CURVE_RESPONSES.contains(&response.as_str()) => {
+                c.replicate_measures(&response)
+            }
+            (None, _) => Vec::new(),
+            (Some(toml::Value::Array(a)), _) => a
                 .iter()
                 .map(|v| number(v).filter(|x| x.is_finite()))
                 .collect::<Option<Vec<_>>>()
@@ -466,7 +536,7 @@ impl Study {
                         "expected a list of finite numbers".into(),
                     )
                 })?,
-            Some(_) => {
+            (Some(_), _) => {
                 return Err(err(
                     "target.replicates",
                     "expected a list of numbers".into(),
@@ -474,9 +544,16 @@ impl Study {
             }
         };
         let value = match target_table.get("value") {
+            None if minimised => 0.0,
             Some(v) => number(v).ok_or_else(|| err("target.value", "expected a number".into()))?,
             None if !replicates.is_empty() => {
                 replicates.iter().sum::<f64>() / replicates.len() as f64
+            }
+            None if curve.is_some() && CURVE_RESPONSES.contains(&response.as_str()) => {
+                return Err(err(
+                    "target.value",
+                    format!("missing: the lab curves give no {response} (their peak is at the start); give the lab value"),
+                ))
             }
             None => {
                 return Err(err(
@@ -485,22 +562,23 @@ impl Study {
                 ))
             }
         };
-        if value == 0.0 || !value.is_finite() {
+        if !minimised && (value == 0.0 || !value.is_finite()) {
             return Err(err(
                 "target.value",
                 format!("expected a non-zero number (relative errors divide by it), got {value}"),
             ));
         }
-        let unit = target_table
-            .get("unit")
-            .and_then(|v| v.as_str())
-            .unwrap_or("")
-            .to_string();
+        let unit = match (target_table.get("unit").and_then(|v| v.as_str()), &curve) {
+            (Some(u), _) => u.to_string(),
+            (None, Some(c)) => c.normalisation.unit_of(&response),
+            (None, None) => String::new(),
+        };
         let target = Target {
             response,
             value,
             replicates,
             unit,
+            curve,
         };
 
         let plan = parse_plan(&doc, &err, parameters.len())?;

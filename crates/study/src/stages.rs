@@ -13,6 +13,9 @@ use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 use crate::spec::{RsmDesign, ScreeningDesign, Stage, Study};
 use crate::store::{RunRecord, Status};
 
+/// Where a curve target's digest starts in a fingerprint.
+const CURVE_LINE: &str = "# curve comparison = ";
+
 /// One simulation the plan asks for.
 #[derive(Clone, Debug)]
 pub struct RunSpec {
@@ -33,7 +36,12 @@ impl RunSpec {
     /// The exact test this run simulates, and its seed.
     pub fn fingerprint(&self, study: &Study) -> String {
         let test = toml::to_string(&study.test_with(&self.values)).unwrap_or_default();
-        format!("{test}\n# seed = {}\n", self.seed)
+        // A curve target's runs also depend on the lab curves they were compared with.
+        let curve = match &study.target.curve {
+            Some(c) => format!("{CURVE_LINE}{}\n", c.comparison().digest()),
+            None => String::new(),
+        };
+        format!("{test}\n# seed = {}\n{curve}", self.seed)
     }
 
     pub fn inputs(&self, study: &Study) -> serde_json::Value {
@@ -54,7 +62,8 @@ pub struct Validation {
     pub runs: usize,
     pub mean: f64,
     pub std: Option<f64>,
-    pub relative_error_percent: f64,
+    /// None for a minimised response (the curve MSE): its mean says how far off it is.
+    pub relative_error_percent: Option<f64>,
 }
 
 /// What a stage planned and found.
@@ -414,6 +423,10 @@ fn describe_change(study: &Study, spec: &RunSpec, r: &RunRecord) -> String {
             "{head} was simulated with seed {}, the study now gives {}",
             r.seed, spec.seed
         );
+    }
+    let test_part = |f: &str| f.split(CURVE_LINE).next().unwrap_or("").to_string();
+    if test_part(&r.fingerprint) == test_part(&spec.fingerprint(study)) {
+        return format!("{head} was compared with other lab curves or another normalisation");
     }
     format!("{head} was simulated with other test settings (the test's fixed settings changed)")
 }
@@ -805,13 +818,21 @@ fn conclude(
                     st.runs[b].values[pi]
                 };
             }
-            st.notes.push(format!(
-                "step {} gives {} against the lab's {} (relative error {:.2} %)",
-                b + 1,
-                sig(best_y),
-                sig(target),
-                study.target.relative_error_percent(best_y)
-            ));
+            st.notes
+                .push(match study.target.relative_error_percent(best_y) {
+                    Some(e) => format!(
+                        "step {} gives {} against the lab's {} (relative error {e:.2} %)",
+                        b + 1,
+                        sig(best_y),
+                        sig(target),
+                    ),
+                    None => format!(
+                        "step {} gives the smallest {}: {}",
+                        b + 1,
+                        study.target.response,
+                        sig(best_y)
+                    ),
+                });
             st.best_step = Some(b);
         }
         Stage::Rsm {
@@ -852,15 +873,32 @@ fn conclude(
                 .clone()
                 .ok_or("no stage before it fitted a model (put a screening or rsm stage first)")?;
             let observed = &fit.experiment.response;
-            let lo = observed.iter().copied().fold(target, f64::min);
-            let hi = observed.iter().copied().fold(target, f64::max);
+            let (goal, lo, hi) = if study.target.minimised() {
+                // Minimise the model itself: below the lower limit every point would be equally
+                // desirable, so the limit is put under the model's least value in the ±1 box
+                // (each term of a coded polynomial lies in -1..1 there).
+                let reach: f64 = fit
+                    .coefficients
+                    .iter()
+                    .skip(1)
+                    .map(|c| c.estimate.abs())
+                    .sum();
+                let floor = fit.coefficients.first().map(|c| c.estimate).unwrap_or(0.0) - reach;
+                let hi = observed.iter().copied().fold(f64::MIN, f64::max);
+                let lo = floor.min(hi) - 1e-9 * (1.0 + hi.abs() + reach);
+                (Goal::Minimize, lo, hi)
+            } else {
+                let lo = observed.iter().copied().fold(target, f64::min);
+                let hi = observed.iter().copied().fold(target, f64::max);
+                (Goal::Target(target), lo, hi)
+            };
             let problem = Problem {
                 fits: vec![&fit],
                 criteria: vec![(
                     Subject::Response(0),
                     Criterion {
                         name: study.target.response.clone(),
-                        goal: Goal::Target(target),
+                        goal,
                         lower: lo,
                         upper: hi,
                         weight_lower: 1.0,
@@ -876,7 +914,7 @@ fn conclude(
             for (j, &pi) in active.iter().enumerate() {
                 point[pi] = best.actual.as_ref().map(|a| a[j]).unwrap_or(point[pi]);
             }
-            if best.desirability <= 0.0 {
+            if best.desirability <= 0.0 && !study.target.minimised() {
                 st.notes.push("the model does not reach the lab value inside the ranges; the closest setting is taken".into());
             }
             st.active = active;

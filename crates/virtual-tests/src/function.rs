@@ -10,6 +10,9 @@
 //! noise = 0.2          # standard deviation of the added noise
 //! fail_when = "friction - 0.95"   # optional: the run fails where this is > 0
 //! duration_s = 0.0     # optional: wall time each run takes, for tests of interrupted studies
+//! # optional: a force-displacement curve (x in m, y in N), the variables plus x, each point with
+//! # its own noise draw of the same standard deviation; a study compares it with lab curves
+//! curve = { expression = "k*x/(1 + 100*x)", x_min = 0.0, x_max = 0.01, points = 200 }
 //! ```
 
 use std::collections::BTreeMap;
@@ -29,6 +32,32 @@ pub struct Function;
 /// The longest wall time a run may be asked to take (s).
 const MAX_DURATION_S: f64 = 3600.0;
 
+/// Most points a curve may have: more only eats memory in every stored run.
+pub const MAX_CURVE_POINTS: usize = 1_000_000;
+
+/// A force-displacement curve made from a formula of the variables and `x` (m), in N.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSettings {
+    pub expression: String,
+    #[serde(default)]
+    pub x_min: f64,
+    pub x_max: f64,
+    #[serde(default = "default_points")]
+    pub points: usize,
+}
+
+fn default_points() -> usize {
+    200
+}
+
+/// The curve a run made: displacement (m) and force (N), noise included.
+#[derive(Clone, Debug, Serialize)]
+pub struct CurveOutcome {
+    pub displacement_m: Vec<f64>,
+    pub force_n: Vec<f64>,
+}
+
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Settings {
@@ -40,6 +69,7 @@ pub struct Settings {
     pub fail_when: Option<String>,
     #[serde(default)]
     pub duration_s: f64,
+    pub curve: Option<CurveSettings>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -51,6 +81,72 @@ pub struct Outcome {
     pub noise: f64,
     pub seed: u64,
     pub wall_s: f64,
+    /// The `force_displacement` curve, when the settings ask for one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub force_displacement: Option<CurveOutcome>,
+}
+
+/// One standard normal draw (Box-Muller): the same generator state gives the same number.
+fn normal(rng: &mut Pcg64) -> f64 {
+    let (u1, u2): (f64, f64) = (rng.gen_range(f64::EPSILON..1.0), rng.gen());
+    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+}
+
+/// The curve at `points` evenly spaced x from `x_min` to `x_max`, each point with its own noise.
+fn curve(
+    file: &TestFile,
+    s: &Settings,
+    c: &CurveSettings,
+    rng: &mut Pcg64,
+) -> Result<CurveOutcome, TestError> {
+    let text = &c.expression;
+    let expr = exmex::parse::<f64>(text).map_err(|e| {
+        format!(
+            "{}: function.curve.expression: cannot read \"{text}\": {e}",
+            file.name
+        )
+    })?;
+    // Where each of the expression's variables comes from: x, or a named variable.
+    let mut values = Vec::new();
+    let mut x_at = Vec::new();
+    for (k, v) in expr.var_names().iter().enumerate() {
+        if v == "x" {
+            x_at.push(k);
+            values.push(0.0);
+        } else {
+            values.push(*s.variables.get(v).ok_or_else(|| {
+                format!(
+                    "{}: function.curve.expression: \"{v}\" is not x nor among the variables ({})",
+                    file.name,
+                    s.variables.keys().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })?);
+        }
+    }
+    let n = c.points;
+    let mut out = CurveOutcome {
+        displacement_m: Vec::with_capacity(n),
+        force_n: Vec::with_capacity(n),
+    };
+    for i in 0..n {
+        let x = c.x_min + (c.x_max - c.x_min) * i as f64 / (n - 1) as f64;
+        for &k in &x_at {
+            values[k] = x;
+        }
+        let exact = expr
+            .eval(&values)
+            .map_err(|e| format!("{}: function.curve.expression: {e}", file.name))?;
+        let y = exact + s.noise * normal(rng);
+        if !y.is_finite() {
+            return Err(TestError::Measurement(format!(
+                "{}: function: the curve is not finite at x = {x} ({y})",
+                file.name
+            )));
+        }
+        out.displacement_m.push(x);
+        out.force_n.push(y);
+    }
+    Ok(out)
 }
 
 /// Evaluates `text` with the named variables; errors name `key`.
@@ -96,7 +192,8 @@ impl VirtualTest for Function {
     }
 
     fn response_names(&self) -> &'static [&'static str] {
-        &["value", "exact"]
+        // `force_displacement` only when the settings give a curve.
+        &["value", "exact", "force_displacement"]
     }
 
     fn check(&self, file: &TestFile, s: &Settings) -> Result<(), String> {
@@ -114,6 +211,29 @@ impl VirtualTest for Function {
                     crate::harness::number(s.duration_s)
                 ),
             ));
+        }
+        if let Some(c) = &s.curve {
+            if !(c.x_min.is_finite() && c.x_max.is_finite() && c.x_min < c.x_max) {
+                return Err(file.error(
+                    "curve.x_max",
+                    format!(
+                        "expected finite x_min < x_max (m), got x_min = {} and x_max = {}",
+                        c.x_min, c.x_max
+                    ),
+                ));
+            }
+            if !(2..=MAX_CURVE_POINTS).contains(&c.points) {
+                return Err(file.error(
+                    "curve.points",
+                    format!("expected 2 to {MAX_CURVE_POINTS} points, got {}", c.points),
+                ));
+            }
+            if s.variables.contains_key("x") {
+                return Err(file.error(
+                    "variables.x",
+                    "x is the curve's displacement; give the variable another name",
+                ));
+            }
         }
         Ok(())
     }
@@ -145,9 +265,7 @@ impl VirtualTest for Function {
         }
         // Box-Muller on a seeded generator: the same seed always gives the same noise.
         let mut rng = Pcg64::seed_from_u64(seed);
-        let (u1, u2): (f64, f64) = (rng.gen_range(f64::EPSILON..1.0), rng.gen());
-        let normal = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
-        let noise = s.noise * normal;
+        let noise = s.noise * normal(&mut rng);
         let value = exact + noise;
         if !value.is_finite() {
             return Err(TestError::Measurement(format!(
@@ -155,20 +273,41 @@ impl VirtualTest for Function {
                 file.name
             )));
         }
+        // The curve's noise comes after the value's from the same generator, so a file
+        // without a curve gives the numbers it always gave.
+        let force_displacement = match &s.curve {
+            Some(c) => Some(curve(file, s, c, &mut rng)?),
+            None => None,
+        };
         Ok(Outcome {
             value,
             exact,
             noise,
             seed,
             wall_s: wall.elapsed().as_secs_f64(),
+            force_displacement,
         })
     }
 
     fn responses(&self, o: &Outcome) -> Vec<(&'static str, Response)> {
-        vec![
+        let mut r = vec![
             ("value", Response::Scalar(o.value)),
             ("exact", Response::Scalar(o.exact)),
-        ]
+        ];
+        if let Some(c) = &o.force_displacement {
+            r.push((
+                "force_displacement",
+                Response::Curve {
+                    x_name: "displacement".into(),
+                    x_unit: "m".into(),
+                    y_name: "force".into(),
+                    y_unit: "N".into(),
+                    x: c.displacement_m.clone(),
+                    y: c.force_n.clone(),
+                },
+            ));
+        }
+        r
     }
 
     fn summary(&self, o: &Outcome) -> String {

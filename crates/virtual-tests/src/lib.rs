@@ -22,18 +22,19 @@ pub mod repose;
 pub mod virtual_test;
 
 pub use file::TestFile;
-pub use virtual_test::{Response, Run, TestError, VirtualTest};
+pub use virtual_test::{Finished, Response, Run, TestError, VirtualTest};
 
 /// Runs the test a file describes and writes its pictures and `result.json` into `out` when
-/// given. Returns the outcome as JSON (the keys `demcal test --json` prints) and a one-line
-/// summary. `progress` hears the phase and the simulated time, and stops the run by returning an
+/// given. Returns the finished run: the outcome as JSON (the keys `demcal test --json` prints),
+/// a one-line summary and the responses (curves among them, which a study compares with lab
+/// curves); its pictures are already written. `progress` hears the phase and the simulated time, and stops the run by returning an
 /// error (the run then ends in [`TestError::Stopped`] with that message).
 pub fn run_file(
     file: &TestFile,
     seed: Option<u64>,
     out: Option<&std::path::Path>,
     progress: &mut dyn FnMut(&str, f64) -> Result<(), String>,
-) -> Result<(serde_json::Value, String), TestError> {
+) -> Result<Finished, TestError> {
     let test = registry::find(&file.test).ok_or_else(|| {
         TestError::Settings(format!(
             "{}: test: unknown test \"{}\"",
@@ -58,7 +59,7 @@ pub fn run_file(
             });
         written.map_err(TestError::Measurement)?;
     }
-    Ok((done.json, done.summary))
+    Ok(done)
 }
 
 /// Reads and checks a test file's settings without running anything.

@@ -108,7 +108,8 @@ mod tests {
         let mut run = crate::virtual_test::Run::new(1, None, &mut progress);
         let done = test.run_file(&file, &mut run).unwrap();
         let names: Vec<&str> = done.responses.iter().map(|r| r.0).collect();
-        assert_eq!(names, test.response_names());
+        // No curve asked for: the scalars only.
+        assert_eq!(names, test.response_names()[..2]);
         for (name, r) in &done.responses {
             let crate::virtual_test::Response::Scalar(v) = r else {
                 panic!("{name} is a scalar")
@@ -117,6 +118,79 @@ mod tests {
         }
         assert_eq!(done.json["exact"], 7.0);
         assert!(done.pictures.is_empty());
+    }
+
+    #[test]
+    fn the_function_test_gives_a_curve_with_noise_per_point_when_asked() {
+        let text = |noise: f64| {
+            format!(
+                "test = \"function\"\n[function]\nexpression = \"k\"\nvariables = {{ k = 2 }}\nnoise = {noise}\ncurve = {{ expression = \"k*x\", x_min = 0.0, x_max = 0.01, points = 5 }}\n"
+            )
+        };
+        let run = |text: &str, seed: u64| {
+            let file = TestFile::parse("f.toml", text).unwrap();
+            crate::run_file(&file, Some(seed), None, &mut |_, _| Ok(())).unwrap()
+        };
+        let done = run(&text(0.0), 1);
+        let names: Vec<&str> = done.responses.iter().map(|r| r.0).collect();
+        assert_eq!(names, ["value", "exact", "force_displacement"]);
+        let crate::Response::Curve {
+            x,
+            y,
+            x_unit,
+            y_unit,
+            ..
+        } = &done.responses[2].1
+        else {
+            panic!("force_displacement is a curve")
+        };
+        assert_eq!((x_unit.as_str(), y_unit.as_str()), ("m", "N"));
+        assert_eq!(x, &[0.0, 0.0025, 0.005, 0.0075, 0.01]);
+        for (x, y) in x.iter().zip(y) {
+            assert!((y - 2.0 * x).abs() < 1e-15, "{x} {y}");
+        }
+        assert_eq!(done.json["force_displacement"]["force_n"][4], 0.02);
+        // With noise: the value's draw is unchanged by the curve, each point has its own draw,
+        // and the same seed gives the same curve.
+        let scalar = run(
+            "test = \"function\"\n[function]\nexpression = \"k\"\nvariables = { k = 2 }\nnoise = 0.1\n",
+            7,
+        );
+        let (a, b) = (run(&text(0.1), 7), run(&text(0.1), 7));
+        assert_eq!(a.json["value"], scalar.json["value"]);
+        assert_eq!(a.json["force_displacement"], b.json["force_displacement"]);
+        let noise: Vec<f64> = (0..5)
+            .map(|i| {
+                a.json["force_displacement"]["force_n"][i].as_f64().unwrap()
+                    - 2.0 * 0.0025 * i as f64
+            })
+            .collect();
+        assert!(
+            noise.iter().all(|n| n.abs() > 1e-6 && n.abs() < 0.5),
+            "{noise:?}"
+        );
+        assert!(noise.windows(2).all(|w| w[0] != w[1]), "{noise:?}");
+        // Bad curve settings name the key.
+        for (bad, want) in [
+            (
+                "x_min = 0.0, x_max = 0.0",
+                "f.toml: function.curve.x_max: expected finite x_min < x_max",
+            ),
+            (
+                "x_max = 0.01, points = 1",
+                "f.toml: function.curve.points: expected 2 to 1000000 points, got 1",
+            ),
+        ] {
+            let t = format!("test = \"function\"\n[function]\nexpression = \"1\"\ncurve = {{ expression = \"x\", {bad} }}\n");
+            let e = crate::run_file(
+                &TestFile::parse("f.toml", &t).unwrap(),
+                None,
+                None,
+                &mut |_, _| Ok(()),
+            )
+            .unwrap_err();
+            assert!(e.message().starts_with(want), "{e}");
+        }
     }
 
     #[test]

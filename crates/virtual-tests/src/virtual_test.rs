@@ -153,7 +153,8 @@ pub trait VirtualTest: Sync {
         settings: &Self::Settings,
         run: &mut Run,
     ) -> Result<Self::Outcome, TestError>;
-    /// The responses of an outcome, by name, in the order of [`VirtualTest::response_names`].
+    /// The responses of an outcome, by name, in the order of [`VirtualTest::response_names`]
+    /// (an optional one the settings did not ask for, as the `function` test's curve, is left out).
     fn responses(&self, outcome: &Self::Outcome) -> Vec<(&'static str, Response)>;
     /// One line saying what was measured.
     fn summary(&self, outcome: &Self::Outcome) -> String;

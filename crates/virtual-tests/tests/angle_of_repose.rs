@@ -44,8 +44,9 @@ lift_speed = 0.1
 fn same_seed_same_angle_and_pictures_are_written() {
     let f = TestFile::parse("heap.toml", &file("", 500)).unwrap();
     let out = std::env::temp_dir().join(format!("demcal-heap-{}", std::process::id()));
-    let (a, summary) = run_file(&f, None, Some(&out), &mut |_, _| Ok(())).unwrap();
-    let (b, _) = run_file(&f, None, None, &mut |_, _| Ok(())).unwrap();
+    let done = run_file(&f, None, Some(&out), &mut |_, _| Ok(())).unwrap();
+    let (a, summary) = (done.json, done.summary);
+    let b = run_file(&f, None, None, &mut |_, _| Ok(())).unwrap().json;
     eprintln!("{summary}");
     assert_eq!(a["angle_of_repose_deg"], b["angle_of_repose_deg"]);
     assert_eq!(a["particles"], 500);
@@ -72,7 +73,9 @@ fn same_seed_same_angle_and_pictures_are_written() {
     let png = std::fs::read(out.join("heap.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     // Another seed gives another heap.
-    let (c, _) = run_file(&f, Some(4), None, &mut |_, _| Ok(())).unwrap();
+    let c = run_file(&f, Some(4), None, &mut |_, _| Ok(()))
+        .unwrap()
+        .json;
     assert_ne!(a["angle_of_repose_deg"], c["angle_of_repose_deg"]);
 }
 

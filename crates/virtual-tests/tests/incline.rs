@@ -35,10 +35,9 @@ shape = {{ type = "spheres", spheres = [[0.0, 0.0, 0.0, 0.002], [0.003, 0.0, 0.0
 
 fn run(text: &str) -> serde_json::Value {
     let f = TestFile::parse("incline.toml", text).unwrap();
-    let (json, summary) =
-        run_file(&f, None, None, &mut |_, _| Ok(())).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!("{summary}");
-    json
+    let done = run_file(&f, None, None, &mut |_, _| Ok(())).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("{}", done.summary);
+    done.json
 }
 
 #[test]

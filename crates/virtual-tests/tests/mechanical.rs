@@ -68,7 +68,8 @@ grip_length = 0.003
 "#,
     );
     let out = std::env::temp_dir().join(format!("demcal-tension-{}", std::process::id()));
-    let (json, summary) = run_file(&f, None, Some(&out), &mut |_, _| Ok(())).unwrap();
+    let done = run_file(&f, None, Some(&out), &mut |_, _| Ok(())).unwrap();
+    let (json, summary) = (done.json, done.summary);
     eprintln!("{summary}");
     let peak = json["peak_force_n"].as_f64().unwrap();
     let broken = json["bonds_broken"].as_u64().unwrap();

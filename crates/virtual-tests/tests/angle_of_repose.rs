@@ -95,8 +95,8 @@ fn file_errors_name_the_key() {
             "angle_of_repose.lift_speed: expected a positive number",
         ),
         (
-            file("", 10).replace("test = \"angle_of_repose\"", "test = \"shear\""),
-            "heap.toml: test: unknown test \"shear\"",
+            file("", 10).replace("test = \"angle_of_repose\"", "test = \"torsion\""),
+            "heap.toml: test: unknown test \"torsion\"",
         ),
         (
             file("", 10).replace("material = \"bead\"", "material = \"corn\""),

@@ -160,3 +160,34 @@ fn bad_mechanical_settings_are_refused_with_the_key() {
         e.message()
     );
 }
+
+/// Pulled a hundred times faster than in the breakage test, the bar's inertia shows: the
+/// quasi-static check warns, and at the slow speed it does not.
+#[test]
+fn fast_loading_is_flagged_as_not_quasi_static() {
+    let ratio = |speed: f64| {
+        let f = file(
+            "tension",
+            &format!(
+                r#"specimen = {{ material = "stalk", radius = 0.001, length = 0.012, diameter = 0.006 }}
+fixture_material = "steel"
+speed = {speed}
+max_displacement = 0.0005
+grip_length = 0.003
+"#
+            ),
+        );
+        let done = run_file(&f, None, None, &mut |_, _| Ok(())).unwrap();
+        let warned = done.json["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("not quasi-static"));
+        (done.json["kinetic_to_work_ratio"].as_f64().unwrap(), warned)
+    };
+    let (slow, slow_warned) = ratio(0.02);
+    let (fast, fast_warned) = ratio(2.0);
+    eprintln!("kinetic/work: {slow:.3e} at 0.02 m/s, {fast:.3e} at 2 m/s");
+    assert!(slow < 0.05 && !slow_warned, "{slow}");
+    assert!(fast > 0.05 && fast_warned, "{fast}");
+}

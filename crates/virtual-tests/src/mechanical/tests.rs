@@ -17,8 +17,8 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    check_loading, largest_radius, load, pictures, responses, specimen_group, summary,
-    LoadingSettings, MechanicalOutcome, SpecimenSettings, Tool, RESPONSES,
+    check_loading, load, pictures, responses, specimen_group, summary, LoadingSettings,
+    MechanicalOutcome, SpecimenSettings, Tool, RESPONSES,
 };
 use crate::file::TestFile;
 use crate::harness;
@@ -370,12 +370,6 @@ fn run(
             .map(|k| p.position[k].z + p.radius[k])
             .fold(f64::NEG_INFINITY, f64::max);
         approach = (half - top).max(0.0);
-    }
-    if kind != Kind::Tension && kind != Kind::Cantilever && largest_radius(&s.specimen) <= 0.0 {
-        return Err(TestError::Settings(format!(
-            "{}: {t}.specimen: no spheres",
-            file.name
-        )));
     }
     let tool = tool(kind, s, &sim);
     if let Tool::Grip { moving, fixed, .. } = &tool {

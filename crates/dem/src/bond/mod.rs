@@ -170,8 +170,12 @@ pub struct Bonds {
     /// Time of the last incremental update (forces recomputed without a step are re-applied).
     last_update: f64,
     warnings: Vec<String>,
-    /// Scratch: each sphere's local damping fraction this step (empty without damping).
-    damping_of: Vec<f64>,
+    /// Bonds by stable id (compressed rows): the bonds of id `k` are
+    /// `by_id[by_id_start[k]..by_id_start[k + 1]]`, each `2 b` (first sphere of bond b) or
+    /// `2 b + 1` (second), in bond order. Each sphere gathers its own bonds' forces, so the sum is
+    /// parallel and its order does not depend on the thread count.
+    by_id_start: Vec<u32>,
+    by_id: Vec<u32>,
 }
 
 impl Bonds {
@@ -201,7 +205,8 @@ impl Bonds {
             broken: 0,
             last_update: f64::NEG_INFINITY,
             warnings: Vec::new(),
-            damping_of: Vec::new(),
+            by_id_start: vec![0],
+            by_id: Vec::new(),
         }
     }
 
@@ -355,10 +360,34 @@ impl Bonds {
             });
             self.output.push(BondOutput::default());
         }
+        self.index_by_id();
         self.mark_formed(&due, time);
         let warnings = self.time_step_check(p, dt);
         self.warnings.extend(warnings.iter().cloned());
         Ok(warnings)
+    }
+
+    /// Rebuilds the bonds-by-id rows after bonds formed.
+    fn index_by_id(&mut self) {
+        let ids = self.ids.iter().flatten().map(|&id| id as usize + 1).max();
+        let mut start = vec![0u32; ids.unwrap_or(0) + 1];
+        for &id in self.ids.iter().flatten() {
+            start[id as usize + 1] += 1;
+        }
+        for k in 1..start.len() {
+            start[k] += start[k - 1];
+        }
+        let mut fill = start.clone();
+        let mut by_id = vec![0u32; 2 * self.ids.len()];
+        for (b, ids) in self.ids.iter().enumerate() {
+            for (end, &id) in ids.iter().enumerate() {
+                let slot = &mut fill[id as usize];
+                by_id[*slot as usize] = 2 * b as u32 + end as u32;
+                *slot += 1;
+            }
+        }
+        self.by_id_start = start;
+        self.by_id = by_id;
     }
 
     fn mark_formed(&mut self, due: &[bool], time: f64) {
@@ -435,7 +464,8 @@ impl Bonds {
     fn update(&mut self, p: &mut Particles, index_of: &[u32], dt: f64, time: f64) {
         let params = &self.params;
         let particles = &*p;
-        self.ids
+        let broke: usize = self
+            .ids
             .par_iter()
             .zip(&self.kind)
             .zip(&self.radius)
@@ -443,72 +473,95 @@ impl Bonds {
             .zip(self.state.par_iter_mut())
             .zip(self.output.par_iter_mut())
             .with_min_len(256)
-            .for_each(|(((((ids, kind), rb), intact), state), out)| {
+            .map(|(((((ids, kind), rb), intact), state), out)| {
                 *out = BondOutput::default();
                 if !*intact {
-                    return;
+                    return 0;
                 }
                 let i = index_of[ids[0] as usize] as usize;
                 let j = index_of[ids[1] as usize] as usize;
                 *out = update_bond(particles, i, j, &params[*kind as usize], *rb, state, dt);
-            });
-        self.apply(p, index_of, time, false);
+                usize::from(out.broke.is_some())
+            })
+            .sum();
+        if broke > 0 {
+            self.record_breakages(p, index_of, time);
+        }
+        self.apply(p);
     }
 
-    /// Adds each intact bond's stored output to its spheres, in bond order; records breakages.
-    fn apply(&mut self, p: &mut Particles, index_of: &[u32], time: f64, recomputed: bool) {
-        let mut broke_now = false;
+    /// Marks the bonds that broke in this step's update as broken and logs them, in bond order.
+    fn record_breakages(&mut self, p: &Particles, index_of: &[u32], time: f64) {
         for b in 0..self.ids.len() {
+            let Some((mode, sigma, tau)) = self.output[b].broke else {
+                continue;
+            };
             if !self.intact[b] {
                 continue;
             }
             let i = index_of[self.ids[b][0] as usize] as usize;
             let j = index_of[self.ids[b][1] as usize] as usize;
-            let o = self.output[b];
-            if let Some((mode, sigma, tau)) = o.broke {
-                if !recomputed {
-                    self.intact[b] = false;
-                    self.broken += 1;
-                    broke_now = true;
-                    self.breakages.push(Breakage {
-                        time,
-                        position: 0.5 * (p.position[i] + p.position[j]),
-                        mode,
-                        ids: self.ids[b],
-                        normal_stress: sigma,
-                        shear_stress: tau,
-                    });
-                }
-                continue;
-            }
-            p.force[i] += o.force;
-            p.force[j] -= o.force;
-            p.torque[i] += o.torque_first;
-            p.torque[j] += o.torque_second;
-            let damping = self.params[self.kind[b] as usize].damping;
-            if damping > 0.0 {
-                self.damping_of.resize(p.len(), 0.0);
-                for k in [i, j] {
-                    self.damping_of[k] = self.damping_of[k].max(damping);
-                }
-            }
+            self.intact[b] = false;
+            self.broken += 1;
+            self.breakages.push(Breakage {
+                time,
+                position: 0.5 * (p.position[i] + p.position[j]),
+                mode,
+                ids: self.ids[b],
+                normal_stress: sigma,
+                shear_stress: tau,
+            });
         }
-        if !self.damping_of.is_empty() {
-            // The sphere's whole force and torque (contacts, gravity, extensions before the
-            // bonds, its bonds), as PFC damps the unbalanced force.
-            self.damping_of.resize(p.len(), 0.0);
-            for (k, fraction) in self.damping_of.iter_mut().enumerate() {
-                if *fraction > 0.0 {
-                    p.force[k] = local_damping(p.force[k], p.velocity[k], *fraction);
-                    p.torque[k] = local_damping(p.torque[k], p.angular_velocity[k], *fraction);
-                    *fraction = 0.0;
+        self.history
+            .push((time, self.intact_count(), self.broken_count()));
+    }
+
+    /// Adds each intact bond's stored output to its spheres: every sphere gathers its own bonds
+    /// in bond order (in parallel, the same sums for any thread count), then local damping.
+    fn apply(&self, p: &mut Particles) {
+        let Particles {
+            id,
+            force,
+            torque,
+            velocity,
+            angular_velocity,
+            ..
+        } = p;
+        let (start, by_id) = (&self.by_id_start, &self.by_id);
+        id.par_iter()
+            .zip(force.par_iter_mut())
+            .zip(torque.par_iter_mut())
+            .zip(velocity.par_iter())
+            .zip(angular_velocity.par_iter())
+            .with_min_len(512)
+            .for_each(|((((&id, force), torque), velocity), angular_velocity)| {
+                let id = id as usize;
+                if id + 1 >= start.len() {
+                    return;
                 }
-            }
-        }
-        if broke_now {
-            self.history
-                .push((time, self.intact_count(), self.broken_count()));
-        }
+                let mut damping: f64 = 0.0;
+                for &slot in &by_id[start[id] as usize..start[id + 1] as usize] {
+                    let b = (slot / 2) as usize;
+                    let o = &self.output[b];
+                    if !self.intact[b] || o.broke.is_some() {
+                        continue;
+                    }
+                    if slot % 2 == 0 {
+                        *force += o.force;
+                        *torque += o.torque_first;
+                    } else {
+                        *force -= o.force;
+                        *torque += o.torque_second;
+                    }
+                    damping = damping.max(self.params[self.kind[b] as usize].damping);
+                }
+                if damping > 0.0 {
+                    // The sphere's whole force and torque (contacts, gravity, extensions before
+                    // the bonds, its bonds), as PFC damps the unbalanced force.
+                    *force = local_damping(*force, *velocity, damping);
+                    *torque = local_damping(*torque, *angular_velocity, damping);
+                }
+            });
     }
 }
 
@@ -566,15 +619,15 @@ fn update_bond(
     // Turn the stored tangential vectors with the bond: the axis's own turn, then the pair's
     // mean spin about the axis.
     let spin = 0.5 * (wi + wj).dot(n) * dt;
+    let (sin, cos) = if spin == 0.0 {
+        (0.0, 1.0)
+    } else {
+        spin.sin_cos()
+    };
     let follow = |v: DVec3| -> DVec3 {
         let v = turn(v, s.axis, n);
         let v = v - n * v.dot(n);
-        if spin != 0.0 {
-            let (sin, cos) = spin.sin_cos();
-            v * cos + n.cross(v) * sin
-        } else {
-            v
-        }
+        v * cos + n.cross(v) * sin
     };
     s.shear_force = follow(s.shear_force);
     s.bending = follow(s.bending);
@@ -640,7 +693,7 @@ impl StepExtension for Bonds {
             self.update(particles, index_of, dt, time);
         } else {
             // Forces recomputed without a step (particles added or moved): the same bond forces.
-            self.apply(particles, index_of, time, true);
+            self.apply(particles);
         }
     }
 

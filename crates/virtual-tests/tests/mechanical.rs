@@ -123,6 +123,11 @@ fn bad_mechanical_settings_are_refused_with_the_key() {
             "shear.blade_thickness: the blade",
         ),
         (
+            "bending",
+            "span = 0.005\nclamped = false\n",
+            "bending.clamped: not used by the bending test",
+        ),
+        (
             "tension",
             "grip_length = 0.006\n",
             "tension.grip_length: two grips",

@@ -7,8 +7,10 @@
 //! the test's curve response (`force_displacement`); from it come the peak force, the mean force,
 //! the initial stiffness (least-squares slope of the rising branch between 10 % and 50 % of the
 //! peak), the displacement at the peak, and the bond counts. A quasi-static check compares the
-//! specimen's kinetic energy with the work done: above 5 % between the first tenth of the travel
-//! and the peak force (fragments recoiling after failure do not count) the outcome carries a warning (inertia shows in the curve; slow the tool).
+//! specimen's kinetic energy with the work done: above 5 % between a tenth of the travel after
+//! first contact (the blow of the touch itself does not count) and the peak force (fragments
+//! recoiling after failure do not count either) the outcome carries a warning (inertia shows in
+//! the curve; slow the tool).
 //!
 //! The tests differ only in their fixture and tool: see [`tests`].
 
@@ -114,8 +116,8 @@ pub struct MechanicalOutcome {
     pub displacement_at_peak_m: f64,
     /// Tool travel when the test ended.
     pub displacement_m: f64,
-    /// Largest kinetic energy of the specimen over the work done so far, after the first tenth
-    /// of the travel and up to the peak force.
+    /// Largest kinetic energy of the specimen over the work done so far, from a tenth of the
+    /// travel after first contact up to the peak force.
     pub kinetic_to_work_ratio: f64,
     pub warnings: Vec<String>,
     /// The curve as CSV (displacement_m, force_n), when an output folder was given.
@@ -401,7 +403,8 @@ pub fn load(
     let mut work = 0.0;
     // Kinetic energy over work at each sample (0 in the first tenth of the travel); judged up to
     // the peak only, since fragments recoiling after failure are not loading inertia.
-    let mut ratios = vec![0.0];
+    // (kinetic energy, work so far) at every curve point.
+    let mut energies = vec![(0.0, 0.0)];
     let out = run.out.map(|d| d.to_path_buf());
     let snapshot = |sim: &Simulation| -> Result<(), TestError> {
         if let Some(dir) = &out {
@@ -444,11 +447,8 @@ pub fn load(
         work += 0.5 * (f + force[force.len() - 1]) * (d - displacement[displacement.len() - 1]);
         displacement.push(d);
         force.push(f);
-        ratios.push(if d > 0.1 * loading.max_displacement && work > 0.0 {
-            specimen_kinetic_energy(&sim) / work
-        } else {
-            0.0
-        });
+
+        energies.push((specimen_kinetic_energy(&sim), work));
         if done % snapshot_every < n && loading.snapshots > 0 {
             snapshot(&sim)?;
         }
@@ -470,9 +470,13 @@ pub fn load(
     let displacement: Vec<f64> = displacement[first..].iter().map(|d| d - offset).collect();
     let force: Vec<f64> = force[first..].to_vec();
     let (k_peak, peak) = peak_of(&force);
-    let ratio = ratios[first..=first + k_peak]
-        .iter()
-        .cloned()
+    // Judged from a tenth of the travel after first contact (the blow of the first touch is not
+    // loading inertia) up to the peak (recoil after failure is not either).
+    let ratio = (0..=k_peak)
+        .filter(|&k| displacement[k] > 0.1 * loading.max_displacement)
+        .map(|k| energies[first + k])
+        .filter(|&(_, work)| work > 0.0)
+        .map(|(kinetic, work)| kinetic / work)
         .fold(0.0, f64::max);
     let mut warnings: Vec<String> = sim
         .bonds()

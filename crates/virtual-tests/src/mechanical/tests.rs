@@ -38,6 +38,10 @@ pub struct Settings {
     pub slot_width: Option<f64>,
     /// shear: blade thickness (m; default 1 mm).
     pub blade_thickness: Option<f64>,
+    /// shear: whether cover blocks over the supports hold the specimen down, as the holes or
+    /// the clamped lid of a lab shear fixture do (default true); without them a compliant
+    /// specimen bends down into the slot and its ends lift instead of being cut.
+    pub clamped: Option<bool>,
     /// bending: distance between the supports (m).
     pub span: Option<f64>,
     /// bending: radii of the supports and the punch (m; default 5 mm).
@@ -71,7 +75,7 @@ impl Kind {
     /// The keys of [`Settings`] this test uses beyond the common ones.
     fn own_keys(self) -> &'static [&'static str] {
         match self {
-            Kind::Shear => &["slot_width", "blade_thickness"],
+            Kind::Shear => &["slot_width", "blade_thickness", "clamped"],
             Kind::Bending => &["span", "support_radius", "punch_radius"],
             Kind::Tension | Kind::Cantilever => &["grip_length"],
             Kind::Compression => &[],
@@ -121,6 +125,13 @@ fn check(kind: Kind, file: &TestFile, s: &Settings) -> Result<(), String> {
         }
     }
     let sp = &s.specimen;
+    if s.clamped.is_some() && kind != Kind::Shear {
+        return Err(format!(
+            "{}: {t}.clamped: not used by the {t} test (it uses: {})",
+            file.name,
+            kind.own_keys().join(", ")
+        ));
+    }
     positive(file, format!("{t}.specimen.length"), sp.length)?;
     positive(file, format!("{t}.specimen.diameter"), sp.diameter)?;
     match kind {
@@ -217,18 +228,33 @@ fn scene(kind: Kind, file: &TestFile, s: &Settings, seed: u64) -> Result<SceneDe
     let (l, d) = (sp.length, sp.diameter);
     let half = 0.5 * d;
     let m = &s.fixture_material;
-    // Wide enough that nothing leaves it but a specimen that flies apart.
-    let reach = l + 2.0 * d + s.loading.max_displacement;
+    // Pieces of a broken specimen fall onto a catch floor below the fixture and may slide or fly
+    // off sideways, as in the lab: the domain is wide so that only an exploding run leaves it.
+    let floor = -half - 2.0 * d - s.loading.max_displacement;
+    let reach = 100.0 * l.max(d);
     let simulation = harness::simulation(
         s.loading.time_step_percent,
-        (DVec3::splat(-reach), DVec3::splat(reach)),
+        (
+            DVec3::new(-reach, -reach, floor - d),
+            DVec3::new(reach, reach, reach),
+        ),
     );
+    let catch_floor = GeometryDescription {
+        name: "catch_floor".into(),
+        material: m.clone(),
+        shape: GeometryShape::Plane {
+            point: DVec3::new(0.0, 0.0, floor),
+            normal: DVec3::Z,
+        },
+        motion: Vec::new(),
+        torque_point: None,
+    };
     let wide = 2.0 * d;
-    let geometries = match kind {
+    let mut geometries = match kind {
         Kind::Shear => {
             let (slot, blade) = shear_sizes(s);
             let x_out = l;
-            vec![
+            let mut blocks = vec![
                 block(
                     "support_left",
                     m,
@@ -247,7 +273,21 @@ fn scene(kind: Kind, file: &TestFile, s: &Settings, seed: u64) -> Result<SceneDe
                     DVec3::new(-0.5 * blade, -wide, half),
                     DVec3::new(0.5 * blade, wide, half + d),
                 ),
-            ]
+            ];
+            if s.clamped.unwrap_or(true) {
+                for (name, lo, hi) in [
+                    ("clamp_left", -x_out, -0.5 * slot),
+                    ("clamp_right", 0.5 * slot, x_out),
+                ] {
+                    blocks.push(block(
+                        name,
+                        m,
+                        DVec3::new(lo, -wide, half),
+                        DVec3::new(hi, wide, half + d),
+                    ));
+                }
+            }
+            blocks
         }
         Kind::Compression => {
             let x_out = l;
@@ -278,6 +318,7 @@ fn scene(kind: Kind, file: &TestFile, s: &Settings, seed: u64) -> Result<SceneDe
         }
         Kind::Tension | Kind::Cantilever => Vec::new(),
     };
+    geometries.push(catch_floor);
     let group = specimen_group(file, t, sp, seed)?;
     Ok(file.scene(simulation, geometries, vec![group]))
 }
@@ -365,11 +406,19 @@ fn run(
             .map(|k| p.position[k].z - p.radius[k])
             .fold(f64::INFINITY, f64::min);
         sim.shift(DVec3::Z * (-half - lowest));
+        // The blade meets only the spheres under it (a lattice's top row may lie beside it).
+        let reach = match kind {
+            Kind::Shear => 0.5 * shear_sizes(s).1,
+            _ => f64::INFINITY,
+        };
         let p = &sim.particles;
         let top = (0..p.len())
+            .filter(|&k| p.position[k].x.abs() < reach + p.radius[k])
             .map(|k| p.position[k].z + p.radius[k])
             .fold(f64::NEG_INFINITY, f64::max);
-        approach = (half - top).max(0.0);
+        if top.is_finite() {
+            approach = (half - top).max(0.0);
+        }
     }
     let tool = tool(kind, s, &sim);
     if let Tool::Grip { moving, fixed, .. } = &tool {

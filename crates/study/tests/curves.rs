@@ -278,3 +278,39 @@ fn bad_curve_targets_name_the_key() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The twin experiment of examples/stalks/twin (issue 12): a small bonded stalk's shear curve,
+/// simulated at known bonds and noised, is calibrated by screening, steepest path, CCD and
+/// optimisation, end to end from the files as committed. About two minutes on 2 cores.
+#[test]
+fn the_twin_stalk_study_runs_end_to_end() {
+    let twin = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/stalks/twin");
+    let dir = fresh_dir("twin");
+    for f in ["study.toml", "shear.toml", "lab/twin_shear.csv"] {
+        std::fs::copy(twin.join(f), dir.join(f)).unwrap();
+    }
+    let path = dir.join("study.toml");
+    let out = run(&path).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
+            .unwrap();
+    let cal = &summary["calibrated"];
+    let k_n = cal["bond_normal_stiffness"].as_f64().unwrap();
+    let tau_c = cal["critical_shear_stress"].as_f64().unwrap();
+    // True values 3e10 N/m^3 and 3e6 Pa; this plan comes back within about a quarter of them
+    // (measured 2.51e10 and 2.31e6, the closing note of issue 12).
+    assert!((k_n - 3e10).abs() < 0.3 * 3e10, "k_n = {k_n}");
+    assert!((tau_c - 3e6).abs() < 0.3 * 3e6, "tau_c = {tau_c}");
+    let mse = summary["validation_mean"].as_f64().unwrap();
+    assert!(mse < 0.015, "validation MSE {mse}");
+    let html = std::fs::read_to_string(dir.join("report/index.html")).unwrap();
+    for part in [
+        "<h2>Curves</h2>",
+        "lab band (replicates",
+        "validation run 1",
+    ] {
+        assert!(html.contains(part), "report lacks {part}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -3,8 +3,8 @@
 
 Runs shear.toml as it is (its [[bond]] values are the hidden truth), then writes three
 "replicate" lab curves to lab/twin_shear.csv: the simulated force times a per-specimen scale
-(1 +- 3 %, as specimens differ) plus measurement noise (Gaussian, 1.5 % of the peak per point),
-resampled every 0.02 mm as a testing machine logs. Seeded, so the file is the same on every
+(1 +- 3 %, as specimens differ) plus measurement noise (Gaussian, 1.5 % of the peak per point;
+clipped at zero), resampled every 0.02 mm as a testing machine logs. Seeded, so the file is the same on every
 machine with the same demcal. Usage (from the repository root):
 
     python3 examples/stalks/twin/make_lab.py [path/to/demcal]

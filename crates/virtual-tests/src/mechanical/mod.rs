@@ -401,8 +401,6 @@ pub fn load(
     let mut displacement = vec![0.0];
     let mut force = vec![tool_force(&sim, &tool)];
     let mut work = 0.0;
-    // Kinetic energy over work at each sample (0 in the first tenth of the travel); judged up to
-    // the peak only, since fragments recoiling after failure are not loading inertia.
     // (kinetic energy, work so far) at every curve point.
     let mut energies = vec![(0.0, 0.0)];
     let out = run.out.map(|d| d.to_path_buf());

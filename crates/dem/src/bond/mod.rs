@@ -592,23 +592,19 @@ fn local_damping(f: DVec3, v: DVec3, fraction: f64) -> DVec3 {
 /// bond and applied to both stored tangential vectors.
 struct Turn {
     cos: f64,
-    axis: DVec3,
-    /// `1 / (1 + cos)`, the one division.
+    /// `from x to`: the rotation axis times the sine of the angle.
+    sine_axis: DVec3,
+    /// `1 / (1 + cos)`, used by the general case only.
     scale: f64,
 }
 
 impl Turn {
     fn new(from: DVec3, to: DVec3) -> Turn {
         let cos = from.dot(to);
-        let scale = if cos > -1.0 + 1e-12 && cos <= 1.0 - 1e-15 {
-            (1.0 + cos).recip()
-        } else {
-            0.0
-        };
         Turn {
             cos,
-            axis: from.cross(to),
-            scale,
+            sine_axis: from.cross(to),
+            scale: (1.0 + cos).recip(),
         }
     }
 
@@ -620,7 +616,7 @@ impl Turn {
             // Flipped in one step: only an exploding run does this; drop the direction.
             return -v;
         }
-        let k = self.axis;
+        let k = self.sine_axis;
         v * self.cos + k.cross(v) + k * (k.dot(v) * self.scale)
     }
 }
@@ -649,7 +645,7 @@ fn update_bond(
     dt: f64,
 ) -> BondOutput {
     // Divisions are the slow part of this arithmetic: one reciprocal each of the distance, the
-    // radius sum and the bond radius serve every quotient below.
+    // radius sum and the bond radius (and one in the turn) serve every quotient below.
     let delta = p.position[i] - p.position[j];
     let dist = delta.length();
     let n = delta * dist.recip();
@@ -678,7 +674,7 @@ fn update_bond(
     let wn = w.dot(n);
     let wt = w - n * wn;
 
-    // Area pi rb^2, polar moment J = pi rb^4 / 2, bending moment I = J / 2.
+    // Area pi rb^2, polar second moment J = pi rb^4 / 2, second moment of area I = J / 2.
     let rb2 = rb * rb;
     let area = PI * rb2;
     let polar = 0.5 * PI * rb2 * rb2;

@@ -21,10 +21,11 @@ pub(super) fn bonds(
         return Ok(None);
     }
     let mut pairs: Vec<([usize; 2], BondParams)> = Vec::new();
-    for (k, b) in d.bonds.iter().enumerate() {
+    for (k, bond) in d.bonds.iter().enumerate() {
+        let b = &bond.params;
         let key = |s: &str| format!("bond[{k}].{s}");
         let mut ids = [0; 2];
-        for (n, name) in b.materials.iter().enumerate() {
+        for (n, name) in bond.materials.iter().enumerate() {
             ids[n] = table.id_of(name).ok_or_else(|| {
                 ctx.err(
                     key("materials"),
@@ -40,7 +41,7 @@ pub(super) fn bonds(
                 key("materials"),
                 format!(
                     "bonds between \"{}\" and \"{}\" are given twice",
-                    b.materials[0], b.materials[1]
+                    bond.materials[0], bond.materials[1]
                 ),
             ));
         }
@@ -88,19 +89,7 @@ pub(super) fn bonds(
                 ),
             ));
         }
-        pairs.push((
-            ids,
-            BondParams {
-                normal_stiffness: b.normal_stiffness,
-                shear_stiffness: b.shear_stiffness,
-                critical_normal_stress: b.critical_normal_stress,
-                critical_shear_stress: b.critical_shear_stress,
-                radius: b.radius,
-                contact_radius: b.contact_radius,
-                formation_time: b.formation_time,
-                damping: b.damping,
-            },
-        ));
+        pairs.push((ids, *b));
     }
     Ok(Some(Bonds::new(table.len(), &pairs)))
 }

@@ -6,7 +6,7 @@
 //! failing key as a scene file would spell it (`particles[0].fill.count`). Units are SI
 //! throughout: metres, seconds, kilograms, pascals.
 
-use crate::bond::{BondRadius, ContactRadius};
+use crate::bond::BondParams;
 use crate::factory::Rate;
 use crate::fill::{FillRegion, Lattice, SizeDistribution};
 use crate::geometry::Motion;
@@ -184,22 +184,8 @@ pub struct InteractionDescription {
 #[derive(Clone, Debug, PartialEq)]
 pub struct BondDescription {
     pub materials: [String; 2],
-    /// k_n (N/m^3).
-    pub normal_stiffness: f64,
-    /// k_t (N/m^3).
-    pub shear_stiffness: f64,
-    /// sigma_c (Pa).
-    pub critical_normal_stress: f64,
-    /// tau_c (Pa).
-    pub critical_shear_stress: f64,
-    /// `bond_radius` (m) or `bonded_disk_scale`.
-    pub radius: BondRadius,
-    /// `contact_radius` (m) or `contact_radius_scale`.
-    pub contact_radius: ContactRadius,
-    /// s; default 0.
-    pub formation_time: f64,
-    /// PFC local damping fraction; default 0 (off).
-    pub damping: f64,
+    /// The pair's bond parameters, as the engine takes them (checked when the scene is built).
+    pub params: BondParams,
 }
 
 /// `[[geometry]]`: a wall, box, cylinder or mesh with its material and motion.

@@ -3,7 +3,7 @@
 
 use super::super::description::BondDescription;
 use super::super::{Ctx, SceneError};
-use crate::bond::{BondRadius, ContactRadius};
+use crate::bond::{BondParams, BondRadius, ContactRadius};
 use serde::Deserialize;
 
 #[derive(Deserialize, Debug)]
@@ -67,14 +67,16 @@ pub(super) fn bonds(
             };
             Ok(BondDescription {
                 materials: b.materials,
-                normal_stiffness: b.normal_stiffness,
-                shear_stiffness: b.shear_stiffness,
-                critical_normal_stress: b.critical_normal_stress,
-                critical_shear_stress: b.critical_shear_stress,
-                radius,
-                contact_radius,
-                formation_time: b.formation_time,
-                damping: b.damping,
+                params: BondParams {
+                    normal_stiffness: b.normal_stiffness,
+                    shear_stiffness: b.shear_stiffness,
+                    critical_normal_stress: b.critical_normal_stress,
+                    critical_shear_stress: b.critical_shear_stress,
+                    radius,
+                    contact_radius,
+                    formation_time: b.formation_time,
+                    damping: b.damping,
+                },
             })
         })
         .collect()

@@ -1,0 +1,1 @@
+//! bayesopt (to be written)

@@ -1,0 +1,1 @@
+//! genetic (to be written)

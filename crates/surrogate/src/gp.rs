@@ -1,0 +1,1 @@
+//! gp (to be written)

@@ -1,0 +1,1 @@
+//! mixture (to be written)

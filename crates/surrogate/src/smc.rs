@@ -1,0 +1,1 @@
+//! smc (to be written)

@@ -120,6 +120,11 @@ enum Command {
         #[command(subcommand)]
         action: DoeCommand,
     },
+    /// Surrogates (GP, BP, GA-BP) trained on your own result table, and searched for a goal.
+    Surrogate {
+        #[command(subcommand)]
+        action: SurrogateCommand,
+    },
     /// Run a peer benchmark and print particle-steps per second.
     Bench {
         /// settle: 21 160 spheres settling in a box; bonded: the seed-000 stalk specimen crushed.
@@ -207,6 +212,97 @@ enum DoeCommand {
         #[arg(long)]
         json: bool,
     },
+}
+
+#[derive(Subcommand)]
+enum SurrogateCommand {
+    /// Train a surrogate on 80 % of the rows and print R^2, RMSE and MAE on training, test and
+    /// all rows.
+    Fit {
+        data: PathBuf,
+        #[command(flatten)]
+        model: SurrogateArgs,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Train a surrogate, then search it with a genetic algorithm (GA-BP-GA for --model ga-bp)
+    /// for the factor settings that meet the goal, inside the table's factor ranges.
+    Optimize {
+        data: PathBuf,
+        #[command(flatten)]
+        model: SurrogateArgs,
+        /// target=V (e.g. the lab's 38.65), minimize or maximize.
+        #[arg(long)]
+        goal: String,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(clap::Args)]
+struct SurrogateArgs {
+    /// Response column.
+    #[arg(long)]
+    response: String,
+    /// Factor columns, comma-separated (default: every other column except run/order/type
+    /// bookkeeping).
+    #[arg(long)]
+    factors: Option<String>,
+    /// gp, bp or ga-bp.
+    #[arg(long)]
+    model: String,
+    /// GP kernel: matern52 (default) or squared_exponential.
+    #[arg(long)]
+    kernel: Option<String>,
+    /// Seeds the train/test split, the starting weights and the genetic algorithms.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Share of the rows trained on; the rest test the model.
+    #[arg(long, default_value_t = 0.8)]
+    train_fraction: f64,
+}
+
+impl SurrogateArgs {
+    fn request(self, data: PathBuf) -> Result<surrogate::commands::FitRequest, String> {
+        if !(self.train_fraction > 0.0 && self.train_fraction < 1.0) {
+            return Err(format!(
+                "--train-fraction {}: expected a number between 0 and 1",
+                self.train_fraction
+            ));
+        }
+        Ok(surrogate::commands::FitRequest {
+            data,
+            response: self.response,
+            factors: self.factors.map(|f| {
+                f.split(',')
+                    .map(|s| s.trim().to_string())
+                    .filter(|s| !s.is_empty())
+                    .collect()
+            }),
+            model: surrogate::commands::Model::parse(&self.model, self.kernel.as_deref())?,
+            seed: self.seed,
+            train_fraction: self.train_fraction,
+        })
+    }
+}
+
+fn surrogate_command(action: SurrogateCommand) -> Result<(), String> {
+    use surrogate::commands;
+    match action {
+        SurrogateCommand::Fit { data, model, json } => {
+            print!("{}", commands::fit(&model.request(data)?, json)?);
+        }
+        SurrogateCommand::Optimize {
+            data,
+            model,
+            goal,
+            json,
+        } => {
+            let goal = commands::Goal::parse(&goal)?;
+            print!("{}", commands::optimize(&model.request(data)?, goal, json)?);
+        }
+    }
+    Ok(())
 }
 
 #[derive(clap::Args)]
@@ -487,6 +583,7 @@ fn main() -> ExitCode {
             out,
         } => set_threads(threads).and_then(|_| simulate(&scene, out.as_deref())),
         Command::Doe { action } => doe_command(action),
+        Command::Surrogate { action } => surrogate_command(action),
         Command::Run {
             study,
             jobs,

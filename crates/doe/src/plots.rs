@@ -9,7 +9,7 @@ use statrs::distribution::{ContinuousCDF, Normal};
 use crate::fit::{fmt_sig, t_critical, Fit};
 
 const SIZE: (u32, u32) = (720, 540);
-const FONT: &str = "sans-serif";
+pub const FONT: &str = "sans-serif";
 const POSITIVE: RGBColor = RGBColor(230, 120, 20);
 const NEGATIVE: RGBColor = RGBColor(40, 100, 200);
 const POINT: RGBColor = RGBColor(200, 30, 30);
@@ -36,7 +36,7 @@ pub fn render(
 /// The axis range for data spanning lo..hi, widened a little; a sane range when the data are
 /// empty (lo > hi), a single value, or spread less than rounding (an exact fit's residuals),
 /// because plotters' tick search does not end on a degenerate range.
-fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
+pub fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
     if !(lo.is_finite() && hi.is_finite()) || lo > hi {
         return -1.0..1.0;
     }
@@ -49,7 +49,7 @@ fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
     (lo - pad)..(hi + pad)
 }
 
-fn min_max(v: impl Iterator<Item = f64>) -> (f64, f64) {
+pub fn min_max(v: impl Iterator<Item = f64>) -> (f64, f64) {
     v.filter(|x| x.is_finite())
         .fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)))
 }
@@ -146,7 +146,7 @@ pub fn pareto_chart(fit: &Fit) -> Result<String, String> {
 
 /// Scatter of (x, y) with an optional reference line and horizontal lines.
 #[allow(clippy::too_many_arguments)]
-fn scatter(
+pub fn scatter(
     title: &str,
     x_desc: &str,
     y_desc: &str,
@@ -327,7 +327,7 @@ pub fn grid(fit: &Fit, fx: usize, fy: usize, held: &[f64], range: (f64, f64), n:
     }
 }
 
-fn colour_map(t: f64) -> RGBColor {
+pub fn colour_map(t: f64) -> RGBColor {
     // Blue - cyan - green - yellow - red, as response-surface software shows low to high.
     let stops = [
         (0.0, (40.0, 60.0, 200.0)),

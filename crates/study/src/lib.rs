@@ -14,12 +14,15 @@ mod curve_report;
 pub mod job;
 pub mod lab_curve;
 pub mod paths;
+pub mod plan;
 pub mod report;
 pub mod run_error;
 pub mod runner;
 pub mod spec;
 pub mod stages;
 pub mod store;
+mod surrogate_report;
+pub mod surrogate_stages;
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};

@@ -140,7 +140,14 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         "validation_std": validation.as_ref().and_then(|v| v.std),
         "validation_runs": validation.as_ref().map(|v| v.runs),
         "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
-        "stages": r.stages.iter().map(|s| json!({
+        "imports": study.imports.iter().map(|i| json!({
+            "study": i.study,
+            "parameter": i.parameter,
+            "value": i.value,
+            "paths": i.paths.iter().map(|x| x.text.clone()).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "stages": r.stages.iter().map(|s| {
+            let mut entry = json!({
             "stage": s.index + 1,
             "kind": s.kind,
             "title": s.title,
@@ -153,7 +160,12 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             "model": s.fit.as_ref().map(|f| f.to_json()),
             "solutions": s.solutions,
             "notes": s.notes,
-        })).collect::<Vec<_>>(),
+            });
+            if let Some((key, value)) = crate::surrogate_report::stage_json(study, s) {
+                entry[key] = value;
+            }
+            entry
+        }).collect::<Vec<_>>(),
         "runs_total": stored.len(),
         "runs_failed": stored.iter().filter(|r| r.status == Status::Failed).count(),
         "simulation_wall_s": stored.iter().map(|r| r.wall_s).sum::<f64>(),
@@ -314,6 +326,17 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         .unwrap();
     }
     h.push_str("</table>");
+    for i in &study.imports {
+        write!(
+            h,
+            "<p class=\"note\">Taken from another study: {} = <b>{}</b> (its {}, calibrated by {}).</p>",
+            esc(&i.paths.iter().map(|x| x.text.clone()).collect::<Vec<_>>().join(", ")),
+            sig(i.value),
+            esc(&i.parameter),
+            esc(&i.study)
+        )
+        .unwrap();
+    }
     if !r.stages.iter().any(|s| s.calibrated.is_some()) && calibrated.is_some() {
         h.push_str("<p class=\"note\">No optimisation has run yet: the values shown are those of the run nearest the lab value.</p>");
     }
@@ -522,6 +545,7 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
             }
             heap_pictures(h, st);
         }
+        "bayesopt" | "ga_bp" | "smc" => crate::surrogate_report::stage_html(h, study, st),
         _ => {}
     }
 }
@@ -533,6 +557,9 @@ fn stage_title(kind: &str) -> &'static str {
         "rsm" => "response surface",
         "optimize" => "optimisation",
         "validate" => "validation",
+        "bayesopt" => "Bayesian optimisation",
+        "ga_bp" => "GA-BP network and GA-BP-GA search",
+        "smc" => "sequential Monte Carlo",
         _ => "stage",
     }
 }

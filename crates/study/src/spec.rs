@@ -3,12 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
-use doe::design::CcdAlpha;
 use doe::{Factor, Scale};
 
 use crate::curve::CURVE_RESPONSES;
 use crate::lab_curve::{CurveTarget, CURVE_KEYS};
 use crate::paths::{number, ParamPath};
+use crate::plan::parse_plan;
+pub use crate::plan::{RsmDesign, ScreeningDesign, Stage, STAGES};
 use virtual_tests::file::one_line;
 
 /// A parameter to calibrate: one value written into one or more places of the test.
@@ -98,75 +99,17 @@ impl Target {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
-pub enum ScreeningDesign {
-    PlackettBurman { runs: Option<usize> },
-    Fractional { resolution: usize },
-    Factorial,
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub enum RsmDesign {
-    CentralComposite { alpha: CcdAlpha },
-    BoxBehnken,
-}
-
-/// Largest counts a plan may ask for: beyond them a stage would only eat memory and time.
-pub const MAX_CENTER_POINTS: usize = 1000;
-pub const MAX_STEPS: usize = 1000;
-pub const MAX_REPLICATES: usize = 1000;
-pub const MAX_SOLUTIONS: usize = 1000;
-
-/// One stage of the plan, with its settings (defaults filled in).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Stage {
-    Screening {
-        design: ScreeningDesign,
-        center_points: usize,
-        /// Significance level for a factor to go on.
-        alpha: f64,
-        min_factors: usize,
-        max_factors: usize,
-    },
-    Steepest {
-        /// Runs along the path, from one end of the ranges to the other.
-        steps: usize,
-        /// Move every factor by the sign of its effect (`signs`) or in proportion to it.
-        proportional: bool,
-    },
-    Rsm {
-        design: RsmDesign,
-        center_points: Option<usize>,
-        /// Backward elimination of terms with p above `alpha_out`, keeping hierarchy.
-        reduce: bool,
-        alpha_out: f64,
-    },
-    Optimize {
-        solutions: usize,
-        starts: usize,
-    },
-    Validate {
-        replicates: usize,
-    },
-}
-
-pub const STAGES: &str = "screening, steepest, rsm, optimize, validate";
-
-impl Stage {
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Stage::Screening { .. } => "screening",
-            Stage::Steepest { .. } => "steepest",
-            Stage::Rsm { .. } => "rsm",
-            Stage::Optimize { .. } => "optimize",
-            Stage::Validate { .. } => "validate",
-        }
-    }
-
-    /// Whether the stage runs simulations (optimize only searches a model).
-    pub fn runs_simulations(&self) -> bool {
-        !matches!(self, Stage::Optimize { .. })
-    }
+/// A value calibrated by another study, written into this study's test: how calibrations chain
+/// (particle-steel friction from an incline first, then particle-particle from a heap).
+#[derive(Clone, Debug)]
+pub struct Import {
+    /// The other study's file, as given, and the summary the value was read from.
+    pub study: String,
+    pub summary: PathBuf,
+    /// The parameter's name in the other study.
+    pub parameter: String,
+    pub paths: Vec<ParamPath>,
+    pub value: f64,
 }
 
 /// A study read and checked.
@@ -183,6 +126,8 @@ pub struct Study {
     /// an inline test.
     pub test_dir: PathBuf,
     pub parameters: Vec<Parameter>,
+    /// Values taken from other studies' summaries, already written into `test`.
+    pub imports: Vec<Import>,
     pub target: Target,
     pub plan: Vec<Stage>,
     /// Wall-clock limit of one simulation; a run over it is stopped and stored as failed.
@@ -245,6 +190,7 @@ impl Study {
             "target",
             "plan",
             "run_time_limit_s",
+            "import",
         ];
         for k in doc.keys() {
             if !KEYS.contains(&k.as_str()) {
@@ -301,6 +247,8 @@ impl Study {
                 ))
             }
         };
+        let mut test = test;
+        let imports = parse_imports(&doc, dir, &mut test, &err)?;
         let test_name = format!("{file}: test");
         let test_dir = match doc.get("test") {
             Some(toml::Value::String(p)) => dir.join(p).parent().map(Path::to_path_buf),
@@ -591,6 +539,7 @@ impl Study {
             test_source,
             test_dir,
             parameters,
+            imports,
             target,
             plan,
             run_time_limit_s,
@@ -658,269 +607,125 @@ impl Study {
     }
 }
 
-fn parse_plan(
+/// `[[import]]` tables: `study` (another study file), `parameter` (a name in its summary's
+/// calibrated values) and `path` or `paths` (where the value goes in this study's test). The
+/// value is read from the other study's `report/summary.json`, which `demcal run` writes.
+fn parse_imports(
     doc: &toml::Table,
+    dir: &Path,
+    test: &mut toml::Table,
     err: &dyn Fn(&str, String) -> String,
-    n_params: usize,
-) -> Result<Vec<Stage>, String> {
-    let items = match doc.get("plan") {
-        None => {
-            return Err(err(
-                "plan",
-                format!("missing: an ordered list of stages ({STAGES}), e.g. plan = [\"rsm\", \"optimize\", \"validate\"]"),
-            ))
-        }
-        Some(toml::Value::Array(a)) if !a.is_empty() => a,
+) -> Result<Vec<Import>, String> {
+    let list = match doc.get("import") {
+        None => return Ok(Vec::new()),
+        Some(toml::Value::Array(a)) => a,
         Some(_) => {
             return Err(err(
-                "plan",
-                format!("expected a non-empty list of stages ({STAGES})"),
+                "import",
+                "expected [[import]] tables with study, parameter and path".into(),
             ))
         }
     };
-    let mut plan = Vec::new();
-    for (i, item) in items.iter().enumerate() {
-        let key = format!("plan[{i}]");
-        let empty = toml::Table::new();
-        let (kind, t) = match item {
-            toml::Value::String(s) => (s.clone(), &empty),
-            toml::Value::Table(t) => (
-                t.get("stage")
-                    .and_then(|v| v.as_str())
-                    .ok_or_else(|| {
-                        err(
-                            &format!("{key}.stage"),
-                            format!("missing: which stage ({STAGES})"),
-                        )
-                    })?
-                    .to_string(),
-                t,
-            ),
-            _ => {
-                return Err(err(
-                    &key,
-                    format!("expected a stage name ({STAGES}) or a table with stage = ..."),
-                ))
-            }
-        };
-        let allowed: &[&str] = match kind.as_str() {
-            "screening" => &[
-                "design",
-                "runs",
-                "resolution",
-                "center_points",
-                "alpha",
-                "min_factors",
-                "max_factors",
-            ],
-            "steepest" => &["steps", "direction"],
-            "rsm" => &["design", "alpha", "center_points", "reduce", "alpha_out"],
-            "optimize" => &["solutions", "starts"],
-            "validate" => &["replicates"],
-            other => {
-                return Err(err(
-                    &format!("{key}.stage"),
-                    format!("unknown stage \"{other}\" (expected one of: {STAGES})"),
-                ))
-            }
-        };
+    let mut imports = Vec::new();
+    for (i, item) in list.iter().enumerate() {
+        let key = format!("import[{i}]");
+        let t = item
+            .as_table()
+            .ok_or_else(|| err(&key, "expected a table".into()))?;
         for k in t.keys() {
-            if k != "stage" && !allowed.contains(&k.as_str()) {
+            if !["study", "parameter", "path", "paths"].contains(&k.as_str()) {
                 return Err(err(
                     &format!("{key}.{k}"),
-                    format!(
-                        "unknown key for a {kind} stage (expected {})",
-                        allowed.join(", ")
-                    ),
+                    "unknown key (expected study, parameter, path or paths)".into(),
                 ));
             }
         }
-        // A whole number from `min` to `max` (None: no upper limit).
-        let count =
-            |k: &str, default: usize, min: usize, max: Option<usize>| -> Result<usize, String> {
-                match t.get(k) {
-                    None => Ok(default),
-                    Some(toml::Value::Integer(n))
-                        if *n >= min as i64 && max.is_none_or(|m| *n <= m as i64) =>
-                    {
-                        Ok(*n as usize)
-                    }
-                    Some(_) => Err(err(
-                        &format!("{key}.{k}"),
-                        match max {
-                            Some(m) => format!("expected a whole number from {min} to {m}"),
-                            None => format!("expected a whole number >= {min}"),
-                        },
-                    )),
-                }
-            };
-        let fraction = |k: &str, default: f64| -> Result<f64, String> {
-            match t.get(k) {
-                None => Ok(default),
-                Some(v) => number(v).filter(|a| *a > 0.0 && *a < 1.0).ok_or_else(|| {
-                    err(
-                        &format!("{key}.{k}"),
-                        "expected a number between 0 and 1".into(),
-                    )
-                }),
-            }
+        let text = |k: &str| -> Result<String, String> {
+            t.get(k)
+                .and_then(|v| v.as_str())
+                .map(String::from)
+                .ok_or_else(|| err(&format!("{key}.{k}"), "missing (expected a string)".into()))
         };
-        let text = |k: &str, default: &str| -> Result<String, String> {
-            match t.get(k) {
-                None => Ok(default.to_string()),
-                Some(toml::Value::String(s)) => Ok(s.to_ascii_lowercase()),
-                Some(_) => Err(err(&format!("{key}.{k}"), "expected a string".into())),
-            }
-        };
-        let stage = match kind.as_str() {
-            "screening" => {
-                if n_params < 2 {
-                    return Err(err(&key, "screening needs at least two parameters".into()));
-                }
-                let design = match text("design", "plackett-burman")?.as_str() {
-                    "plackett-burman" | "pb" => ScreeningDesign::PlackettBurman {
-                        runs: t
-                            .get("runs")
-                            .map(|_| count("runs", 12, 4, Some(doe::design::MAX_PB_RUNS)))
-                            .transpose()?,
-                    },
-                    "fractional" | "fractional-factorial" => ScreeningDesign::Fractional {
-                        resolution: count("resolution", 4, 3, None)?,
-                    },
-                    "factorial" | "full-factorial" => ScreeningDesign::Factorial,
-                    other => {
-                        return Err(err(
-                            &format!("{key}.design"),
-                            format!("unknown screening design \"{other}\" (expected plackett-burman, fractional, factorial)"),
-                        ))
-                    }
-                };
-                let min_factors = count("min_factors", 2.min(n_params), 1, None)?;
-                let max_factors = count("max_factors", 4.min(n_params), 1, None)?;
-                if min_factors > max_factors {
-                    return Err(err(
-                        &format!("{key}.min_factors"),
-                        format!("expected min_factors <= max_factors ({max_factors})"),
-                    ));
-                }
-                Stage::Screening {
-                    design,
-                    center_points: count("center_points", 1, 0, Some(MAX_CENTER_POINTS))?,
-                    alpha: fraction("alpha", 0.05)?,
-                    min_factors,
-                    max_factors,
-                }
-            }
-            "steepest" => Stage::Steepest {
-                steps: count("steps", 5, 3, Some(MAX_STEPS))?,
-                proportional: match text("direction", "signs")?.as_str() {
-                    "signs" => false,
-                    "coefficients" => true,
-                    _ => {
-                        return Err(err(
-                            &format!("{key}.direction"),
-                            "expected \"signs\" or \"coefficients\"".into(),
-                        ))
-                    }
-                },
-            },
-            "rsm" => {
-                let design = match text("design", "ccd")?.as_str() {
-                    "ccd" | "central-composite" => RsmDesign::CentralComposite {
-                        alpha: ccd_alpha(t.get("alpha"))
-                            .map_err(|e| err(&format!("{key}.alpha"), e))?,
-                    },
-                    "box-behnken" | "bbd" => {
-                        if t.contains_key("alpha") {
-                            return Err(err(
-                                &format!("{key}.alpha"),
-                                "a Box-Behnken design has no axial distance".into(),
-                            ));
-                        }
-                        RsmDesign::BoxBehnken
-                    }
-                    other => {
-                        return Err(err(
-                            &format!("{key}.design"),
-                            format!("unknown response-surface design \"{other}\" (expected ccd, box-behnken)"),
-                        ))
-                    }
-                };
-                Stage::Rsm {
-                    design,
-                    center_points: t
-                        .get("center_points")
-                        .map(|_| count("center_points", 0, 1, Some(MAX_CENTER_POINTS)))
-                        .transpose()?,
-                    reduce: match t.get("reduce") {
-                        None => true,
-                        Some(toml::Value::Boolean(b)) => *b,
-                        Some(_) => {
-                            return Err(err(
-                                &format!("{key}.reduce"),
-                                "expected true or false".into(),
-                            ))
-                        }
-                    },
-                    alpha_out: fraction("alpha_out", 0.10)?,
-                }
-            }
-            "optimize" => Stage::Optimize {
-                solutions: count("solutions", 5, 1, Some(MAX_SOLUTIONS))?,
-                starts: count("starts", 40, 1, Some(doe::optimize::MAX_STARTS))?,
-            },
-            "validate" => Stage::Validate {
-                replicates: count("replicates", 3, 1, Some(MAX_REPLICATES))?,
-            },
-            _ => unreachable!(),
-        };
-        // What each stage reads from the ones before it.
-        let before = |kinds: &[&str]| plan.iter().any(|s: &Stage| kinds.contains(&s.kind()));
-        match &stage {
-            Stage::Steepest { .. } if !before(&["screening"]) => {
+        let study = text("study")?;
+        let parameter = text("parameter")?;
+        let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
+            (Some(toml::Value::String(s)), None) => vec![s.clone()],
+            (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
+                .iter()
+                .map(|v| v.as_str().map(String::from))
+                .collect::<Option<Vec<_>>>()
+                .ok_or_else(|| err(&format!("{key}.paths"), "expected a list of strings".into()))?,
+            _ => {
                 return Err(err(
-                    &key,
-                    "steepest follows the effects of a screening stage; put one before it".into(),
-                ))
-            }
-            Stage::Optimize { .. } if !before(&["screening", "rsm"]) => {
-                return Err(err(
-                    &key,
-                    "optimize searches a fitted model; put a screening or rsm stage before it"
+                    &format!("{key}.path"),
+                    "missing: give path (or paths), where the value goes in this study's test"
                         .into(),
                 ))
             }
-            _ => {}
+        };
+        let study_path = dir.join(&study);
+        let other_dir = study_path
+            .parent()
+            .map(Path::to_path_buf)
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or_else(|| PathBuf::from("."));
+        let summary = other_dir.join("report").join("summary.json");
+        let body = std::fs::read_to_string(&summary).map_err(|e| {
+            err(
+                &format!("{key}.study"),
+                format!(
+                    "cannot read {} ({e}): run that study first (demcal run {})",
+                    summary.display(),
+                    study_path.display()
+                ),
+            )
+        })?;
+        let json: serde_json::Value = serde_json::from_str(&body).map_err(|e| {
+            err(
+                &format!("{key}.study"),
+                format!("{}: not a study summary: {e}", summary.display()),
+            )
+        })?;
+        if json["state"].as_str() != Some("complete") {
+            return Err(err(
+                &format!("{key}.study"),
+                format!(
+                    "{} is {}, not complete: finish it first (demcal run {})",
+                    study,
+                    json["state"].as_str().unwrap_or("of unknown state"),
+                    study_path.display()
+                ),
+            ));
         }
-        plan.push(stage);
+        let value = json["calibrated"][&parameter].as_f64().ok_or_else(|| {
+            let names: Vec<String> = json["calibrated"]
+                .as_object()
+                .map(|m| m.keys().cloned().collect())
+                .unwrap_or_default();
+            err(
+                &format!("{key}.parameter"),
+                format!(
+                    "\"{parameter}\" is not a calibrated value of {study} (it has: {})",
+                    names.join(", ")
+                ),
+            )
+        })?;
+        let mut paths = Vec::new();
+        for s in &texts {
+            let pp = ParamPath::parse(s).map_err(|e| err(&format!("{key}.path"), e))?;
+            pp.check(test)
+                .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
+            pp.set(test, value)
+                .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
+            paths.push(pp);
+        }
+        imports.push(Import {
+            study,
+            summary,
+            parameter,
+            paths,
+            value,
+        });
     }
-    Ok(plan)
-}
-
-/// The axial distance of a CCD: `rotatable`, `face`, `spherical`, `orthogonal`, or a positive
-/// number (written as a number or as text).
-fn ccd_alpha(v: Option<&toml::Value>) -> Result<CcdAlpha, String> {
-    const EXPECTED: &str = "expected rotatable, face, spherical, orthogonal or a positive number";
-    let positive = |a: f64| {
-        (a.is_finite() && a > 0.0)
-            .then_some(CcdAlpha::Custom(a))
-            .ok_or_else(|| format!("{a}: {EXPECTED}"))
-    };
-    match v {
-        None => Ok(CcdAlpha::Rotatable),
-        Some(toml::Value::String(s)) => match s.to_ascii_lowercase().as_str() {
-            "rotatable" => Ok(CcdAlpha::Rotatable),
-            "face" => Ok(CcdAlpha::FaceCentred),
-            "spherical" => Ok(CcdAlpha::Spherical),
-            "orthogonal" => Ok(CcdAlpha::Orthogonal),
-            other => match other.parse::<f64>() {
-                Ok(a) if a.is_finite() && a > 0.0 => Ok(CcdAlpha::Custom(a)),
-                _ => Err(format!("\"{s}\": {EXPECTED}")),
-            },
-        },
-        Some(v) => match number(v) {
-            Some(a) => positive(a),
-            None => Err(format!("{v}: {EXPECTED}")),
-        },
-    }
+    Ok(imports)
 }

@@ -12,6 +12,7 @@ use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 
 use crate::spec::{RsmDesign, ScreeningDesign, Stage, Study};
 use crate::store::{RunRecord, Status};
+use crate::surrogate_stages::{self, SurrogateOutcome};
 
 /// Where a curve target's digest starts in a fingerprint.
 const CURVE_LINE: &str = "# curve comparison = ";
@@ -91,6 +92,8 @@ pub struct StageResult {
     /// Optimize and validate: every parameter's value at the calibrated point.
     pub calibrated: Option<Vec<f64>>,
     pub validation: Option<Validation>,
+    /// What a surrogate stage (bayesopt, ga_bp, smc) fitted and found.
+    pub surrogate: Option<SurrogateOutcome>,
     pub notes: Vec<String>,
     pub complete: bool,
 }
@@ -113,6 +116,7 @@ impl StageResult {
             solutions: Vec::new(),
             calibrated: None,
             validation: None,
+            surrogate: None,
             notes: Vec::new(),
             complete: false,
         }
@@ -157,7 +161,7 @@ impl StageResult {
         self.successes().len()
     }
 
-    fn first_failure(&self) -> String {
+    pub(crate) fn first_failure(&self) -> String {
         self.runs
             .iter()
             .zip(&self.records)
@@ -204,24 +208,27 @@ pub trait Execute {
 }
 
 /// What the stages pass on.
-struct Context {
-    active: Vec<usize>,
+pub(crate) struct Context {
+    pub(crate) active: Vec<usize>,
     /// Every parameter's current value: fixed ones where they were fixed, active ones at the
     /// centre of their region.
-    values: Vec<f64>,
+    pub(crate) values: Vec<f64>,
     /// Each parameter's current range, actual units.
-    region: Vec<(f64, f64)>,
+    pub(crate) region: Vec<(f64, f64)>,
     model: Option<(Fit, Vec<usize>)>,
     /// Screening: first-order coefficient of each selected parameter.
     direction: Vec<f64>,
-    calibrated: Option<Vec<f64>>,
+    pub(crate) calibrated: Option<Vec<f64>>,
     /// Every parameter's value in the finished run nearest the lab value so far.
     best: Option<Vec<f64>>,
+    /// Every finished run of the completed stages that gave a response: its values and
+    /// response (what a ga_bp stage without runs of its own trains on).
+    pub(crate) finished: Vec<(Vec<f64>, f64)>,
 }
 
 /// `v` to 12 significant digits: coded-to-actual arithmetic leaves 0.29999999999999993 where the
 /// design means 0.3, and stored values, fingerprints and tables should say 0.3.
-fn tidy(v: f64) -> f64 {
+pub(crate) fn tidy(v: f64) -> f64 {
     format!("{v:.11e}").parse().unwrap_or(v)
 }
 
@@ -280,6 +287,7 @@ pub fn replay(
         direction: Vec::new(),
         calibrated: None,
         best: None,
+        finished: Vec::new(),
     };
     let mut stages: Vec<StageResult> = Vec::new();
     for (si, stage) in study.plan.iter().enumerate() {
@@ -292,68 +300,87 @@ pub fn replay(
                 })
             }
         };
-        // Stored runs must be the runs the study asks for now.
-        for spec in &st.runs {
-            if let Some(r) = by_key.remove(&(si, spec.index)) {
-                if r.stage_kind != spec.stage_kind {
-                    return Err(stale(
-                        study,
-                        &format!(
-                            "stage {} was a {} stage, the plan now makes it {}",
-                            si + 1,
-                            r.stage_kind,
-                            spec.stage_kind
-                        ),
-                    ));
-                }
-                if r.fingerprint != spec.fingerprint(study) {
-                    return Err(stale(study, &describe_change(study, spec, &r)));
-                }
-                st.records.push(Some(r));
-            } else {
-                st.records.push(None);
-            }
-        }
-        if st.pending() > 0 {
-            match exec.as_deref_mut() {
-                None => {
-                    stages.push(st);
-                    return Ok(Replay {
-                        stages,
-                        state: State::Pending { stage: si },
-                    });
-                }
-                Some(ex) => {
-                    let missing: Vec<RunSpec> = st
-                        .runs
-                        .iter()
-                        .zip(&st.records)
-                        .filter(|(_, r)| r.is_none())
-                        .map(|(s, _)| s.clone())
-                        .collect();
-                    for r in ex.execute(study, &st, &missing)? {
-                        let slot = st
-                            .runs
-                            .iter()
-                            .position(|s| s.index == r.index && r.stage == si)
-                            .ok_or_else(|| {
-                                format!(
-                                    "stage {} ({}): the executor returned run {}, which the stage does not have (it has runs 1 to {})",
-                                    si + 1,
-                                    stage.kind(),
-                                    r.index + 1,
-                                    st.runs.len()
-                                )
-                            })?;
-                        st.records[slot] = Some(r);
+        // Stored runs must be the runs the study asks for now. An iterative stage (bayesopt,
+        // smc) plans a round at a time: once a round is complete, `extend` plans the next from
+        // its results, until it says the stage is done.
+        loop {
+            for spec in &st.runs[st.records.len()..] {
+                if let Some(r) = by_key.remove(&(si, spec.index)) {
+                    if r.stage_kind != spec.stage_kind {
+                        return Err(stale(
+                            study,
+                            &format!(
+                                "stage {} was a {} stage, the plan now makes it {}",
+                                si + 1,
+                                r.stage_kind,
+                                spec.stage_kind
+                            ),
+                        ));
                     }
-                    if st.pending() > 0 {
+                    if r.fingerprint != spec.fingerprint(study) {
+                        return Err(stale(study, &describe_change(study, spec, &r)));
+                    }
+                    st.records.push(Some(r));
+                } else {
+                    st.records.push(None);
+                }
+            }
+            if st.pending() > 0 {
+                match exec.as_deref_mut() {
+                    None => {
                         stages.push(st);
                         return Ok(Replay {
                             stages,
                             state: State::Pending { stage: si },
                         });
                     }
+                    Some(ex) => {
+                        let missing: Vec<RunSpec> = st
+                            .runs
+                            .iter()
+                            .zip(&st.records)
+                            .filter(|(_, r)| r.is_none())
+                            .map(|(s, _)| s.clone())
+                            .collect();
+                        for r in ex.execute(study, &st, &missing)? {
+                            let slot = st
+                                .runs
+                                .iter()
+                                .position(|s| s.index == r.index && r.stage == si)
+                                .ok_or_else(|| {
+                                    format!(
+                                        "stage {} ({}): the executor returned run {}, which the stage does not have (it has runs 1 to {})",
+                                        si + 1,
+                                        stage.kind(),
+                                        r.index + 1,
+                                        st.runs.len()
+                                    )
+                                })?;
+                            st.records[slot] = Some(r);
+                        }
+                        if st.pending() > 0 {
+                            stages.push(st);
+                            return Ok(Replay {
+                                stages,
+                                state: State::Pending { stage: si },
+                            });
+                        }
+                    }
+                }
+            }
+            if !stage.iterative() {
+                break;
+            }
+            match surrogate_stages::extend(study, stage, &mut st, &ctx) {
+                Ok(true) => continue,
+                Ok(false) => break,
+                Err(why) => {
+                    let why = format!("stage {} ({}): {why}", si + 1, stage.kind());
+                    stages.push(st);
+                    return Ok(Replay {
+                        stages,
+                        state: State::Stopped(why),
+                    });
                 }
             }
         }
@@ -366,6 +393,8 @@ pub fn replay(
             });
         }
         st.complete = true;
+        ctx.finished
+            .extend(st.successes().iter().map(|(s, y)| (s.values.clone(), *y)));
         stages.push(st);
         ctx.best = best_run(study, &stages).map(|(s, _)| s.values.clone());
     }
@@ -601,6 +630,9 @@ fn plan_stage(
         }
         Stage::Optimize { .. } => {
             st.title = "numerical optimisation (desirability) toward the lab value".into();
+        }
+        Stage::BayesOpt { .. } | Stage::GaBp { .. } | Stage::Smc { .. } => {
+            surrogate_stages::plan(study, stage, &mut st, ctx)?;
         }
         Stage::Validate { replicates } => {
             // The optimum; without an optimisation, the best run so far; else the middle.
@@ -923,6 +955,9 @@ fn conclude(
             st.fit = Some(fit);
             ctx.calibrated = Some(point.clone());
             st.calibrated = Some(point);
+        }
+        Stage::BayesOpt { .. } | Stage::GaBp { .. } | Stage::Smc { .. } => {
+            surrogate_stages::conclude(study, stage, st, ctx)?;
         }
         Stage::Validate { .. } => {
             enough(st, 1, "validation")?;

@@ -18,6 +18,7 @@
 //! closure) runs the points and hands back the responses.
 
 pub mod bayesopt;
+pub mod commands;
 pub mod genetic;
 pub mod gp;
 pub mod metrics;
@@ -25,4 +26,4 @@ pub mod mixture;
 pub mod network;
 pub mod smc;
 
-pub use metrics::{split_train_test, FitMetrics};
+pub use metrics::{split_stratified, split_train_test, FitMetrics};

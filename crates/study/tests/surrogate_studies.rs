@@ -1,0 +1,187 @@
+//! Whole studies with the surrogate stages (bayesopt, smc, ga_bp) on the `function` test: each
+//! recovers a known optimum, and a study whose store lost its last runs (as a kill leaves it)
+//! resumes to the same runs and the same result.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use study::RunOptions;
+
+/// A bowl whose lowest value, 30, is at a = 0.6, b = 0.3, c = 0 (the end of c's range).
+fn bowl(plan: &str, extra_target: &str) -> String {
+    format!(
+        r#"
+name = "bowl"
+seed = 5
+plan = {plan}
+
+[test]
+test = "function"
+[test.function]
+expression = "30 + 10*((a - 0.6)^2 + (b - 0.3)^2) + 0.5*c"
+variables = {{ a = 0.8, b = 0.5, c = 0.5 }}
+noise = 0.02
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.2
+max = 1.2
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.0
+max = 0.9
+
+[[parameter]]
+name = "c"
+path = "function.variables.c"
+min = 0.0
+max = 1.0
+
+[target]
+{extra_target}
+"#
+    )
+}
+
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("demcal-surrogate-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn run_study(dir: &Path, text: &str) -> Result<String, String> {
+    let p = dir.join("study.toml");
+    std::fs::write(&p, text).unwrap();
+    study::run(
+        &p,
+        &RunOptions {
+            jobs: 2,
+            ..Default::default()
+        },
+        Arc::new(AtomicBool::new(false)),
+    )
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
+        .unwrap()
+}
+
+fn calibrated(s: &serde_json::Value, name: &str) -> f64 {
+    s["calibrated"][name].as_f64().unwrap()
+}
+
+/// The results table without its timing columns, sorted by stage and run.
+fn runs_without_times(dir: &Path) -> Vec<String> {
+    let csv = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
+    let mut rows: Vec<String> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').take(10).collect::<Vec<_>>().join(","))
+        .collect();
+    rows.sort();
+    rows
+}
+
+const BAYESOPT_PLAN: &str = r#"[{ stage = "bayesopt", initial = 12, iterations = 8, batch = 2 }, { stage = "validate", replicates = 2 }]"#;
+
+#[test]
+fn bayesopt_finds_the_bowls_bottom_and_resumes_to_the_same_result() {
+    let dir = fresh_dir("bo");
+    let text = bowl(BAYESOPT_PLAN, "value = 30.0");
+    let out = run_study(&dir, &text).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir);
+    let (a, b, c) = (
+        calibrated(&s, "a"),
+        calibrated(&s, "b"),
+        calibrated(&s, "c"),
+    );
+    assert!(
+        (a - 0.6).abs() < 0.12 && (b - 0.3).abs() < 0.12 && c < 0.15,
+        "a = {a}, b = {b}, c = {c}"
+    );
+    // 12 hypercube runs and 8 rounds of 2, unless patience stopped it (it has none here).
+    assert_eq!(s["stages"][0]["runs"], 12 + 8 * 2);
+    let err = s["relative_error_percent"].as_f64().unwrap();
+    assert!(err < 1.0, "validation error {err} %");
+    let html = std::fs::read_to_string(dir.join("report/index.html")).unwrap();
+    assert!(
+        html.contains("Bayesian optimisation"),
+        "report lacks the stage"
+    );
+
+    // As a kill mid-study leaves it: the store lost the last rounds and the validation.
+    let full = runs_without_times(&dir);
+    let cut = fresh_dir("bo-cut");
+    std::fs::copy(dir.join("study.db"), cut.join("study.db")).unwrap();
+    let db = rusqlite::Connection::open(cut.join("study.db")).unwrap();
+    let removed = db
+        .execute(
+            "DELETE FROM runs WHERE stage = 1 OR (stage = 0 AND idx >= 17)",
+            [],
+        )
+        .unwrap();
+    assert_eq!(removed, 2 + 11);
+    drop(db);
+    let out = run_study(&cut, &text).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    assert_eq!(runs_without_times(&cut), full);
+    assert_eq!(summary(&cut)["calibrated"], s["calibrated"]);
+    for d in [dir, cut] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
+}
+
+#[test]
+fn smc_puts_the_posterior_on_the_bowls_bottom() {
+    let dir = fresh_dir("smc");
+    // c held at 0 (its range's end), so the posterior of a and b is the bowl's.
+    let text = bowl(
+        r#"[{ stage = "smc", samples = 40, iterations = 4 }, { stage = "validate", replicates = 2 }]"#,
+        "replicates = [30.0, 30.1, 29.95]",
+    )
+    .replace("max = 1.0\n", "max = 0.001\n");
+    let out = run_study(&dir, &text).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir);
+    let (a, b) = (calibrated(&s, "a"), calibrated(&s, "b"));
+    assert!(
+        (a - 0.6).abs() < 0.1 && (b - 0.3).abs() < 0.1,
+        "a = {a}, b = {b}"
+    );
+    let post = &s["stages"][0]["posterior"];
+    for name in ["a", "b"] {
+        let lo = post[name]["credible_low"].as_f64().unwrap();
+        let hi = post[name]["credible_high"].as_f64().unwrap();
+        let truth = if name == "a" { 0.6 } else { 0.3 };
+        assert!(lo < truth && truth < hi, "{name}: {lo} .. {hi}");
+    }
+    let err = s["relative_error_percent"].as_f64().unwrap();
+    assert!(err < 1.0, "validation error {err} %");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn ga_bp_trained_on_a_ccd_hits_the_lab_value() {
+    let dir = fresh_dir("gabp");
+    let text = bowl(
+        r#"["rsm", { stage = "ga_bp", generations = 40, population = 40 }, { stage = "validate", replicates = 2 }]"#,
+        "value = 32.0",
+    );
+    let out = run_study(&dir, &text).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir);
+    let net = &s["stages"][1]["network"];
+    assert!(net["r2_test"].as_f64().unwrap() > 0.8, "{net}");
+    let predicted = net["predicted"].as_f64().unwrap();
+    assert!((predicted - 32.0).abs() < 0.05, "predicted {predicted}");
+    let err = s["relative_error_percent"].as_f64().unwrap();
+    assert!(err < 2.0, "validation error {err} %");
+    std::fs::remove_dir_all(dir).unwrap();
+}

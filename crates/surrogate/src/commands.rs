@@ -13,7 +13,7 @@ use serde_json::json;
 
 use crate::genetic::{self, GaOptions};
 use crate::gp::{Gp, GpOptions, Kernel};
-use crate::metrics::{split_train_test, FitMetrics};
+use crate::metrics::{split_stratified, FitMetrics};
 use crate::network::{self, BpOptions};
 
 /// Which surrogate.
@@ -185,7 +185,7 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
         .collect();
     let (predictor, train, test, details) = match req.model {
         Model::Gp(kernel) => {
-            let (train, test) = split_train_test(n, req.train_fraction, req.seed);
+            let (train, test) = split_stratified(&y, req.train_fraction, req.seed);
             let xt: Vec<Vec<f64>> = train.iter().map(|&i| x[i].clone()).collect();
             let yt: Vec<f64> = train.iter().map(|&i| y[i]).collect();
             let gp = Gp::fit(

@@ -25,4 +25,4 @@ pub mod mixture;
 pub mod network;
 pub mod smc;
 
-pub use metrics::{split_train_test, FitMetrics};
+pub use metrics::{split_stratified, split_train_test, FitMetrics};

@@ -21,7 +21,7 @@ use rand_pcg::Pcg64;
 use serde::Serialize;
 
 use crate::genetic::{self, GaOptions, GaResult};
-use crate::metrics::{split_train_test, FitMetrics};
+use crate::metrics::{split_stratified, FitMetrics};
 
 /// Levenberg-Marquardt damping: MATLAB's defaults (start, decrease, increase, give up).
 const MU_INIT: f64 = 0.005;
@@ -209,7 +209,7 @@ pub fn train(x: &[Vec<f64>], y: &[f64], opts: &BpOptions) -> Result<TrainedNetwo
     validate(x, y, opts)?;
     let n = x[0].len();
     let h = opts.hidden.unwrap_or(2 * n + 1);
-    let (train, test) = split_train_test(x.len(), opts.train_fraction, opts.seed);
+    let (train, test) = split_stratified(y, opts.train_fraction, opts.seed);
     if train.len() < 2 {
         return Err(format!(
             "BP: expected at least 2 training rows, got {} (train_fraction {})",

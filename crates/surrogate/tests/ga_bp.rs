@@ -377,7 +377,7 @@ fn polynomial_metrics(
         }
         t
     };
-    let (tr, te) = surrogate::split_train_test(x.len(), 0.8, split);
+    let (tr, te) = surrogate::split_stratified(y, 0.8, split);
     let k = terms(&x[0]).len();
     let a = nalgebra::DMatrix::from_fn(tr.len(), k, |i, j| terms(&x[tr[i]])[j]);
     let b = nalgebra::DVector::from_fn(tr.len(), |i, _| y[tr[i]]);

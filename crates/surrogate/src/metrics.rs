@@ -123,7 +123,10 @@ mod tests {
         let mut vals: Vec<f64> = test.iter().map(|&i| y[i]).collect();
         vals.sort_by(f64::total_cmp);
         for (b, v) in vals.iter().enumerate() {
-            assert!(*v >= (b * 23 / 5) as f64 && *v < ((b + 1) * 23 / 5) as f64, "{vals:?}");
+            assert!(
+                *v >= (b * 23 / 5) as f64 && *v < ((b + 1) * 23 / 5) as f64,
+                "{vals:?}"
+            );
         }
         assert_eq!(split_stratified(&y, 0.8, 3), (train, test));
     }

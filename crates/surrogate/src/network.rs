@@ -4,16 +4,34 @@
 //! optionally a genetic algorithm for the initial weights (GA-BP) and a second one for the
 //! inputs whose prediction is the lab value (GA-BP-GA, [`search_target`]).
 //!
-//! Regularisation. A 3-7-1 network has 36 weights and the silage CCD leaves 18 training rows,
-//! so plain least squares interpolates the training rows (including the centre points' pure
-//! error) and generalises badly. Training therefore minimises MATLAB `trainbr`'s Bayesian
-//! regularised objective F = beta E_D + alpha E_W (E_D the sum of squared errors, E_W the sum of
-//! squared weights) and re-estimates alpha and beta after every epoch from the effective number
-//! of parameters gamma (MacKay 1992; Foresee and Hagan 1997). We chose it over early stopping
-//! because early stopping would take a validation slice out of only 18 rows, and over a fixed
-//! weight decay because its strength would be one more number to tune per data set: the
-//! evidence framework sets the strength from the data, and gamma comes out near the number of
-//! parameters the data can support (a quadratic in three factors has 10).
+//! Generalisation. A 3-7-1 network has 36 weights and the silage CCD (23 runs, 9 of them centre
+//! points spreading 36.8 to 41 deg) leaves 18 rows once 20 % are held out for testing, so plain
+//! least squares interpolates the training rows, pure error included. The default is MATLAB's
+//! own default for `trainlm`, which the published method (training, validation, test and all
+//! data) follows: a validation slice of the non-test rows (`validation_fraction` 0.2, stratified
+//! on the response like the test rows: 4 of the 18), Levenberg-Marquardt on the training rows'
+//! squared error, stop after `max_fail` = 6 epochs without a new lowest validation error and
+//! keep the weights of the lowest. `ensemble` > 1 averages that many such networks, each with
+//! its own validation slice, GA seed and initial weights (bagging); the test rows are the same
+//! for all.
+//!
+//! What we measured (GA-BP with the published GA settings, split seeds 0..20, test R^2 >= 0.8
+//! on the 5 stratified test rows; `survey_variants` in tests/ga_bp.rs):
+//! - trainbr's Bayesian regularisation (`bayesian`, no validation rows), the previous default:
+//!   2/20. gamma settles near 10, but the GA's weights already interpolate the training rows and
+//!   the evidence keeps them (train R^2 0.97, test RMSE 4 deg against 0.9 in training).
+//! - early stopping, one network: 6/20 (LM stops within a few epochs: the GA has already fitted
+//!   the 14 training rows, and the validation slice of 4 rows picks among overfitted weights).
+//!   With Bayesian regularisation as well: 6/20.
+//! - early stopping, ensemble of 10: 9/20 (kept as the acceptance configuration).
+//! - weight decay chosen by 6-fold cross-validation on the training rows (`cv_folds`): 7/20.
+//! - for scale, least squares on the same 18 rows: linear 11/20, the ANOVA-supported reduced
+//!   quadratic (D, E, G, D^2, G^2) 10/20, the full quadratic 2/20; the reduced quadratic fitted
+//!   to all 23 rows scores 19/20 on the same test rows. So a majority of splits is out of reach
+//!   of any model fitted to 18 of these rows: the stratified test rows hold the extreme
+//!   responses, i.e. the axial points, one per factor and sign, and taking one out leaves that
+//!   curvature to extrapolation. A fixed weight decay of 0.3 scored 10/20, but that value was
+//!   picked by looking at test R^2, so it is not the default.
 
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
@@ -77,6 +95,8 @@ pub struct Network {
     n: usize,
     h: usize,
     weights: Vec<f64>,
+    /// Further members of an ensemble; the prediction averages them with `weights`.
+    members: Vec<Vec<f64>>,
     x_norm: Vec<MinMax>,
     y_norm: MinMax,
 }
@@ -97,8 +117,12 @@ impl Network {
             .zip(&self.x_norm)
             .map(|(&v, m)| m.normalise(v))
             .collect();
+        let sum: f64 = std::iter::once(&self.weights)
+            .chain(&self.members)
+            .map(|w| forward(self.n, self.h, w, &u))
+            .sum();
         self.y_norm
-            .denormalise(forward(self.n, self.h, &self.weights, &u))
+            .denormalise(sum / (1 + self.members.len()) as f64)
     }
 
     pub fn inputs(&self) -> usize {
@@ -166,6 +190,24 @@ pub struct BpOptions {
     pub seed: u64,
     /// Some for GA-BP: a genetic algorithm picks the initial weights.
     pub ga: Option<GaOptions>,
+    /// Share of the non-test rows held out as validation rows for early stopping (stratified
+    /// on the response like the test rows); 0 for no validation rows and no early stopping.
+    pub validation_fraction: f64,
+    /// Early stopping: training stops after this many epochs in a row without a new lowest
+    /// validation error (MATLAB's `max_fail`) and keeps the weights of the lowest.
+    pub max_fail: usize,
+    /// Minimise trainbr's Bayesian-regularised objective (true) or the plain sum of squared
+    /// errors of trainlm (false).
+    pub bayesian: bool,
+    /// A fixed weight decay: Levenberg-Marquardt minimises E_D + weight_decay E_W (normalised
+    /// units) instead of the objective `bayesian` picks; the GA-BP fitness stays the training
+    /// MSE.
+    pub weight_decay: Option<f64>,
+    /// Above 1: the weight decay is chosen by `cv_folds`-fold cross-validation on the training
+    /// rows only (see [`DECAY_GRID`]), overriding `weight_decay`.
+    pub cv_folds: usize,
+    /// Networks averaged (bagging over validation slices and GA seeds); 1 for one network.
+    pub ensemble: usize,
 }
 
 impl Default for BpOptions {
@@ -177,6 +219,12 @@ impl Default for BpOptions {
             train_fraction: 0.8,
             seed: 0,
             ga: None,
+            validation_fraction: 0.2,
+            max_fail: 6,
+            bayesian: false,
+            weight_decay: None,
+            cv_folds: 0,
+            ensemble: 1,
         }
     }
 }
@@ -188,8 +236,12 @@ pub struct TrainedNetwork {
     /// Rows used for training and for testing (sorted).
     pub train: Vec<usize>,
     pub test: Vec<usize>,
+    /// Rows held out of training for early stopping (sorted; empty without early stopping).
+    pub validation: Vec<usize>,
     pub metrics_train: FitMetrics,
     pub metrics_test: FitMetrics,
+    /// Fit on the validation rows (all NaN without them).
+    pub metrics_validation: FitMetrics,
     pub metrics_all: FitMetrics,
     /// GA-BP: the GA's best training MSE (normalised units) after each generation; empty for
     /// plain BP.
@@ -207,9 +259,55 @@ pub struct TrainedNetwork {
 /// Errors on fewer than 3 rows, rows of different lengths, non-finite values, or bad options.
 pub fn train(x: &[Vec<f64>], y: &[f64], opts: &BpOptions) -> Result<TrainedNetwork, String> {
     validate(x, y, opts)?;
+    let mut first = train_member(x, y, opts, 0)?;
+    if opts.ensemble <= 1 {
+        return Ok(first);
+    }
+    for m in 1..opts.ensemble as u64 {
+        let other = train_member(x, y, opts, m)?;
+        first.network.members.push(other.network.weights);
+        first.epochs += other.epochs;
+        first.effective_parameters += other.effective_parameters;
+    }
+    first.effective_parameters /= opts.ensemble as f64;
+    first.predictions = x.iter().map(|row| first.network.predict(row)).collect();
+    let metrics = |rows: &[usize]| {
+        let obs: Vec<f64> = rows.iter().map(|&i| y[i]).collect();
+        let pred: Vec<f64> = rows.iter().map(|&i| first.predictions[i]).collect();
+        FitMetrics::of(&obs, &pred)
+    };
+    first.metrics_train = metrics(&first.train);
+    first.metrics_test = metrics(&first.test);
+    first.metrics_validation = metrics(&first.validation);
+    first.metrics_all = FitMetrics::of(y, &first.predictions);
+    Ok(first)
+}
+
+/// One network of `train`; `member` varies the validation slice, the GA seed and the initial
+/// weights, never the test rows.
+fn train_member(
+    x: &[Vec<f64>],
+    y: &[f64],
+    opts: &BpOptions,
+    member: u64,
+) -> Result<TrainedNetwork, String> {
     let n = x[0].len();
     let h = opts.hidden.unwrap_or(2 * n + 1);
-    let (train, test) = split_stratified(y, opts.train_fraction, opts.seed);
+    let (fit_rows, test) = split_stratified(y, opts.train_fraction, opts.seed);
+    let (train, validation) = if opts.validation_fraction > 0.0 {
+        let yf: Vec<f64> = fit_rows.iter().map(|&i| y[i]).collect();
+        let (a, b) = split_stratified(
+            &yf,
+            1.0 - opts.validation_fraction,
+            (opts.seed ^ 0x5851_f42d_4c95_7f2d).wrapping_add(member),
+        );
+        (
+            a.iter().map(|&k| fit_rows[k]).collect::<Vec<_>>(),
+            b.iter().map(|&k| fit_rows[k]).collect::<Vec<_>>(),
+        )
+    } else {
+        (fit_rows.clone(), Vec::new())
+    };
     if train.len() < 2 {
         return Err(format!(
             "BP: expected at least 2 training rows, got {} (train_fraction {})",
@@ -218,36 +316,55 @@ pub fn train(x: &[Vec<f64>], y: &[f64], opts: &BpOptions) -> Result<TrainedNetwo
         ));
     }
 
+    // Normalised with the training and validation rows (MATLAB normalises before dividing);
+    // the test rows never enter.
     let x_norm: Vec<MinMax> = (0..n)
-        .map(|k| MinMax::of(train.iter().map(|&i| x[i][k])))
+        .map(|k| MinMax::of(fit_rows.iter().map(|&i| x[i][k])))
         .collect();
-    let y_norm = MinMax::of(train.iter().map(|&i| y[i]));
-    let u: Vec<Vec<f64>> = train
-        .iter()
-        .map(|&i| {
-            x[i].iter()
-                .zip(&x_norm)
-                .map(|(&v, m)| m.normalise(v))
-                .collect()
-        })
-        .collect();
-    let t: Vec<f64> = train.iter().map(|&i| y_norm.normalise(y[i])).collect();
+    let y_norm = MinMax::of(fit_rows.iter().map(|&i| y[i]));
+    let norm_rows = |rows: &[usize]| -> (Vec<Vec<f64>>, Vec<f64>) {
+        let u = rows
+            .iter()
+            .map(|&i| {
+                x[i].iter()
+                    .zip(&x_norm)
+                    .map(|(&v, m)| m.normalise(v))
+                    .collect()
+            })
+            .collect();
+        (u, rows.iter().map(|&i| y_norm.normalise(y[i])).collect())
+    };
+    let (u, t) = norm_rows(&train);
+    let (uv, tv) = norm_rows(&validation);
 
+    let mut chosen = opts.clone();
+    if opts.cv_folds > 1 {
+        chosen.weight_decay = Some(cv_decay(n, h, &u, &t, opts));
+    }
+    let opts = &chosen;
     let p = Network::parameter_count(n, h);
     let (w0, ga_history) = match &opts.ga {
         Some(ga) => {
             let bounds = vec![(-GA_WEIGHT_BOUND, GA_WEIGHT_BOUND); p];
+            let ga = &GaOptions {
+                seed: ga.seed.wrapping_add(member),
+                ..ga.clone()
+            };
             let r = genetic::minimize(&bounds, |w| mse(n, h, w, &u, &t), ga)?;
             (r.best, r.history)
         }
-        None => (initial_weights(n, h, opts.seed), Vec::new()),
+        None => (
+            initial_weights(n, h, opts.seed.wrapping_add(member << 32)),
+            Vec::new(),
+        ),
     };
 
-    let fit = levenberg_marquardt(n, h, w0, &u, &t, opts);
+    let fit = levenberg_marquardt(n, h, w0, (&u, &t), (&uv, &tv), opts);
     let network = Network {
         n,
         h,
         weights: fit.weights,
+        members: Vec::new(),
         x_norm,
         y_norm,
     };
@@ -260,10 +377,12 @@ pub fn train(x: &[Vec<f64>], y: &[f64], opts: &BpOptions) -> Result<TrainedNetwo
     Ok(TrainedNetwork {
         metrics_train: metrics(&train),
         metrics_test: metrics(&test),
+        metrics_validation: metrics(&validation),
         metrics_all: FitMetrics::of(y, &predictions),
         network,
         train,
         test,
+        validation,
         ga_history,
         epochs: fit.epochs,
         predictions,
@@ -318,6 +437,20 @@ fn validate(x: &[Vec<f64>], y: &[f64], opts: &BpOptions) -> Result<(), String> {
             opts.goal_mse
         ));
     }
+    if !(opts.validation_fraction >= 0.0 && opts.validation_fraction < 1.0) {
+        return Err(format!(
+            "BP: expected a validation_fraction in [0, 1), got {}",
+            opts.validation_fraction
+        ));
+    }
+    if let Some(a) = opts.weight_decay {
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(format!("BP: expected a finite weight_decay >= 0, got {a}"));
+        }
+    }
+    if opts.ensemble == 0 {
+        return Err("BP: expected an ensemble of at least one network, got 0".into());
+    }
     Ok(())
 }
 
@@ -344,6 +477,53 @@ fn initial_weights(n: usize, h: usize, seed: u64) -> Vec<f64> {
     w
 }
 
+/// Levenberg-Marquardt epochs at most per cross-validation fit.
+const CV_EPOCHS: usize = 100;
+/// Weight decays tried by cross-validation.
+const DECAY_GRID: [f64; 8] = [0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0];
+
+/// The weight decay of [`DECAY_GRID`] with the lowest k-fold cross-validated squared error on
+/// the training rows (folds stratified on the response: sorted position mod k), plain LM from
+/// Nguyen-Widrow initial weights of a few seeds.
+fn cv_decay(n: usize, h: usize, u: &[Vec<f64>], t: &[f64], opts: &BpOptions) -> f64 {
+    let k = opts.cv_folds.min(t.len());
+    let mut order: Vec<usize> = (0..t.len()).collect();
+    order.sort_by(|&a, &b| t[a].total_cmp(&t[b]).then(a.cmp(&b)));
+    let mut fold = vec![0; t.len()];
+    for (pos, &i) in order.iter().enumerate() {
+        fold[i] = pos % k;
+    }
+    let mut best = (f64::INFINITY, DECAY_GRID[0]);
+    for &a in &DECAY_GRID {
+        let o = BpOptions {
+            weight_decay: Some(a),
+            bayesian: false,
+            max_epochs: opts.max_epochs.min(CV_EPOCHS),
+            ..opts.clone()
+        };
+        let mut err = 0.0;
+        for f in 0..k {
+            let pick = |inside: bool| -> (Vec<Vec<f64>>, Vec<f64>) {
+                (0..t.len())
+                    .filter(|&i| (fold[i] == f) != inside)
+                    .map(|i| (u[i].clone(), t[i]))
+                    .unzip()
+            };
+            let (ut, tt) = pick(true);
+            let (uh, th) = pick(false);
+            for r in 0..1u64 {
+                let w0 = initial_weights(n, h, opts.seed.wrapping_add(1000 * r + f as u64));
+                let fit = levenberg_marquardt(n, h, w0, (&ut, &tt), (&[], &[]), &o);
+                err += sse(n, h, &fit.weights, &uh, &th);
+            }
+        }
+        if err < best.0 {
+            best = (err, a);
+        }
+    }
+    best.1
+}
+
 /// Training mean squared error in normalised units (the GA-BP fitness).
 fn mse(n: usize, h: usize, w: &[f64], u: &[Vec<f64>], t: &[f64]) -> f64 {
     sse(n, h, w, u, t) / t.len() as f64
@@ -368,10 +548,14 @@ fn levenberg_marquardt(
     n: usize,
     h: usize,
     mut w: Vec<f64>,
-    u: &[Vec<f64>],
-    t: &[f64],
+    (u, t): (&[Vec<f64>], &[f64]),
+    (uv, tv): (&[Vec<f64>], &[f64]),
     opts: &BpOptions,
 ) -> LmFit {
+    let early = !tv.is_empty();
+    let mut best_val = if early { sse(n, h, &w, uv, tv) } else { 0.0 };
+    let mut best_w = w.clone();
+    let mut fails = 0;
     let p = w.len();
     let rows = t.len() as f64;
     let sum_sq = |w: &[f64]| w.iter().map(|v| v * v).sum::<f64>();
@@ -389,6 +573,11 @@ fn levenberg_marquardt(
         beta = 1.0;
     }
     let mut alpha = if e_w > 0.0 { gamma / (2.0 * e_w) } else { 1.0 };
+    if !opts.bayesian || opts.weight_decay.is_some() {
+        // trainlm: F = E_D.
+        beta = 1.0;
+        alpha = opts.weight_decay.unwrap_or(0.0);
+    }
     let mut mu = MU_INIT;
 
     let mut jac = DMatrix::<f64>::zeros(t.len(), p);
@@ -440,6 +629,22 @@ fn levenberg_marquardt(
         if !accepted {
             break;
         }
+        if early {
+            let v = sse(n, h, &w, uv, tv);
+            if v < best_val {
+                best_val = v;
+                best_w.clone_from(&w);
+                fails = 0;
+            } else {
+                fails += 1;
+                if fails >= opts.max_fail {
+                    break;
+                }
+            }
+        }
+        if !opts.bayesian || opts.weight_decay.is_some() {
+            continue;
+        }
 
         // Re-estimate the hyperparameters at the new weights (the Gauss-Newton Hessian at the
         // old ones, as trainbr does; it changes little in one accepted step).
@@ -456,6 +661,12 @@ fn levenberg_marquardt(
                 beta = (rows - gamma) / (2.0 * e_d);
             }
         }
+    }
+    if early {
+        w = best_w;
+    }
+    if !opts.bayesian {
+        gamma = p as f64;
     }
     LmFit {
         weights: w,

@@ -178,7 +178,10 @@ fn bp_fits_a_smooth_function() {
         .unwrap();
         assert_eq!(t.network.inputs(), 3);
         assert_eq!(t.network.hidden(), 7);
-        assert_eq!((t.train.len(), t.test.len()), (100, 25));
+        assert_eq!(
+            (t.train.len(), t.validation.len(), t.test.len()),
+            (80, 20, 25)
+        );
         assert!(t.ga_history.is_empty());
         assert_eq!(t.predictions.len(), 125);
         println!(
@@ -211,73 +214,78 @@ fn ga_bp_options(seed: u64, ga: GaOptions) -> BpOptions {
     }
 }
 
-/// Splits (BpOptions::seed) whose five test rows can be predicted to R^2 >= 0.8 at all. With 23
-/// noisy runs (the nine centre points alone spread 36.8 to 41.0 deg) a five-row test R^2 mostly
-/// measures the split: over split seeds 0..20, a quadratic RSM fitted to the same 18 training
-/// rows reaches test R^2 >= 0.8 on none, a linear model on 8, GA-BP on 3 (seeds 1, 4 and 19,
-/// see `survey_silage_seeds`). Seeds 1 (test runs 3, 4, 7, 15, 19) and 4 (test runs 1, 4, 17,
-/// 21, 23) both hold out axial points, so the network has to extrapolate.
-const TESTABLE_SPLITS: [u64; 2] = [1, 4];
+/// GA-BP as the acceptance runs it: early stopping on a validation slice (the default) and an
+/// average of 10 networks with their own validation slices and GA seeds.
+fn ensemble_options(seed: u64) -> BpOptions {
+    BpOptions {
+        ensemble: 10,
+        ..ga_bp_options(seed, GaOptions::weights_default(seed))
+    }
+}
 
+/// Over split seeds 0..20, GA-BP (ensemble of 10, published GA settings) reaches test R^2 >= 0.8
+/// on 9. That is no clear majority, and no model fitted to 18 of these 23 runs gets one: least
+/// squares on the same rows gives 11/20 for a linear model and 10/20 for the reduced quadratic
+/// the ANOVA supports (see the module notes of `network` and `survey_variants`). The test
+/// asserts the count that holds, all-data R^2 >= 0.8 on every split, and that GA-BP-GA finds
+/// inputs predicting the lab angle to 0.01 deg on split 1.
 #[test]
 fn ga_bp_ga_on_the_silage_ccd() {
     let (x, y) = silage();
     let bounds = [(-ALPHA, ALPHA); 3];
-    for split in TESTABLE_SPLITS {
-        // Several GA seeds per split: the fit must not hinge on one lucky initial population.
-        for ga_seed in [0, 1, 2] {
-            let start = Instant::now();
-            let opts = ga_bp_options(split, GaOptions::weights_default(ga_seed));
-            let t = train(&x, &y, &opts).unwrap();
-            let trained = start.elapsed();
+    let mut pass = 0;
+    for split in 0..20u64 {
+        let start = Instant::now();
+        let t = train(&x, &y, &ensemble_options(split)).unwrap();
+        let trained = start.elapsed();
+        pass += (t.metrics_test.r2 >= 0.8) as usize;
+        println!(
+            "silage GA-BP split {split}: R2 train {:.4} validation {:.4} test {:.4} all {:.4}; \
+             RMSE {:.3}/{:.3}/{:.3}; MAE {:.3}/{:.3}/{:.3}; epochs {}, {trained:?}",
+            t.metrics_train.r2,
+            t.metrics_validation.r2,
+            t.metrics_test.r2,
+            t.metrics_all.r2,
+            t.metrics_train.rmse,
+            t.metrics_test.rmse,
+            t.metrics_all.rmse,
+            t.metrics_train.mae,
+            t.metrics_test.mae,
+            t.metrics_all.mae,
+            t.epochs,
+        );
+        assert!(
+            t.metrics_all.r2 >= 0.8,
+            "split {split}: {:?}",
+            t.metrics_all
+        );
+        assert_eq!(
+            (t.train.len(), t.validation.len(), t.test.len()),
+            (14, 4, 5)
+        );
+        assert_eq!(t.ga_history.len(), 200);
+        assert!(t.ga_history.windows(2).all(|w| w[1] <= w[0]));
+        if split == 1 {
             let s = search_target(
                 &t.network,
                 &bounds,
                 LAB_ANGLE,
-                &GaOptions::search_default(ga_seed),
+                &GaOptions::search_default(split),
             )
             .unwrap();
             let p = t.network.predict(&s.best);
             println!(
-                "silage GA-BP split {split} GA seed {ga_seed}: R2 train {:.4} test {:.4} all {:.4}; \
-                 RMSE {:.3}/{:.3}/{:.3}; MAE {:.3}/{:.3}/{:.3}; epochs {}, gamma {:.2}, {trained:?}; \
-                 GA-BP-GA D {:.4} E {:.4} G {:.4} -> {p:.4} deg",
-                t.metrics_train.r2,
-                t.metrics_test.r2,
-                t.metrics_all.r2,
-                t.metrics_train.rmse,
-                t.metrics_test.rmse,
-                t.metrics_all.rmse,
-                t.metrics_train.mae,
-                t.metrics_test.mae,
-                t.metrics_all.mae,
-                t.epochs,
-                t.effective_parameters,
-                s.best[0],
-                s.best[1],
-                s.best[2],
+                "GA-BP-GA split {split}: D {:.4} E {:.4} G {:.4} -> {p:.4} deg",
+                s.best[0], s.best[1], s.best[2]
             );
-            assert!(
-                t.metrics_test.r2 >= 0.8,
-                "split {split}, GA seed {ga_seed}: {:?}",
-                t.metrics_test
-            );
-            assert!(
-                t.metrics_all.r2 >= 0.8,
-                "split {split}, GA seed {ga_seed}: {:?}",
-                t.metrics_all
-            );
-            assert_eq!(t.ga_history.len(), 200);
-            assert!(t.ga_history.windows(2).all(|w| w[1] <= w[0]));
-            assert!(
-                (p - LAB_ANGLE).abs() <= 0.01,
-                "split {split}, GA seed {ga_seed}: {p}"
-            );
+            assert!((p - LAB_ANGLE).abs() <= 0.01, "{p}");
             assert!(s.value <= 0.01);
             assert!(s.best.iter().all(|v| v.abs() <= ALPHA));
             assert_eq!(s.history.len(), 100);
         }
     }
+    println!("test R2 >= 0.8 on {pass} of 20 splits");
+    assert!(pass >= 9, "{pass} of 20");
 }
 
 #[test]
@@ -330,6 +338,18 @@ fn training_rejects_bad_input() {
         ..o.clone()
     };
     assert!(err(&x, &y, &none_hidden).contains("hidden"));
+    for vf in [-0.1, 1.0, f64::NAN] {
+        let bad = BpOptions {
+            validation_fraction: vf,
+            ..o.clone()
+        };
+        assert!(err(&x, &y, &bad).contains("validation_fraction"));
+    }
+    let no_members = BpOptions {
+        ensemble: 0,
+        ..o.clone()
+    };
+    assert!(err(&x, &y, &no_members).contains("ensemble"));
     let bad_goal = BpOptions {
         goal_mse: -1.0,
         ..o.clone()
@@ -363,9 +383,22 @@ fn polynomial_metrics(
     split: u64,
     quadratic: bool,
 ) -> (surrogate::FitMetrics, surrogate::FitMetrics) {
+    polynomial_metrics_of(x, y, split, if quadratic { 2 } else { 0 })
+}
+
+/// `kind` 0: linear, 1: the reduced quadratic D, E, G, D^2, G^2, 2: the full quadratic.
+fn polynomial_metrics_of(
+    x: &[Vec<f64>],
+    y: &[f64],
+    split: u64,
+    kind: usize,
+) -> (surrogate::FitMetrics, surrogate::FitMetrics) {
     let terms = |r: &[f64]| {
         let mut t = vec![1.0, r[0], r[1], r[2]];
-        if quadratic {
+        if kind == 1 {
+            t.extend([r[0] * r[0], r[2] * r[2]]);
+        }
+        if kind == 2 {
             t.extend([
                 r[0] * r[1],
                 r[0] * r[2],
@@ -467,4 +500,89 @@ fn survey_silage_seeds() {
         "test R2 >= 0.8 of 20 splits: BP {}, GA-BP {}, linear {}, quadratic {}",
         pass[0], pass[1], pass[2], pass[3]
     );
+}
+
+/// Not a check: GA-BP test R^2 over split seeds 0..20 for the training variants compared in the
+/// module notes of `network` (early stopping, Bayesian regularisation, both, a fixed weight
+/// decay, one network or an ensemble of 10, the weight decay by cross-validation), beside least
+/// squares polynomials (kind 0 linear, 1 reduced quadratic, 2 full quadratic) on the same rows.
+/// About 90 s. `cargo test --release -p demcal-surrogate --test ga_bp -- --ignored --nocapture
+/// survey_variants`.
+#[test]
+#[ignore]
+fn survey_variants() {
+    let (x, y) = silage();
+    let mut variants: Vec<(String, BpOptions)> = Vec::new();
+    variants.push((
+        "weight decay by 6-fold CV".into(),
+        BpOptions {
+            validation_fraction: 0.0,
+            cv_folds: 6,
+            ..Default::default()
+        },
+    ));
+    for e in [1, 10] {
+        variants.push((
+            format!("ES LM vf 0.2 ens {e}"),
+            BpOptions {
+                ensemble: e,
+                ..Default::default()
+            },
+        ));
+        variants.push((
+            format!("BR ens {e}"),
+            BpOptions {
+                validation_fraction: 0.0,
+                bayesian: true,
+                ensemble: e,
+                ..Default::default()
+            },
+        ));
+        variants.push((
+            format!("decay 0.3 ens {e}"),
+            BpOptions {
+                validation_fraction: 0.0,
+                weight_decay: Some(0.3),
+                ensemble: e,
+                ..Default::default()
+            },
+        ));
+        variants.push((
+            format!("BR+ES ens {e}"),
+            BpOptions {
+                bayesian: true,
+                ensemble: e,
+                ..Default::default()
+            },
+        ));
+    }
+    for kind in 0..3 {
+        let n = (0..20u64)
+            .filter(|&s| polynomial_metrics_of(&x, &y, s, kind).1.r2 >= 0.8)
+            .count();
+        println!("polynomial kind {kind}: {n}/20");
+    }
+    for (name, base) in variants {
+        let mut pass = 0;
+        let mut r2s = Vec::new();
+        let start = Instant::now();
+        for seed in 0..20u64 {
+            let opts = BpOptions {
+                seed,
+                ga: Some(GaOptions::weights_default(seed)),
+                ..base.clone()
+            };
+            let t = train(&x, &y, &opts).unwrap();
+            pass += (t.metrics_test.r2 >= 0.8) as usize;
+            r2s.push(format!(
+                "{:.2}/{:.2}/{:.2}/{}",
+                t.metrics_train.r2, t.metrics_validation.r2, t.metrics_test.r2, t.epochs
+            ));
+        }
+        println!(
+            "{name}: {pass}/20 in {:?}\n  {}",
+            start.elapsed(),
+            r2s.join(" ")
+        );
+    }
 }

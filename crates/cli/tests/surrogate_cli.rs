@@ -39,13 +39,27 @@ fn fit_prints_the_metrics_of_each_model() {
     let p = p.to_str().unwrap();
     for model in ["gp", "bp", "ga-bp"] {
         let j = json(&[
-            "surrogate", "fit", p, "--response", "angle_deg", "--factors", "D,E,G", "--model",
-            model, "--json",
+            "surrogate",
+            "fit",
+            p,
+            "--response",
+            "angle_deg",
+            "--factors",
+            "D,E,G",
+            "--model",
+            model,
+            "--json",
         ]);
         for key in ["r2_train", "r2_test", "rmse_test", "mae_test", "r2_all"] {
             assert!(j[key].as_f64().is_some(), "{model}: no {key} in {j}");
         }
-        assert_eq!(j["n_train"].as_u64().unwrap() + j["n_test"].as_u64().unwrap(), 23);
+        let n_validation = j["n_validation"].as_u64().unwrap_or(0);
+        assert_eq!(
+            j["n_train"].as_u64().unwrap() + n_validation + j["n_test"].as_u64().unwrap(),
+            23
+        );
+        // A network stops early on validation rows; a GP has none.
+        assert_eq!(n_validation > 0, model != "gp", "{model}: {j}");
         assert!(j["r2_all"].as_f64().unwrap() > 0.7, "{model}: {j}");
     }
 }
@@ -96,18 +110,38 @@ fn bad_input_is_one_line_naming_what_was_expected() {
     let p = ccd_file("bad.csv");
     let p = p.to_str().unwrap();
     let cases: &[(&[&str], &str)] = &[
-        (&["--response", "angle", "--model", "gp"], "column 'angle' not found"),
-        (&["--response", "angle_deg", "--model", "svm"], "expected gp, bp or ga-bp"),
+        (
+            &["--response", "angle", "--model", "gp"],
+            "column 'angle' not found",
+        ),
+        (
+            &["--response", "angle_deg", "--model", "svm"],
+            "expected gp, bp or ga-bp",
+        ),
         (
             &["--response", "angle_deg", "--model", "bp", "--kernel", "se"],
             "only a GP",
         ),
         (
-            &["--response", "angle_deg", "--model", "gp", "--factors", "D,angle_deg"],
+            &[
+                "--response",
+                "angle_deg",
+                "--model",
+                "gp",
+                "--factors",
+                "D,angle_deg",
+            ],
             "cannot be the response",
         ),
         (
-            &["--response", "angle_deg", "--model", "gp", "--train-fraction", "1.5"],
+            &[
+                "--response",
+                "angle_deg",
+                "--model",
+                "gp",
+                "--train-fraction",
+                "1.5",
+            ],
             "between 0 and 1",
         ),
     ];
@@ -120,7 +154,14 @@ fn bad_input_is_one_line_naming_what_was_expected() {
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
     let (ok, _, err) = demcal(&[
-        "surrogate", "optimize", p, "--response", "angle_deg", "--model", "gp", "--goal",
+        "surrogate",
+        "optimize",
+        p,
+        "--response",
+        "angle_deg",
+        "--model",
+        "gp",
+        "--goal",
         "target=abc",
     ]);
     assert!(!ok && err.contains("expected target=VALUE"), "{err}");

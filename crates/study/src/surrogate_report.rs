@@ -49,6 +49,7 @@ pub fn stage_json(study: &Study, st: &StageResult) -> Option<(&'static str, serd
                 "hidden": o.trained.network.hidden(),
                 "epochs": o.trained.epochs,
                 "r2_train": o.trained.metrics_train.r2,
+                "r2_validation": o.trained.metrics_validation.r2,
                 "r2_test": o.trained.metrics_test.r2,
                 "r2_all": o.trained.metrics_all.r2,
                 "rmse_train": o.trained.metrics_train.rmse,
@@ -218,7 +219,7 @@ fn ga_bp_html(h: &mut String, study: &Study, _st: &StageResult, o: &GaBpOutcome)
     let t = &o.trained;
     write!(
         h,
-        "<p>Network {}-{}-1 (tansig hidden layer, linear output, inputs and output mapped to [-1, 1]), trained on {} by Levenberg-Marquardt ({} epochs) from the weights a genetic algorithm chose ({} generations). GA-BP-GA predicts <b>{} {}</b> at the calibrated point (lab {}).</p>",
+        "<p>Network {}-{}-1 (tansig hidden layer, linear output, inputs and output mapped to [-1, 1]), trained on {} by Levenberg-Marquardt with early stopping on the validation rows ({} epochs) from the weights a genetic algorithm chose ({} generations); the prediction averages the ensemble's networks. GA-BP-GA predicts <b>{} {}</b> at the calibrated point (lab {}).</p>",
         t.network.inputs(),
         t.network.hidden(),
         o.source,
@@ -232,6 +233,7 @@ fn ga_bp_html(h: &mut String, study: &Study, _st: &StageResult, o: &GaBpOutcome)
     h.push_str("<table><tr><th>rows</th><th>n</th><th>R^2</th><th>RMSE</th><th>MAE</th></tr>");
     for (name, m) in [
         ("training", &t.metrics_train),
+        ("validation", &t.metrics_validation),
         ("test", &t.metrics_test),
         ("all", &t.metrics_all),
     ] {
@@ -249,6 +251,7 @@ fn ga_bp_html(h: &mut String, study: &Study, _st: &StageResult, o: &GaBpOutcome)
     let mut row = Vec::new();
     for (name, rows, m) in [
         ("training", &t.train, &t.metrics_train),
+        ("validation", &t.validation, &t.metrics_validation),
         ("test", &t.test, &t.metrics_test),
     ] {
         let pts: Vec<(f64, f64)> = rows.iter().map(|&i| (o.y[i], t.predictions[i])).collect();

@@ -97,8 +97,11 @@ pub struct Fitted {
     pub model: Model,
     predictor: Predictor,
     pub train: Vec<usize>,
+    /// Rows a network's early stopping watched (none for a GP).
+    pub validation: Vec<usize>,
     pub test: Vec<usize>,
     pub metrics_train: FitMetrics,
+    pub metrics_validation: FitMetrics,
     pub metrics_test: FitMetrics,
     pub metrics_all: FitMetrics,
     /// Facts about the model for people (length scales, noise, epochs).
@@ -183,7 +186,7 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
                 .collect()
         })
         .collect();
-    let (predictor, train, test, details) = match req.model {
+    let (predictor, train, validation, test, details) = match req.model {
         Model::Gp(kernel) => {
             let (train, test) = split_stratified(&y, req.train_fraction, req.seed);
             let xt: Vec<Vec<f64>> = train.iter().map(|&i| x[i].clone()).collect();
@@ -206,7 +209,13 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
                 "mean": gp.mean(),
                 "log_marginal_likelihood": gp.log_marginal_likelihood(),
             });
-            (Predictor::Gp(Box::new(gp)), train, test, details)
+            (
+                Predictor::Gp(Box::new(gp)),
+                train,
+                Vec::new(),
+                test,
+                details,
+            )
         }
         Model::Bp | Model::GaBp => {
             let trained = network::train(
@@ -216,6 +225,7 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
                     train_fraction: req.train_fraction,
                     seed: req.seed,
                     ga: (req.model == Model::GaBp).then(|| GaOptions::weights_default(req.seed)),
+                    ensemble: 10,
                     ..BpOptions::default()
                 },
             )
@@ -229,6 +239,7 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
             (
                 Predictor::Network(Box::new(trained.network)),
                 trained.train,
+                trained.validation,
                 trained.test,
                 details,
             )
@@ -244,16 +255,22 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
         FitMetrics::of(&obs, &pred)
     };
     let all: Vec<usize> = (0..n).collect();
-    let (metrics_train, metrics_test, metrics_all) =
-        (metrics(&train), metrics(&test), metrics(&all));
+    let (metrics_train, metrics_validation, metrics_test, metrics_all) = (
+        metrics(&train),
+        metrics(&validation),
+        metrics(&test),
+        metrics(&all),
+    );
     Ok(Fitted {
         factors,
         ranges,
         model: req.model,
         predictor,
         train,
+        validation,
         test,
         metrics_train,
+        metrics_validation,
         metrics_test,
         metrics_all,
         details,
@@ -264,9 +281,13 @@ fn metrics_json(f: &Fitted) -> serde_json::Map<String, serde_json::Value> {
     let mut m = serde_json::Map::new();
     for (name, v) in [
         ("train", &f.metrics_train),
+        ("validation", &f.metrics_validation),
         ("test", &f.metrics_test),
         ("all", &f.metrics_all),
     ] {
+        if v.n == 0 {
+            continue;
+        }
         m.insert(format!("r2_{name}"), json!(v.r2));
         m.insert(format!("rmse_{name}"), json!(v.rmse));
         m.insert(format!("mae_{name}"), json!(v.mae));
@@ -278,18 +299,22 @@ fn metrics_json(f: &Fitted) -> serde_json::Map<String, serde_json::Value> {
 fn metrics_text(out: &mut String, f: &Fitted) {
     writeln!(
         out,
-        "{:<8} {:>4} {:>9} {:>11} {:>11}",
+        "{:<10} {:>4} {:>9} {:>11} {:>11}",
         "rows", "n", "R^2", "RMSE", "MAE"
     )
     .unwrap();
     for (name, v) in [
         ("training", &f.metrics_train),
+        ("validation", &f.metrics_validation),
         ("test", &f.metrics_test),
         ("all", &f.metrics_all),
     ] {
+        if v.n == 0 {
+            continue;
+        }
         writeln!(
             out,
-            "{name:<8} {:>4} {:>9.4} {:>11.5} {:>11.5}",
+            "{name:<10} {:>4} {:>9.4} {:>11.5} {:>11.5}",
             v.n, v.r2, v.rmse, v.mae
         )
         .unwrap();
@@ -319,12 +344,13 @@ pub fn fit(req: &FitRequest, json_out: bool) -> Result<String, String> {
     let mut out = String::new();
     writeln!(
         out,
-        "{} surrogate of {} on {} ({} rows: {} training, {} test; seed {})",
+        "{} surrogate of {} on {} ({} rows: {} training, {} validation, {} test; seed {})",
         f.model.name(),
         req.response,
         f.factors.join(", "),
         f.metrics_all.n,
         f.train.len(),
+        f.validation.len(),
         f.test.len(),
         req.seed
     )

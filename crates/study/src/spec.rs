@@ -298,35 +298,7 @@ impl Study {
                     format!("\"{name}\" is given twice"),
                 ));
             }
-            let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
-                (Some(toml::Value::String(s)), None) => vec![s.clone()],
-                (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
-                    .iter()
-                    .map(|v| v.as_str().map(String::from))
-                    .collect::<Option<Vec<_>>>()
-                    .ok_or_else(|| {
-                        err(&format!("{key}.paths"), "expected a list of strings".into())
-                    })?,
-                (Some(_), Some(_)) => {
-                    return Err(err(
-                        &format!("{key}.path"),
-                        "give path or paths, not both".into(),
-                    ))
-                }
-                _ => {
-                    return Err(err(
-                        &format!("{key}.path"),
-                        "missing: where the value goes in the test, e.g. \"interaction[bead,bead].static_friction\"".into(),
-                    ))
-                }
-            };
-            let mut paths = Vec::new();
-            for s in &texts {
-                let pp = ParamPath::parse(s).map_err(|e| err(&format!("{key}.path"), e))?;
-                pp.check(&test)
-                    .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
-                paths.push(pp);
-            }
+            let paths = read_paths(t, &key, &test, &err)?;
             let get = |k: &str| -> Result<f64, String> {
                 number(t.get(k).ok_or_else(|| {
                     err(&format!("{key}.{k}"), "missing (expected a number)".into())
@@ -648,21 +620,7 @@ fn parse_imports(
         };
         let study = text("study")?;
         let parameter = text("parameter")?;
-        let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
-            (Some(toml::Value::String(s)), None) => vec![s.clone()],
-            (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
-                .iter()
-                .map(|v| v.as_str().map(String::from))
-                .collect::<Option<Vec<_>>>()
-                .ok_or_else(|| err(&format!("{key}.paths"), "expected a list of strings".into()))?,
-            _ => {
-                return Err(err(
-                    &format!("{key}.path"),
-                    "missing: give path (or paths), where the value goes in this study's test"
-                        .into(),
-                ))
-            }
-        };
+        let paths = read_paths(t, &key, test, err)?;
         let study_path = dir.join(&study);
         let other_dir = study_path
             .parent()
@@ -710,14 +668,9 @@ fn parse_imports(
                 ),
             )
         })?;
-        let mut paths = Vec::new();
-        for s in &texts {
-            let pp = ParamPath::parse(s).map_err(|e| err(&format!("{key}.path"), e))?;
-            pp.check(test)
-                .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
+        for pp in &paths {
             pp.set(test, value)
-                .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
-            paths.push(pp);
+                .map_err(|e| err(&format!("{key}.path"), format!("\"{pp}\": {e}")))?;
         }
         imports.push(Import {
             study,
@@ -728,4 +681,42 @@ fn parse_imports(
         });
     }
     Ok(imports)
+}
+
+/// `path = "..."` or `paths = [...]` of a `[[parameter]]` or `[[import]]` table `key`, each parsed
+/// and checked to reach a number in `test`.
+fn read_paths(
+    t: &toml::Table,
+    key: &str,
+    test: &toml::Table,
+    err: &dyn Fn(&str, String) -> String,
+) -> Result<Vec<ParamPath>, String> {
+    let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
+        (Some(toml::Value::String(s)), None) => vec![s.clone()],
+        (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
+            .iter()
+            .map(|v| v.as_str().map(String::from))
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| err(&format!("{key}.paths"), "expected a list of strings".into()))?,
+        (Some(_), Some(_)) => {
+            return Err(err(
+                &format!("{key}.path"),
+                "give path or paths, not both".into(),
+            ))
+        }
+        _ => {
+            return Err(err(
+                &format!("{key}.path"),
+                "missing: where the value goes in the test, e.g. \"interaction[bead,bead].static_friction\"".into(),
+            ))
+        }
+    };
+    let mut paths = Vec::new();
+    for s in &texts {
+        let pp = ParamPath::parse(s).map_err(|e| err(&format!("{key}.path"), e))?;
+        pp.check(test)
+            .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
+        paths.push(pp);
+    }
+    Ok(paths)
 }

@@ -188,3 +188,46 @@ fn ga_bp_trained_on_a_ccd_hits_the_lab_value() {
     assert!(err < 2.0, "validation error {err} %");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn a_study_imports_the_value_another_study_calibrated() {
+    let root = fresh_dir("chain");
+    let (first, second) = (root.join("first"), root.join("second"));
+    std::fs::create_dir_all(&first).unwrap();
+    std::fs::create_dir_all(&second).unwrap();
+    // The second study fixes `a` to what the first calibrated and varies only `b`.
+    let chained = bowl(
+        r#"[{ stage = "bayesopt", initial = 6, iterations = 2, batch = 2 }]"#,
+        "value = 30.0",
+    )
+    .replace(
+        "[[parameter]]\nname = \"a\"\npath = \"function.variables.a\"\nmin = 0.2\nmax = 1.2\n",
+        "[[import]]\nstudy = \"../first/study.toml\"\nparameter = \"a\"\npath = \"function.variables.a\"\n",
+    );
+    assert!(chained.contains("[[import]]"));
+    // Before the first study has run, the second names the summary it needs.
+    let e = run_study(&second, &chained).unwrap_err();
+    assert!(
+        e.contains("import[0].study") && e.contains("run that study first"),
+        "{e}"
+    );
+    run_study(&first, &bowl(BAYESOPT_PLAN, "value = 30.0")).unwrap();
+    let a = calibrated(&summary(&first), "a");
+    run_study(&second, &chained).unwrap();
+    let s = summary(&second);
+    assert_eq!(s["imports"][0]["value"].as_f64().unwrap(), a);
+    assert!(s["calibrated"].get("a").is_none());
+    // Every run of the second study simulated the imported value.
+    let db = rusqlite::Connection::open(second.join("study.db")).unwrap();
+    let mut q = db.prepare("SELECT fingerprint FROM runs").unwrap();
+    let prints: Vec<String> = q
+        .query_map([], |r| r.get(0))
+        .unwrap()
+        .map(|r| r.unwrap())
+        .collect();
+    assert_eq!(prints.len(), 6 + 2 * 2);
+    for p in &prints {
+        assert!(p.contains(&format!("a = {a}")), "{p}");
+    }
+    std::fs::remove_dir_all(root).unwrap();
+}

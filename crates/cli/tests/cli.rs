@@ -929,7 +929,7 @@ value = 30.0
     assert!(path.exists(), "the study beside it is untouched");
     // A broken job file names the file and the key.
     let bad = dir.join("bad.json");
-    std::fs::write(&bad, r#"{"test_name": "x", "seed": "three"}"#).unwrap();
+    std::fs::write(&bad, r#"{"tests": [], "seed": "three"}"#).unwrap();
     let out = demcal().arg("run-one").arg(&bad).output().unwrap();
     assert!(!out.status.success());
     let e = one_line_error(&out);

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::curve::Comparison;
 use crate::run_error::{RunError, RunErrorKind};
-use crate::spec::Study;
+use crate::spec::{Combine, Study, Term};
 use crate::stages::RunSpec;
 use crate::store::{now_utc, RunRecord, Status};
 
@@ -41,16 +41,33 @@ fn is_run_dir(dir: &Path) -> bool {
             .any(|c| matches!(c, std::path::Component::ParentDir))
 }
 
+/// One test of a job: the test file with the run's values written in.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobTest {
+    /// The test's name in the study (its folder in the run's folder when there are several).
+    pub name: String,
+    /// Names the test in error messages (its file, or the study's inline `[test]`).
+    pub label: String,
+    /// The test file as TOML, with the run's parameter values written in.
+    pub test: toml::Table,
+    /// The folder relative paths in the test (STL files) are taken from.
+    pub dir: PathBuf,
+    pub seed: u64,
+    /// The lab curve the test's curve is compared with, when a target is a curve: the run
+    /// adds `curve_mse`, `curve_peak`, `curve_mean`, `curve_stiffness` and `curve_simulated`
+    /// to the test's outputs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve: Option<Comparison>,
+}
+
 /// One run of a study, ready to execute anywhere.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Job {
-    /// Names the test in error messages (its file, or the study's inline `[test]`).
-    pub test_name: String,
-    /// The test file as TOML, with the run's parameter values written in.
-    pub test: toml::Table,
-    /// The folder relative paths in the test (STL files) are taken from.
-    pub test_dir: PathBuf,
+    /// The tests the run makes, one after another (most studies have one).
+    pub tests: Vec<JobTest>,
+    /// The run's seed (the first test's; the others' follow from it).
     pub seed: u64,
     pub stage: usize,
     pub stage_kind: String,
@@ -59,33 +76,58 @@ pub struct Job {
     pub label: String,
     /// Every parameter's value by name.
     pub inputs: serde_json::Value,
-    /// The test outcome the study calibrates against.
+    /// The outcome the study calibrates against: the test's, or the combined objective.
     pub response: String,
+    /// With several targets, each target's term and how they make `response`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub terms: Vec<Term>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub combine: Option<Combine>,
     /// Seconds of wall time after which the run stops and fails.
     pub run_time_limit_s: Option<f64>,
     /// Where the run writes its pictures and result.
     pub out_dir: PathBuf,
-    /// The exact test and seed; a stored record is reused only while it matches.
+    /// The exact tests and seed; a stored record is reused only while it matches.
     pub fingerprint: String,
-    /// The lab curve the test's curve is compared with, when the target is a curve: the run
-    /// adds `curve_mse`, `curve_peak`, `curve_mean`, `curve_stiffness` and `curve_simulated`
-    /// to its outputs.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub curve: Option<Comparison>,
+}
+
+/// The seed of test `k` of a run with seed `seed`: the run's own for the first test.
+pub fn test_seed(seed: u64, k: usize) -> u64 {
+    if k == 0 {
+        seed
+    } else {
+        crate::stages::run_seed(seed, k, 0)
+    }
 }
 
 impl Job {
     /// The job for one planned run of `study`.
     pub fn new(study: &Study, spec: &RunSpec) -> Job {
+        let tests = study
+            .tests
+            .iter()
+            .enumerate()
+            .map(|(k, t)| JobTest {
+                name: t.name.clone(),
+                label: if t.source == "inline" {
+                    study.test_label(k)
+                } else {
+                    t.source.clone()
+                },
+                test: study.test_with(k, &spec.values),
+                // Absolute, so that `demcal run-one` finds them from any working folder.
+                dir: absolute(&t.dir),
+                seed: test_seed(spec.seed, k),
+                curve: study
+                    .targets
+                    .iter()
+                    .find(|x| x.test == k)
+                    .and_then(|x| x.curve.as_ref())
+                    .map(|c| c.comparison()),
+            })
+            .collect();
         Job {
-            test_name: if study.test_source == "inline" {
-                format!("{} [test]", study.path.display())
-            } else {
-                study.test_source.clone()
-            },
-            test: study.test_with(&spec.values),
-            // Absolute, so that `demcal run-one` finds them from any working folder.
-            test_dir: absolute(&study.test_dir),
+            tests,
             seed: spec.seed,
             stage: spec.stage,
             stage_kind: spec.stage_kind.to_string(),
@@ -93,10 +135,15 @@ impl Job {
             label: spec.label.clone(),
             inputs: spec.inputs(study),
             response: study.target.response.clone(),
+            terms: if study.combine.is_some() {
+                study.terms()
+            } else {
+                Vec::new()
+            },
+            combine: study.combine,
             run_time_limit_s: study.run_time_limit_s,
             out_dir: absolute(&run_dir(study, spec)),
             fingerprint: spec.fingerprint(study),
-            curve: study.target.curve.as_ref().map(|c| c.comparison()),
         }
     }
 
@@ -173,8 +220,106 @@ impl Job {
         })
     }
 
+    /// Makes every test and, with several targets, scores the run.
     fn simulate(
         &self,
+        interrupted: &AtomicBool,
+        start: Instant,
+        report: &dyn Fn(&str, f64),
+    ) -> Result<serde_json::Value, RunError> {
+        if self.tests.is_empty() {
+            return Err(RunError::new(
+                RunErrorKind::BadSettings,
+                "the job has no test".to_string(),
+            ));
+        }
+        let several = self.tests.len() > 1;
+        let mut outcomes = Vec::new();
+        for t in &self.tests {
+            let dir = if several {
+                self.out_dir.join(&t.name)
+            } else {
+                self.out_dir.clone()
+            };
+            let json = self
+                .simulate_test(t, &dir, interrupted, start, report)
+                .map_err(|mut e| {
+                    if several && e.kind != RunErrorKind::Interrupted {
+                        e.message = format!("test {}: {}", t.name, e.message);
+                    }
+                    e
+                })?;
+            outcomes.push(json);
+        }
+        match self.combine {
+            None => Ok(outcomes.swap_remove(0)),
+            Some(c) => self.score(c, outcomes),
+        }
+    }
+
+    /// The outcome of a run with several targets: each test's outcome under `tests`, each
+    /// target's simulated value and error under `targets`, and the combined objective.
+    fn score(
+        &self,
+        combine: Combine,
+        outcomes: Vec<serde_json::Value>,
+    ) -> Result<serde_json::Value, RunError> {
+        let mut ys = Vec::new();
+        let mut rows = Vec::new();
+        for term in &self.terms {
+            let test = self.tests.get(term.test).ok_or_else(|| {
+                RunError::new(
+                    RunErrorKind::BadSettings,
+                    format!(
+                        "a target names test {}, the job has {}",
+                        term.test + 1,
+                        self.tests.len()
+                    ),
+                )
+            })?;
+            let y = outcomes[term.test]
+                .get(&term.response)
+                .and_then(|v| v.as_f64())
+                .filter(|y| y.is_finite())
+                .ok_or_else(|| {
+                    RunError::new(
+                        RunErrorKind::MeasurementFailed,
+                        format!(
+                            "test {} gave no finite number for {}",
+                            test.name, term.response
+                        ),
+                    )
+                })?;
+            rows.push(serde_json::json!({
+                "test": test.name,
+                "response": term.response,
+                "simulated": y,
+                "lab": term.lab,
+                "relative_error_percent": 100.0 * term.relative_error(y),
+                "desirability": term.desirability(y),
+            }));
+            ys.push(y);
+        }
+        let tests: serde_json::Map<String, serde_json::Value> = self
+            .tests
+            .iter()
+            .zip(outcomes)
+            .map(|(t, o)| (t.name.clone(), o))
+            .collect();
+        let mut out = serde_json::Map::new();
+        out.insert(
+            self.response.clone(),
+            serde_json::json!(combine.combine(&self.terms, &ys)),
+        );
+        out.insert("targets".into(), serde_json::Value::Array(rows));
+        out.insert("tests".into(), serde_json::Value::Object(tests));
+        Ok(serde_json::Value::Object(out))
+    }
+
+    fn simulate_test(
+        &self,
+        t: &JobTest,
+        out_dir: &Path,
         interrupted: &AtomicBool,
         start: Instant,
         report: &dyn Fn(&str, f64),
@@ -183,10 +328,9 @@ impl Job {
         // Why the progress callback stopped the run, which the test hands back as a plain stop.
         let stopped = std::cell::Cell::new(None::<RunError>);
         let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
-            let file =
-                virtual_tests::TestFile::from_table_in(&self.test_name, &self.test, &self.test_dir)
-                    .map_err(|e| RunError::new(RunErrorKind::BadSettings, e))?;
-            let mut progress = |phase: &str, t: f64| -> Result<(), String> {
+            let file = virtual_tests::TestFile::from_table_in(&t.label, &t.test, &t.dir)
+                .map_err(|e| RunError::new(RunErrorKind::BadSettings, e))?;
+            let mut progress = |phase: &str, time: f64| -> Result<(), String> {
                 if interrupted.load(Ordering::Relaxed) {
                     stopped.set(Some(RunError::new(RunErrorKind::Interrupted, "interrupted")));
                     return Err("interrupted".into());
@@ -194,23 +338,18 @@ impl Job {
                 if let Some(l) = limit {
                     if start.elapsed().as_secs_f64() > l {
                         let why = format!(
-                            "stopped: the run took longer than run_time_limit_s = {l} s (in {phase} at t = {t:.3} s)"
+                            "stopped: the run took longer than run_time_limit_s = {l} s (in {phase} at t = {time:.3} s)"
                         );
                         stopped.set(Some(RunError::new(RunErrorKind::TimeLimit, why.clone())));
                         return Err(why);
                     }
                 }
-                report(phase, t);
+                report(phase, time);
                 Ok(())
             };
-            let done = virtual_tests::run_file(
-                &file,
-                Some(self.seed),
-                Some(&self.out_dir),
-                &mut progress,
-            )
-            .map_err(RunError::from)?;
-            self.with_curve(done)
+            let done = virtual_tests::run_file(&file, Some(t.seed), Some(out_dir), &mut progress)
+                .map_err(RunError::from)?;
+            with_curve(t.curve.as_ref(), done)
         }))
         .unwrap_or_else(|panic| {
             let msg = panic
@@ -230,13 +369,16 @@ impl Job {
     }
 }
 
-impl Job {
-    /// The test's outcome as JSON, with the curve measures added when the study compares a
-    /// curve. A missing curve, one in other units, or one that does not overlap the lab's is a
-    /// failed measurement.
-    fn with_curve(&self, done: virtual_tests::Finished) -> Result<serde_json::Value, RunError> {
+/// A test's outcome as JSON, with the curve measures added when the study compares a curve. A
+/// missing curve, one in other units, or one that does not overlap the lab's is a failed
+/// measurement.
+fn with_curve(
+    cmp: Option<&Comparison>,
+    done: virtual_tests::Finished,
+) -> Result<serde_json::Value, RunError> {
+    {
         let mut json = done.json;
-        let Some(cmp) = &self.curve else {
+        let Some(cmp) = cmp else {
             return Ok(json);
         };
         let fail = |m: String| RunError::new(RunErrorKind::MeasurementFailed, m);

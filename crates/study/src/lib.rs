@@ -23,6 +23,7 @@ pub mod stages;
 pub mod store;
 mod surrogate_report;
 pub mod surrogate_stages;
+pub mod target;
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};

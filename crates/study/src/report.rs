@@ -130,7 +130,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         },
         "parameters": study.parameters.iter().map(|p| json!({
             "name": p.name,
-            "paths": p.paths.iter().map(|x| x.text.clone()).collect::<Vec<_>>(),
+            "paths": p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>(),
             "min": p.min,
             "max": p.max,
             "scale": if p.scale == doe::Scale::Log { "log" } else { "linear" },
@@ -144,7 +144,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             "study": i.study,
             "parameter": i.parameter,
             "value": i.value,
-            "paths": i.paths.iter().map(|x| x.text.clone()).collect::<Vec<_>>(),
+            "paths": i.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
         "stages": r.stages.iter().map(|s| {
             let mut entry = json!({
@@ -241,8 +241,13 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         h,
         "<h1>Calibration report: {}</h1><p class=\"sub\">Virtual test <b>{}</b> ({}), {against}. Study file <span class=\"mono\">{}</span>, seed {}, demcal {}.</p>",
         esc(&study.name),
-        esc(study.test_kind()),
-        esc(&study.test_source),
+        esc(&study.test_kind()),
+        esc(&study
+            .tests
+            .iter()
+            .map(|t| t.source.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")),
         esc(&study.path.display().to_string()),
         study.seed,
         env!("CARGO_PKG_VERSION")
@@ -317,7 +322,7 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
             "<tr><td>{}</td><td class=\"l\">{}</td><td class=\"l mono\">{}</td><td>{} .. {}</td><td class=\"l\">{}</td><td>{}</td></tr>",
             letter(i),
             esc(&p.name),
-            esc(&p.paths.iter().map(|x| x.text.clone()).collect::<Vec<_>>().join(", ")),
+            esc(&p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>().join(", ")),
             sig(p.min),
             sig(p.max),
             if p.scale == doe::Scale::Log { "log" } else { "linear" },
@@ -330,7 +335,7 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         write!(
             h,
             "<p class=\"note\">Taken from another study: {} = <b>{}</b> (its {}, calibrated by {}).</p>",
-            esc(&i.paths.iter().map(|x| x.text.clone()).collect::<Vec<_>>().join(", ")),
+            esc(&i.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>().join(", ")),
             sig(i.value),
             esc(&i.parameter),
             esc(&i.study)

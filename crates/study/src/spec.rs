@@ -5,18 +5,19 @@ use std::path::{Path, PathBuf};
 
 use doe::{Factor, Scale};
 
-use crate::curve::CURVE_RESPONSES;
-use crate::lab_curve::{CurveTarget, CURVE_KEYS};
 use crate::paths::{number, ParamPath};
 use crate::plan::parse_plan;
 pub use crate::plan::{RsmDesign, ScreeningDesign, Stage, STAGES};
+use crate::target::{parse_objective, parse_target, TestOutputs};
+pub use crate::target::{Combine, Target, Term};
 use virtual_tests::file::one_line;
 
-/// A parameter to calibrate: one value written into one or more places of the test.
+/// A parameter to calibrate: one value written into one or more places of the study's tests.
 #[derive(Clone, Debug)]
 pub struct Parameter {
     pub name: String,
-    pub paths: Vec<ParamPath>,
+    /// Each path, and the tests (indices) it is written into: every test that has it.
+    pub paths: Vec<(ParamPath, Vec<usize>)>,
     pub min: f64,
     pub max: f64,
     pub scale: Scale,
@@ -56,49 +57,6 @@ impl Parameter {
     }
 }
 
-/// The lab value to reproduce.
-#[derive(Clone, Debug)]
-pub struct Target {
-    /// The key of the test's outcome compared with the lab (e.g. `angle_of_repose_deg`).
-    pub response: String,
-    pub value: f64,
-    pub replicates: Vec<f64>,
-    pub unit: String,
-    /// The lab curves the test's curve is compared with, when the target has a curve.
-    pub curve: Option<CurveTarget>,
-}
-
-impl Target {
-    /// Whether the response is minimised rather than matched: the curve MSE, whose target is 0.
-    pub fn minimised(&self) -> bool {
-        self.response == "curve_mse"
-    }
-
-    /// |sim - lab| / lab in %; none for a minimised response (a relative error of a target of
-    /// 0 means nothing: the response itself says how far off the run is).
-    pub fn relative_error_percent(&self, simulated: f64) -> Option<f64> {
-        (!self.minimised()).then(|| 100.0 * (simulated - self.value).abs() / self.value.abs())
-    }
-
-    /// How far a simulated response is from the lab, in words: the relative error, or the
-    /// minimised response itself.
-    pub fn misfit(&self, simulated: f64) -> String {
-        match self.relative_error_percent(simulated) {
-            Some(e) => format!("relative error {e:.2} %"),
-            None => format!("{} {}", self.response, doe::fit::fmt_sig(simulated)),
-        }
-    }
-
-    /// Standard deviation of the replicates, when there are two or more.
-    pub fn std(&self) -> Option<f64> {
-        let n = self.replicates.len();
-        (n >= 2).then(|| {
-            let m = self.replicates.iter().sum::<f64>() / n as f64;
-            (self.replicates.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
-        })
-    }
-}
-
 /// A value calibrated by another study, written into this study's test: how calibrations chain
 /// (particle-steel friction from an incline first, then particle-particle from a heap).
 #[derive(Clone, Debug)]
@@ -108,8 +66,33 @@ pub struct Import {
     pub summary: PathBuf,
     /// The parameter's name in the other study.
     pub parameter: String,
-    pub paths: Vec<ParamPath>,
+    /// Where the value went, and into which tests.
+    pub paths: Vec<(ParamPath, Vec<usize>)>,
     pub value: f64,
+}
+
+/// One virtual test of a study.
+#[derive(Clone, Debug)]
+pub struct TestSpec {
+    /// Its name in the study: `name` of a `[[test]]` table, else the test's kind (`repose`).
+    pub name: String,
+    /// The test file's content, before parameters are set.
+    pub table: toml::Table,
+    /// Where the test came from: the test file's path, or "inline".
+    pub source: String,
+    /// The folder the test's relative paths are taken from: the test file's, or the study's for
+    /// an inline test.
+    pub dir: PathBuf,
+}
+
+impl TestSpec {
+    /// The test's kind (`repose`, `incline`, `function`, ...).
+    pub fn kind(&self) -> &str {
+        self.table
+            .get("test")
+            .and_then(|v| v.as_str())
+            .unwrap_or("")
+    }
 }
 
 /// A study read and checked.
@@ -118,16 +101,16 @@ pub struct Study {
     pub path: PathBuf,
     pub name: String,
     pub seed: u64,
-    /// The test file's content, before parameters are set.
-    pub test: toml::Table,
-    /// Where the test came from: the test file's path, or "inline".
-    pub test_source: String,
-    /// The folder the test's relative paths are taken from: the test file's, or the study's for
-    /// an inline test.
-    pub test_dir: PathBuf,
+    /// The virtual tests each run makes, in order; most studies have one.
+    pub tests: Vec<TestSpec>,
     pub parameters: Vec<Parameter>,
-    /// Values taken from other studies' summaries, already written into `test`.
+    /// Values taken from other studies' summaries, already written into the tests.
     pub imports: Vec<Import>,
+    /// The lab targets.
+    pub targets: Vec<Target>,
+    /// How several targets are combined (None with one target).
+    pub combine: Option<Combine>,
+    /// What the stages calibrate against: the one target, or the combination of several.
     pub target: Target,
     pub plan: Vec<Stage>,
     /// Wall-clock limit of one simulation; a run over it is stopped and stored as failed.
@@ -137,8 +120,15 @@ pub struct Study {
 }
 
 impl Study {
-    pub fn test_kind(&self) -> &str {
-        self.test.get("test").and_then(|v| v.as_str()).unwrap_or("")
+    /// The kinds of the study's tests, joined: what the study calibrates with.
+    pub fn test_kind(&self) -> String {
+        let kinds: Vec<&str> = self.tests.iter().map(TestSpec::kind).collect();
+        kinds.join(" + ")
+    }
+
+    /// Each target's term, for a combined objective.
+    pub fn terms(&self) -> Vec<Term> {
+        self.targets.iter().map(|t| t.term.clone()).collect()
     }
 
     /// The folder the study lives in; the store, run outputs and report go there.
@@ -222,45 +212,17 @@ impl Study {
             ),
         };
 
-        // The test: a path to a test file, or the test file's content inline.
+        // The tests: a path to a test file, the test file's content inline, or several
+        // [[test]] tables, each with a name and a file or the content inline.
         let dir = path.parent().unwrap_or(Path::new(""));
-        let (test, test_source) = match doc.get("test") {
-            None => {
-                return Err(err(
-                    "test",
-                    "missing (a test file's path, e.g. test = \"repose.toml\", or an inline [test] table)".into(),
-                ))
-            }
-            Some(toml::Value::String(p)) => {
-                let tp = dir.join(p);
-                let t = std::fs::read_to_string(&tp)
-                    .map_err(|e| err("test", format!("cannot read {}: {e}", tp.display())))?;
-                let table: toml::Table = toml::from_str(&t)
-                    .map_err(|e| format!("{}: {}", tp.display(), one_line(&e.to_string())))?;
-                (table, tp.display().to_string())
-            }
-            Some(toml::Value::Table(t)) => (t.clone(), "inline".to_string()),
-            Some(_) => {
-                return Err(err(
-                    "test",
-                    "expected a test file's path or an inline table".into(),
-                ))
-            }
-        };
-        let mut test = test;
-        let imports = parse_imports(&doc, dir, &mut test, &err)?;
-        let test_name = format!("{file}: test");
-        let test_dir = match doc.get("test") {
-            Some(toml::Value::String(p)) => dir.join(p).parent().map(Path::to_path_buf),
-            _ => None,
+        let mut tests = parse_tests(&doc, dir, &err)?;
+        let imports = parse_imports(&doc, dir, &mut tests, &err)?;
+        let mut outputs = Vec::new();
+        for t in &tests {
+            let name = test_label(&file, &tests, t);
+            let base = virtual_tests::TestFile::from_table_in(&name, &t.table, &t.dir)?;
+            outputs.push((base.test.clone(), virtual_tests::responses(&base.test)));
         }
-        .unwrap_or_else(|| dir.to_path_buf());
-        let test_dir = if test_dir.as_os_str().is_empty() {
-            PathBuf::from(".")
-        } else {
-            test_dir
-        };
-        let base = virtual_tests::TestFile::from_table_in(&test_name, &test, &test_dir)?;
 
         // Parameters.
         let list = match doc.get("parameter") {
@@ -298,7 +260,7 @@ impl Study {
                     format!("\"{name}\" is given twice"),
                 ));
             }
-            let paths = read_paths(t, &key, &test, &err)?;
+            let paths = read_paths(t, &key, &tests, &err)?;
             let get = |k: &str| -> Result<f64, String> {
                 number(t.get(k).ok_or_else(|| {
                     err(&format!("{key}.{k}"), "missing (expected a number)".into())
@@ -351,10 +313,34 @@ impl Study {
             });
         }
 
-        // Target.
-        let target_table = match doc.get("target") {
-            Some(toml::Value::Table(t)) => t,
-            Some(_) => return Err(err("target", "expected a table".into())),
+        // Targets: one [target], or several [[target]] tables combined as [objective] says.
+        let combine = parse_objective(&doc, &err)?;
+        let seen: Vec<TestOutputs> = tests
+            .iter()
+            .zip(&outputs)
+            .map(|(t, (kind, outputs))| TestOutputs {
+                name: &t.name,
+                kind,
+                outputs,
+            })
+            .collect();
+        let tables: Vec<(String, &toml::Table)> = match doc.get("target") {
+            Some(toml::Value::Table(t)) => vec![("target".to_string(), t)],
+            Some(toml::Value::Array(a)) if !a.is_empty() => a
+                .iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    v.as_table()
+                        .map(|t| (format!("target[{i}]"), t))
+                        .ok_or_else(|| err(&format!("target[{i}]"), "expected a table".into()))
+                })
+                .collect::<Result<_, _>>()?,
+            Some(_) => {
+                return Err(err(
+                    "target",
+                    "expected a [target] table or [[target]] tables".into(),
+                ))
+            }
             None => {
                 return Err(err(
                     "target",
@@ -363,142 +349,54 @@ impl Study {
                 ))
             }
         };
-        for k in target_table.keys() {
-            if !["response", "value", "replicates", "unit"].contains(&k.as_str())
-                && !CURVE_KEYS.contains(&k.as_str())
-            {
+        let combine = match (tables.len(), combine) {
+            (1, Some(_)) => {
                 return Err(err(
-                    &format!("target.{k}"),
-                    format!(
-                        "unknown key (expected response, value, replicates, unit, {})",
-                        CURVE_KEYS.join(", ")
-                    ),
-                ));
-            }
-        }
-        let outputs = virtual_tests::responses(&base.test);
-        let curve = CurveTarget::parse(target_table, dir, &err)?;
-        if let Some(c) = &curve {
-            if !outputs.contains(&c.curve.as_str()) {
-                return Err(err(
-                    "target.curve",
-                    format!(
-                        "\"{}\" is not a response of {} (expected one of: {})",
-                        c.curve,
-                        base.test,
-                        outputs.join(", ")
-                    ),
-                ));
-            }
-        }
-        let response = match target_table.get("response") {
-            None if curve.is_some() => "curve_mse".to_string(),
-            None => outputs
-                .first()
-                .ok_or_else(|| {
-                    err(
-                        "test",
-                        format!("{} has no outcome to calibrate against", base.test),
-                    )
-                })?
-                .to_string(),
-            Some(toml::Value::String(r)) if outputs.contains(&r.as_str()) => r.clone(),
-            Some(toml::Value::String(r))
-                if curve.is_some() && CURVE_RESPONSES.contains(&r.as_str()) =>
-            {
-                r.clone()
-            }
-            Some(toml::Value::String(r)) if CURVE_RESPONSES.contains(&r.as_str()) => {
-                return Err(err(
-                    "target.response",
-                    format!("{r} compares the test's curve with the lab's: give target.curve, target.lab_curves and target.normalisation"),
+                    "objective",
+                    "combines several targets, and the study has one: remove [objective]".into(),
                 ))
             }
-            Some(v) => {
-                let mut expected = outputs.to_vec();
-                if curve.is_some() {
-                    expected.extend(CURVE_RESPONSES);
+            (1, None) => None,
+            (_, Some(c)) => Some(c),
+            (n, None) => {
+                return Err(err(
+                    "objective",
+                    format!("missing: the study has {n} targets; say how they combine, e.g. [objective] combine = \"desirability\" (or \"weighted\")"),
+                ))
+            }
+        };
+        let targets = tables
+            .iter()
+            .map(|(key, t)| parse_target(t, key, &seen, combine, dir, &err))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (i, a) in targets.iter().enumerate() {
+            for b in &targets[..i] {
+                if a.test == b.test && a.response == b.response {
+                    return Err(err(
+                        &format!("target[{i}].response"),
+                        format!(
+                            "{} of test {} is a target twice",
+                            a.response, tests[a.test].name
+                        ),
+                    ));
                 }
-                return Err(err(
-                    "target.response",
-                    format!(
-                        "{v} is not an outcome of {} (expected one of: {})",
-                        base.test,
-                        expected.join(", ")
-                    ),
-                ));
-            }
-        };
-        let minimised = response == "curve_mse";
-        if minimised {
-            if let Some(k) = ["value", "replicates"]
-                .iter()
-                .find(|k| target_table.contains_key(**k))
-            {
-                return Err(err(
-                    &format!("target.{k}"),
-                    "curve_mse is minimised (its target is 0): give no value".into(),
-                ));
+                if a.test == b.test && a.curve.is_some() && b.curve.is_some() {
+                    return Err(err(
+                        &format!("target[{i}].curve"),
+                        format!("test {} is compared with lab curves twice: give one curve target per test, other measures of the same curve as its response", tests[a.test].name),
+                    ));
+                }
             }
         }
-        let replicates: Vec<f64> = match (target_table.get("replicates"), &curve) {
-            (None, Some(c)) if CURVE_RESPONSES.contains(&response.as_str()) => {
-                c.replicate_measures(&response)
-            }
-            (None, _) => Vec::new(),
-            (Some(toml::Value::Array(a)), _) => a
-                .iter()
-                .map(|v| number(v).filter(|x| x.is_finite()))
-                .collect::<Option<Vec<_>>>()
-                .ok_or_else(|| {
-                    err(
-                        "target.replicates",
-                        "expected a list of finite numbers".into(),
-                    )
-                })?,
-            (Some(_), _) => {
-                return Err(err(
-                    "target.replicates",
-                    "expected a list of numbers".into(),
-                ))
-            }
-        };
-        let value = match target_table.get("value") {
-            None if minimised => 0.0,
-            Some(v) => number(v).ok_or_else(|| err("target.value", "expected a number".into()))?,
-            None if !replicates.is_empty() => {
-                replicates.iter().sum::<f64>() / replicates.len() as f64
-            }
-            None if curve.is_some() && CURVE_RESPONSES.contains(&response.as_str()) => {
-                return Err(err(
-                    "target.value",
-                    format!("missing: the lab curves give no {response} (their peak is at the start); give the lab value"),
-                ))
-            }
-            None => {
-                return Err(err(
-                    "target.value",
-                    "missing: give the lab value or its replicates".into(),
-                ))
-            }
-        };
-        if !minimised && (value == 0.0 || !value.is_finite()) {
+        if let Some(i) = (0..tests.len()).find(|i| !targets.iter().any(|t| t.test == *i)) {
             return Err(err(
-                "target.value",
-                format!("expected a non-zero number (relative errors divide by it), got {value}"),
+                "target",
+                format!("no target is measured in test {}: each test needs at least one (its target's test = \"{}\")", tests[i].name, tests[i].name),
             ));
         }
-        let unit = match (target_table.get("unit").and_then(|v| v.as_str()), &curve) {
-            (Some(u), _) => u.to_string(),
-            (None, Some(c)) => c.normalisation.unit_of(&response),
-            (None, None) => String::new(),
-        };
-        let target = Target {
-            response,
-            value,
-            replicates,
-            unit,
-            curve,
+        let target = match combine {
+            Some(c) => Target::combined(c),
+            None => targets[0].clone(),
         };
 
         let plan = parse_plan(&doc, &err, parameters.len())?;
@@ -507,11 +405,11 @@ impl Study {
             path: path.to_path_buf(),
             name,
             seed,
-            test,
-            test_source,
-            test_dir,
+            tests,
             parameters,
             imports,
+            targets,
+            combine,
             target,
             plan,
             run_time_limit_s,
@@ -522,12 +420,12 @@ impl Study {
         // a range the test would refuse (a restitution up to 1.6) shows now rather than after a
         // stage of failed runs. `check_scene` builds the whole scene before a study runs.
         let middle: Vec<f64> = study.parameters.iter().map(Parameter::middle).collect();
-        study.check_values(&test_name, &middle)?;
+        study.check_values(&middle)?;
         for (i, p) in study.parameters.iter().enumerate() {
             for (end, v) in [("min", p.min), ("max", p.max)] {
                 let mut values = middle.clone();
                 values[i] = v;
-                study.check_values(&test_name, &values).map_err(|e| {
+                study.check_values(&values).map_err(|e| {
                     err(
                         &format!("parameter[{i}].{end}"),
                         format!("{} = {v} is refused by the test: {e}", p.name),
@@ -538,44 +436,185 @@ impl Study {
         Ok(study)
     }
 
-    /// The test with `values` written in must read, pass its settings checks and have valid
+    /// How error messages name test `k`: the study file and, with several tests, its name.
+    pub fn test_label(&self, k: usize) -> String {
+        test_label(
+            &self.path.display().to_string(),
+            &self.tests,
+            &self.tests[k],
+        )
+    }
+
+    /// Each test with `values` written in must read, pass its settings checks and have valid
     /// materials and interactions.
-    fn check_values(&self, test_name: &str, values: &[f64]) -> Result<(), String> {
-        let file = virtual_tests::TestFile::from_table_in(
-            test_name,
-            &self.test_with(values),
-            &self.test_dir,
-        )?;
-        virtual_tests::check_file(&file)?;
-        if !file.parts.materials.is_empty() {
-            file.check_materials()?;
+    fn check_values(&self, values: &[f64]) -> Result<(), String> {
+        for (k, t) in self.tests.iter().enumerate() {
+            let file = virtual_tests::TestFile::from_table_in(
+                &self.test_label(k),
+                &self.test_with(k, values),
+                &t.dir,
+            )?;
+            virtual_tests::check_file(&file)?;
+            if !file.parts.materials.is_empty() {
+                file.check_materials()?;
+            }
         }
         Ok(())
     }
 
-    /// Builds the test's starting scene at the middle of every range (materials, geometry,
+    /// Builds each test's starting scene at the middle of every range (materials, geometry,
     /// particles placed, overlaps checked), as the first run would, without simulating.
     pub fn check_scene(&self) -> Result<(), String> {
         let middle: Vec<f64> = self.parameters.iter().map(Parameter::middle).collect();
-        let name = format!("{}: test", self.path.display());
-        let file = virtual_tests::TestFile::from_table_in(
-            &name,
-            &self.test_with(&middle),
-            &self.test_dir,
-        )?;
-        virtual_tests::check_scene(&file, Some(self.seed))
+        for (k, t) in self.tests.iter().enumerate() {
+            let file = virtual_tests::TestFile::from_table_in(
+                &self.test_label(k),
+                &self.test_with(k, &middle),
+                &t.dir,
+            )?;
+            virtual_tests::check_scene(&file, Some(self.seed))?;
+        }
+        Ok(())
     }
 
-    /// The test's content with every parameter set to `values` (actual units).
-    pub fn test_with(&self, values: &[f64]) -> toml::Table {
-        let mut t = self.test.clone();
+    /// Test `k`'s content with every parameter set to `values` (actual units).
+    pub fn test_with(&self, k: usize, values: &[f64]) -> toml::Table {
+        let mut t = self.tests[k].table.clone();
         for (p, v) in self.parameters.iter().zip(values) {
-            for path in &p.paths {
+            for (path, _) in p.paths.iter().filter(|(_, ks)| ks.contains(&k)) {
                 path.set(&mut t, *v)
                     .expect("paths checked when the study was read");
             }
         }
         t
+    }
+}
+
+/// How errors name test `t`: `<study>: test` for a study of one test, `<study>: test <name>`
+/// with several.
+fn test_label(file: &str, tests: &[TestSpec], t: &TestSpec) -> String {
+    if tests.len() == 1 {
+        format!("{file}: test")
+    } else {
+        format!("{file}: test {}", t.name)
+    }
+}
+
+/// Reads a test file (relative to the study's folder) or takes an inline table.
+fn read_test(
+    dir: &Path,
+    v: &toml::Value,
+    key: &str,
+    err: &dyn Fn(&str, String) -> String,
+) -> Result<(toml::Table, String, PathBuf), String> {
+    let (table, source, test_dir) = match v {
+        toml::Value::String(p) => {
+            let tp = dir.join(p);
+            let t = std::fs::read_to_string(&tp)
+                .map_err(|e| err(key, format!("cannot read {}: {e}", tp.display())))?;
+            let table: toml::Table = toml::from_str(&t)
+                .map_err(|e| format!("{}: {}", tp.display(), one_line(&e.to_string())))?;
+            let parent = tp.parent().map(Path::to_path_buf).unwrap_or_default();
+            (table, tp.display().to_string(), parent)
+        }
+        toml::Value::Table(t) => (t.clone(), "inline".to_string(), dir.to_path_buf()),
+        _ => {
+            return Err(err(
+                key,
+                "expected a test file's path or an inline table".into(),
+            ))
+        }
+    };
+    let test_dir = if test_dir.as_os_str().is_empty() {
+        PathBuf::from(".")
+    } else {
+        test_dir
+    };
+    Ok((table, source, test_dir))
+}
+
+/// `test = "file.toml"`, an inline `[test]`, or `[[test]]` tables with `name` and `file` (or
+/// the test's content inline).
+fn parse_tests(
+    doc: &toml::Table,
+    dir: &Path,
+    err: &dyn Fn(&str, String) -> String,
+) -> Result<Vec<TestSpec>, String> {
+    let kind_of = |t: &toml::Table| {
+        t.get("test")
+            .and_then(|v| v.as_str())
+            .unwrap_or("test")
+            .to_string()
+    };
+    match doc.get("test") {
+        None => Err(err(
+            "test",
+            "missing (a test file's path, e.g. test = \"repose.toml\", an inline [test] table, or [[test]] tables with name and file)".into(),
+        )),
+        Some(toml::Value::Array(list)) if !list.is_empty() => {
+            let mut tests: Vec<TestSpec> = Vec::new();
+            for (i, item) in list.iter().enumerate() {
+                let key = format!("test[{i}]");
+                let t = item
+                    .as_table()
+                    .ok_or_else(|| err(&key, "expected a table".into()))?;
+                let mut inline = t.clone();
+                inline.remove("name");
+                let file = inline.remove("file");
+                let (table, source, test_dir) = match file {
+                    Some(f) if inline.is_empty() => read_test(dir, &f, &format!("{key}.file"), err)?,
+                    Some(_) => {
+                        return Err(err(
+                            &format!("{key}.file"),
+                            "give file or the test inline, not both".into(),
+                        ))
+                    }
+                    None => read_test(dir, &toml::Value::Table(inline), &key, err)?,
+                };
+                let name = match t.get("name") {
+                    None => kind_of(&table),
+                    Some(toml::Value::String(s))
+                        if !s.is_empty()
+                            && s.chars()
+                                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') =>
+                    {
+                        s.clone()
+                    }
+                    Some(_) => {
+                        return Err(err(
+                            &format!("{key}.name"),
+                            "expected a name of letters, digits, _ and - (it names the test's folder in each run)".into(),
+                        ))
+                    }
+                };
+                if tests.iter().any(|x| x.name == name) {
+                    return Err(err(
+                        &format!("{key}.name"),
+                        format!("two tests are named \"{name}\": give each [[test]] its own name"),
+                    ));
+                }
+                tests.push(TestSpec {
+                    name,
+                    table,
+                    source,
+                    dir: test_dir,
+                });
+            }
+            Ok(tests)
+        }
+        Some(v @ (toml::Value::String(_) | toml::Value::Table(_))) => {
+            let (table, source, test_dir) = read_test(dir, v, "test", err)?;
+            Ok(vec![TestSpec {
+                name: kind_of(&table),
+                table,
+                source,
+                dir: test_dir,
+            }])
+        }
+        Some(_) => Err(err(
+            "test",
+            "expected a test file's path, an inline table, or [[test]] tables".into(),
+        )),
     }
 }
 
@@ -585,7 +624,7 @@ impl Study {
 fn parse_imports(
     doc: &toml::Table,
     dir: &Path,
-    test: &mut toml::Table,
+    tests: &mut [TestSpec],
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Vec<Import>, String> {
     let list = match doc.get("import") {
@@ -620,7 +659,7 @@ fn parse_imports(
         };
         let study = text("study")?;
         let parameter = text("parameter")?;
-        let paths = read_paths(t, &key, test, err)?;
+        let paths = read_paths(t, &key, tests, err)?;
         let study_path = dir.join(&study);
         let other_dir = study_path
             .parent()
@@ -668,9 +707,11 @@ fn parse_imports(
                 ),
             )
         })?;
-        for pp in &paths {
-            pp.set(test, value)
-                .map_err(|e| err(&format!("{key}.path"), format!("\"{pp}\": {e}")))?;
+        for (pp, ks) in &paths {
+            for &k in ks {
+                pp.set(&mut tests[k].table, value)
+                    .map_err(|e| err(&format!("{key}.path"), format!("\"{pp}\": {e}")))?;
+            }
         }
         imports.push(Import {
             study,
@@ -684,13 +725,13 @@ fn parse_imports(
 }
 
 /// `path = "..."` or `paths = [...]` of a `[[parameter]]` or `[[import]]` table `key`, each parsed
-/// and checked to reach a number in `test`.
+/// and checked to reach a number in at least one of the tests; with each, the tests it reaches.
 fn read_paths(
     t: &toml::Table,
     key: &str,
-    test: &toml::Table,
+    tests: &[TestSpec],
     err: &dyn Fn(&str, String) -> String,
-) -> Result<Vec<ParamPath>, String> {
+) -> Result<Vec<(ParamPath, Vec<usize>)>, String> {
     let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
         (Some(toml::Value::String(s)), None) => vec![s.clone()],
         (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
@@ -714,9 +755,28 @@ fn read_paths(
     let mut paths = Vec::new();
     for s in &texts {
         let pp = ParamPath::parse(s).map_err(|e| err(&format!("{key}.path"), e))?;
-        pp.check(test)
-            .map_err(|e| err(&format!("{key}.path"), format!("\"{s}\": {e}")))?;
-        paths.push(pp);
+        let checks: Vec<Result<f64, String>> = tests.iter().map(|x| pp.check(&x.table)).collect();
+        let ks: Vec<usize> = (0..tests.len()).filter(|&k| checks[k].is_ok()).collect();
+        if ks.is_empty() {
+            let why = match &checks[..] {
+                [Err(e)] => e.clone(),
+                _ => format!(
+                    "in none of the tests ({})",
+                    tests
+                        .iter()
+                        .zip(&checks)
+                        .map(|(x, c)| format!(
+                            "{}: {}",
+                            x.name,
+                            c.clone().err().unwrap_or_default()
+                        ))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                ),
+            };
+            return Err(err(&format!("{key}.path"), format!("\"{s}\": {why}")));
+        }
+        paths.push((pp, ks));
     }
     Ok(paths)
 }

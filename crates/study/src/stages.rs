@@ -16,6 +16,8 @@ use crate::surrogate_stages::{self, SurrogateOutcome};
 
 /// Where a curve target's digest starts in a fingerprint.
 const CURVE_LINE: &str = "# curve comparison = ";
+/// Where a combined objective's terms start in a fingerprint.
+const OBJECTIVE_LINE: &str = "# objective = ";
 
 /// One simulation the plan asks for.
 #[derive(Clone, Debug)]
@@ -36,13 +38,30 @@ pub struct RunSpec {
 impl RunSpec {
     /// The exact test this run simulates, and its seed.
     pub fn fingerprint(&self, study: &Study) -> String {
-        let test = toml::to_string(&study.test_with(&self.values)).unwrap_or_default();
-        // A curve target's runs also depend on the lab curves they were compared with.
-        let curve = match &study.target.curve {
-            Some(c) => format!("{CURVE_LINE}{}\n", c.comparison().digest()),
-            None => String::new(),
+        let Some(combine) = study.combine else {
+            let test = toml::to_string(&study.test_with(0, &self.values)).unwrap_or_default();
+            // A curve target's runs also depend on the lab curves they were compared with.
+            let curve = match &study.target.curve {
+                Some(c) => format!("{CURVE_LINE}{}\n", c.comparison().digest()),
+                None => String::new(),
+            };
+            return format!("{test}\n# seed = {}\n{curve}", self.seed);
         };
-        format!("{test}\n# seed = {}\n{curve}", self.seed)
+        // Several targets: every test, and how the targets score the run.
+        let mut f = String::new();
+        for (k, t) in study.tests.iter().enumerate() {
+            let test = toml::to_string(&study.test_with(k, &self.values)).unwrap_or_default();
+            f.push_str(&format!("# test {}\n{test}\n", t.name));
+        }
+        f.push_str(&format!("# seed = {}\n", self.seed));
+        for t in &study.targets {
+            if let Some(c) = &t.curve {
+                f.push_str(&format!("{CURVE_LINE}{}\n", c.comparison().digest()));
+            }
+        }
+        let terms = serde_json::to_string(&study.terms()).unwrap_or_default();
+        f.push_str(&format!("{OBJECTIVE_LINE}{combine:?} {terms}\n"));
+        f
     }
 
     pub fn inputs(&self, study: &Study) -> serde_json::Value {
@@ -453,8 +472,16 @@ fn describe_change(study: &Study, spec: &RunSpec, r: &RunRecord) -> String {
             r.seed, spec.seed
         );
     }
-    let test_part = |f: &str| f.split(CURVE_LINE).next().unwrap_or("").to_string();
-    if test_part(&r.fingerprint) == test_part(&spec.fingerprint(study)) {
+    let test_part = |f: &str| {
+        let f = f.split(CURVE_LINE).next().unwrap_or("");
+        f.split(OBJECTIVE_LINE).next().unwrap_or("").to_string()
+    };
+    let objective_part = |f: &str| f.split(OBJECTIVE_LINE).nth(1).unwrap_or("").to_string();
+    let now = spec.fingerprint(study);
+    if test_part(&r.fingerprint) == test_part(&now) {
+        if objective_part(&r.fingerprint) != objective_part(&now) {
+            return format!("{head} was scored with other targets, weights or limits");
+        }
         return format!("{head} was compared with other lab curves or another normalisation");
     }
     format!("{head} was simulated with other test settings (the test's fixed settings changed)")

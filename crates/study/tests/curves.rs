@@ -165,7 +165,7 @@ fn minimising_the_curve_mse_recovers_the_lab_parameters() {
         replay.stages[0].records[0].as_ref().unwrap(),
     );
     let job = study::Job::new(&s, spec);
-    assert!(job.curve.is_some());
+    assert!(job.tests[0].curve.is_some());
     let job_path = dir.join("job.json");
     std::fs::write(&job_path, job.to_json()).unwrap();
     let back = study::Job::load(&job_path).unwrap();

@@ -1,0 +1,604 @@
+//! What a study calibrates against: one lab target, or several (scalars and curves of one or more
+//! tests) combined into one objective.
+//!
+//! A study with several targets is calibrated against a single number per run, so that every
+//! stage (screening, steepest path, response surface, Bayesian optimisation, GA-BP, SMC) works on
+//! it unchanged; the optimise stage of a desirability study also models each response on its own,
+//! as Design-Expert's numerical optimisation does. Two combinations:
+//!
+//! - `weighted`: the weighted root mean square of the targets' relative errors, in %
+//!   (`combined_error_percent`). A curve target's relative error is the root of its curve MSE
+//!   over the mean square of the lab curve, so a curve and a scalar weigh alike.
+//! - `desirability`: Derringer-Suich. Each target's desirability is 1 at the lab value and falls
+//!   linearly to 0 at its limits (`low`, `high`; by default the lab value ± 50 %); the overall
+//!   desirability is their geometric mean weighted by importance (1 to 5). The study minimises
+//!   `undesirability` = 1 - D.
+
+use std::path::Path;
+
+use doe::optimize::{Criterion, Goal};
+use serde::{Deserialize, Serialize};
+
+use crate::curve::CURVE_RESPONSES;
+use crate::lab_curve::{CurveTarget, CURVE_KEYS};
+use crate::paths::number;
+
+/// The lab value (or curve) a test's response is compared with.
+#[derive(Clone, Debug)]
+pub struct Target {
+    /// The key of the test's outcome compared with the lab (e.g. `angle_of_repose_deg`).
+    pub response: String,
+    pub value: f64,
+    pub replicates: Vec<f64>,
+    pub unit: String,
+    /// The lab curves the test's curve is compared with, when the target has a curve.
+    pub curve: Option<CurveTarget>,
+    /// The study's test (index) the response comes from.
+    pub test: usize,
+    /// How the target enters a combined objective.
+    pub term: Term,
+}
+
+impl Target {
+    /// Whether the response is minimised rather than matched: a curve MSE, or a combined
+    /// objective, whose target is 0.
+    pub fn minimised(&self) -> bool {
+        self.term.minimised
+    }
+
+    /// |sim - lab| / lab in %; none for a minimised response (a relative error of a target of
+    /// 0 means nothing: the response itself says how far off the run is).
+    pub fn relative_error_percent(&self, simulated: f64) -> Option<f64> {
+        (!self.minimised()).then(|| 100.0 * (simulated - self.value).abs() / self.value.abs())
+    }
+
+    /// How far a simulated response is from the lab, in words: the relative error, or the
+    /// minimised response itself.
+    pub fn misfit(&self, simulated: f64) -> String {
+        match self.relative_error_percent(simulated) {
+            Some(e) => format!("relative error {e:.2} %"),
+            None => format!("{} {}", self.response, doe::fit::fmt_sig(simulated)),
+        }
+    }
+
+    /// Standard deviation of the replicates, when there are two or more.
+    pub fn std(&self) -> Option<f64> {
+        let n = self.replicates.len();
+        (n >= 2).then(|| {
+            let m = self.replicates.iter().sum::<f64>() / n as f64;
+            (self.replicates.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+        })
+    }
+
+    /// The target a study with several targets calibrates against: their combination, minimised.
+    pub fn combined(combine: Combine) -> Target {
+        Target {
+            response: combine.response().to_string(),
+            value: 0.0,
+            replicates: Vec::new(),
+            unit: combine.unit().to_string(),
+            curve: None,
+            test: 0,
+            term: Term {
+                test: 0,
+                response: combine.response().to_string(),
+                lab: 0.0,
+                minimised: true,
+                weight: 1.0,
+                importance: 3,
+                low: 0.0,
+                high: 1.0,
+                curve_scale: 1.0,
+            },
+        }
+    }
+}
+
+/// How several targets make one objective.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Combine {
+    Weighted,
+    Desirability,
+}
+
+impl Combine {
+    /// The name of the combined response each run stores.
+    pub fn response(self) -> &'static str {
+        match self {
+            Combine::Weighted => "combined_error_percent",
+            Combine::Desirability => "undesirability",
+        }
+    }
+
+    pub fn unit(self) -> &'static str {
+        match self {
+            Combine::Weighted => "%",
+            Combine::Desirability => "",
+        }
+    }
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            Combine::Weighted => "the weighted root mean square of the targets' relative errors (%)",
+            Combine::Desirability => {
+                "1 - D, D the importance-weighted geometric mean of the targets' Derringer-Suich desirabilities"
+            }
+        }
+    }
+
+    /// The objective of one run from each term's simulated response.
+    pub fn combine(self, terms: &[Term], ys: &[f64]) -> f64 {
+        match self {
+            Combine::Weighted => {
+                let w: f64 = terms.iter().map(|t| t.weight).sum();
+                let s: f64 = terms
+                    .iter()
+                    .zip(ys)
+                    .map(|(t, y)| t.weight * t.relative_error(*y).powi(2))
+                    .sum();
+                100.0 * (s / w).sqrt()
+            }
+            Combine::Desirability => {
+                let imp: f64 = terms.iter().map(|t| t.importance as f64).sum();
+                let mut log = 0.0;
+                for (t, y) in terms.iter().zip(ys) {
+                    let d = t.desirability(*y);
+                    if d <= 0.0 {
+                        return 1.0;
+                    }
+                    log += t.importance as f64 * d.ln();
+                }
+                1.0 - (log / imp).exp()
+            }
+        }
+    }
+}
+
+/// What a run needs of a target to score itself: carried by each job of a study with several
+/// targets.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Term {
+    /// The study's test (index) the response comes from.
+    pub test: usize,
+    pub response: String,
+    /// The lab value (0 for a minimised curve MSE).
+    pub lab: f64,
+    pub minimised: bool,
+    /// Weight in a weighted objective.
+    pub weight: f64,
+    /// Importance (1 to 5) in a desirability.
+    pub importance: u8,
+    /// Desirability limits: 0 at and beyond them, 1 at the lab value (at `low` for a minimised
+    /// response).
+    pub low: f64,
+    pub high: f64,
+    /// The lab curve's mean square, which a curve MSE is divided by to make it relative.
+    pub curve_scale: f64,
+}
+
+impl Term {
+    /// The relative error as a fraction: |y - lab| / |lab|, or for a curve MSE the root of it
+    /// over the lab curve's mean square.
+    pub fn relative_error(&self, y: f64) -> f64 {
+        if self.minimised {
+            (y.max(0.0) / self.curve_scale).sqrt()
+        } else {
+            (y - self.lab).abs() / self.lab.abs()
+        }
+    }
+
+    /// The Derringer-Suich criterion of the target, as Design-Expert states it.
+    pub fn criterion(&self) -> Criterion {
+        Criterion {
+            name: self.response.clone(),
+            goal: if self.minimised {
+                Goal::Minimize
+            } else {
+                Goal::Target(self.lab)
+            },
+            lower: self.low,
+            upper: self.high,
+            weight_lower: 1.0,
+            weight_upper: 1.0,
+            importance: self.importance,
+        }
+    }
+
+    pub fn desirability(&self, y: f64) -> f64 {
+        self.criterion().desirability(y)
+    }
+}
+
+/// Reads `[objective]`: how several targets are combined.
+pub fn parse_objective(
+    doc: &toml::Table,
+    err: &dyn Fn(&str, String) -> String,
+) -> Result<Option<Combine>, String> {
+    let Some(v) = doc.get("objective") else {
+        return Ok(None);
+    };
+    let t = v
+        .as_table()
+        .ok_or_else(|| err("objective", "expected a table with combine".into()))?;
+    for k in t.keys() {
+        if k != "combine" {
+            return Err(err(
+                &format!("objective.{k}"),
+                "unknown key (expected combine)".into(),
+            ));
+        }
+    }
+    match t.get("combine").map(|v| v.as_str()) {
+        Some(Some("weighted")) => Ok(Some(Combine::Weighted)),
+        Some(Some("desirability")) => Ok(Some(Combine::Desirability)),
+        None => Err(err(
+            "objective.combine",
+            "missing (expected \"weighted\" or \"desirability\")".into(),
+        )),
+        Some(_) => Err(err(
+            "objective.combine",
+            "expected \"weighted\" or \"desirability\"".into(),
+        )),
+    }
+}
+
+/// A test as targets see it: its name in the study and what it can give.
+pub struct TestOutputs<'a> {
+    pub name: &'a str,
+    pub kind: &'a str,
+    pub outputs: &'a [&'static str],
+}
+
+/// Reads one target table, `key` (`target` or `target[i]`). `combine` is how the study combines
+/// its targets (None for a single target); `dir` is where lab curve files are taken from.
+pub fn parse_target(
+    t: &toml::Table,
+    key: &str,
+    tests: &[TestOutputs],
+    combine: Option<Combine>,
+    dir: &Path,
+    err: &dyn Fn(&str, String) -> String,
+) -> Result<Target, String> {
+    const KEYS: &[&str] = &[
+        "response",
+        "value",
+        "replicates",
+        "unit",
+        "test",
+        "weight",
+        "importance",
+        "low",
+        "high",
+    ];
+    for k in t.keys() {
+        if !KEYS.contains(&k.as_str()) && !CURVE_KEYS.contains(&k.as_str()) {
+            return Err(err(
+                &format!("{key}.{k}"),
+                format!(
+                    "unknown key (expected {}, {})",
+                    KEYS.join(", "),
+                    CURVE_KEYS.join(", ")
+                ),
+            ));
+        }
+    }
+    let only = |k: &str, with: Option<Combine>, what: &str| -> Result<(), String> {
+        if t.contains_key(k) && combine != with {
+            return Err(err(&format!("{key}.{k}"), what.into()));
+        }
+        Ok(())
+    };
+    only(
+        "weight",
+        Some(Combine::Weighted),
+        "only with [objective] combine = \"weighted\" (a desirability weighs targets by importance)",
+    )?;
+    for k in ["importance", "low", "high"] {
+        only(
+            k,
+            Some(Combine::Desirability),
+            "only with [objective] combine = \"desirability\"",
+        )?;
+    }
+    let test = match t.get("test") {
+        None if tests.len() == 1 => 0,
+        None => {
+            return Err(err(
+                &format!("{key}.test"),
+                format!(
+                    "missing: the study has {} tests, name the one this target is measured in ({})",
+                    tests.len(),
+                    names(tests)
+                ),
+            ))
+        }
+        Some(toml::Value::String(s)) => {
+            tests.iter().position(|x| x.name == s).ok_or_else(|| {
+                err(
+                    &format!("{key}.test"),
+                    format!(
+                        "\"{s}\" is not a test of the study (expected {})",
+                        names(tests)
+                    ),
+                )
+            })?
+        }
+        Some(_) => {
+            return Err(err(
+                &format!("{key}.test"),
+                format!("expected a test's name ({})", names(tests)),
+            ))
+        }
+    };
+    let TestOutputs { kind, outputs, .. } = tests[test];
+    // The curve keys' errors name this target's key.
+    let curve_err = |k: &str, m: String| err(&k.replacen("target", key, 1), m);
+    let curve = CurveTarget::parse(t, dir, &curve_err)?;
+    if let Some(c) = &curve {
+        if !outputs.contains(&c.curve.as_str()) {
+            return Err(err(
+                &format!("{key}.curve"),
+                format!(
+                    "\"{}\" is not a response of {kind} (expected one of: {})",
+                    c.curve,
+                    outputs.join(", ")
+                ),
+            ));
+        }
+    }
+    let response = match t.get("response") {
+        None if curve.is_some() => "curve_mse".to_string(),
+        None => outputs
+            .first()
+            .ok_or_else(|| err("test", format!("{kind} has no outcome to calibrate against")))?
+            .to_string(),
+        Some(toml::Value::String(r)) if outputs.contains(&r.as_str()) => r.clone(),
+        Some(toml::Value::String(r))
+            if curve.is_some() && CURVE_RESPONSES.contains(&r.as_str()) =>
+        {
+            r.clone()
+        }
+        Some(toml::Value::String(r)) if CURVE_RESPONSES.contains(&r.as_str()) => {
+            return Err(err(
+                &format!("{key}.response"),
+                format!("{r} compares the test's curve with the lab's: give {key}.curve, {key}.lab_curves and {key}.normalisation"),
+            ))
+        }
+        Some(v) => {
+            let mut expected = outputs.to_vec();
+            if curve.is_some() {
+                expected.extend(CURVE_RESPONSES);
+            }
+            return Err(err(
+                &format!("{key}.response"),
+                format!(
+                    "{v} is not an outcome of {kind} (expected one of: {})",
+                    expected.join(", ")
+                ),
+            ));
+        }
+    };
+    let minimised = response == "curve_mse";
+    if minimised {
+        if let Some(k) = ["value", "replicates"].iter().find(|k| t.contains_key(**k)) {
+            return Err(err(
+                &format!("{key}.{k}"),
+                "curve_mse is minimised (its target is 0): give no value".into(),
+            ));
+        }
+    }
+    let replicates: Vec<f64> = match (t.get("replicates"), &curve) {
+        (None, Some(c)) if CURVE_RESPONSES.contains(&response.as_str()) => {
+            c.replicate_measures(&response)
+        }
+        (None, _) => Vec::new(),
+        (Some(toml::Value::Array(a)), _) => a
+            .iter()
+            .map(|v| number(v).filter(|x| x.is_finite()))
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| {
+                err(
+                    &format!("{key}.replicates"),
+                    "expected a list of finite numbers".into(),
+                )
+            })?,
+        (Some(_), _) => {
+            return Err(err(
+                &format!("{key}.replicates"),
+                "expected a list of numbers".into(),
+            ))
+        }
+    };
+    let value = match t.get("value") {
+        None if minimised => 0.0,
+        Some(v) => number(v)
+            .ok_or_else(|| err(&format!("{key}.value"), "expected a number".into()))?,
+        None if !replicates.is_empty() => replicates.iter().sum::<f64>() / replicates.len() as f64,
+        None if curve.is_some() && CURVE_RESPONSES.contains(&response.as_str()) => {
+            return Err(err(
+                &format!("{key}.value"),
+                format!("missing: the lab curves give no {response} (their peak is at the start); give the lab value"),
+            ))
+        }
+        None => {
+            return Err(err(
+                &format!("{key}.value"),
+                "missing: give the lab value or its replicates".into(),
+            ))
+        }
+    };
+    if !minimised && (value == 0.0 || !value.is_finite()) {
+        return Err(err(
+            &format!("{key}.value"),
+            format!("expected a non-zero number (relative errors divide by it), got {value}"),
+        ));
+    }
+    let unit = match (t.get("unit").and_then(|v| v.as_str()), &curve) {
+        (Some(u), _) => u.to_string(),
+        (None, Some(c)) => c.normalisation.unit_of(&response),
+        (None, None) => String::new(),
+    };
+    let term = parse_term(t, key, test, &response, value, curve.as_ref(), err)?;
+    Ok(Target {
+        response,
+        value,
+        replicates,
+        unit,
+        curve,
+        test,
+        term,
+    })
+}
+
+/// The weight, importance and limits of a target.
+fn parse_term(
+    t: &toml::Table,
+    key: &str,
+    test: usize,
+    response: &str,
+    value: f64,
+    curve: Option<&CurveTarget>,
+    err: &dyn Fn(&str, String) -> String,
+) -> Result<Term, String> {
+    let minimised = response == "curve_mse";
+    let curve_scale = match curve {
+        Some(c) if minimised => {
+            let lab = c.comparison().lab_normalised();
+            let ms = lab.y.iter().map(|y| y * y).sum::<f64>() / lab.y.len() as f64;
+            if ms > 0.0 && ms.is_finite() {
+                ms
+            } else {
+                return Err(err(
+                    &format!("{key}.lab_curves"),
+                    "the lab curve is zero everywhere: a curve MSE cannot be made relative to it"
+                        .into(),
+                ));
+            }
+        }
+        _ => 1.0,
+    };
+    let weight = match t.get("weight") {
+        None => 1.0,
+        Some(v) => number(v)
+            .filter(|w| *w > 0.0 && w.is_finite())
+            .ok_or_else(|| err(&format!("{key}.weight"), "expected a number > 0".into()))?,
+    };
+    let importance = match t.get("importance") {
+        None => 3,
+        Some(toml::Value::Integer(i)) if (1..=5).contains(i) => *i as u8,
+        Some(_) => {
+            return Err(err(
+                &format!("{key}.importance"),
+                "expected a whole number from 1 to 5 (Design-Expert's + to +++++)".into(),
+            ))
+        }
+    };
+    let limit = |k: &str| -> Result<Option<f64>, String> {
+        t.get(k)
+            .map(|v| {
+                number(v)
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| err(&format!("{key}.{k}"), "expected a number".into()))
+            })
+            .transpose()
+    };
+    // By default a target is worth nothing 50 % away from the lab value; a curve when its
+    // relative error reaches 50 %.
+    let (low, high) = if minimised {
+        (0.0, limit("high")?.unwrap_or(0.25 * curve_scale))
+    } else {
+        let half = 0.5 * value.abs();
+        (
+            limit("low")?.unwrap_or(value - half),
+            limit("high")?.unwrap_or(value + half),
+        )
+    };
+    if minimised && t.contains_key("low") {
+        return Err(err(
+            &format!("{key}.low"),
+            "a curve MSE is best at 0: give only high, the MSE at which it is worth nothing".into(),
+        ));
+    }
+    if !(low < high) || (!minimised && !(low < value && value < high)) {
+        return Err(err(
+            &format!("{key}.low"),
+            format!(
+                "expected low < lab value < high, got low = {low}, lab value = {value}, high = {high}"
+            ),
+        ));
+    }
+    Ok(Term {
+        test,
+        response: response.to_string(),
+        lab: value,
+        minimised,
+        weight,
+        importance,
+        low,
+        high,
+        curve_scale,
+    })
+}
+
+fn names(tests: &[TestOutputs]) -> String {
+    tests.iter().map(|t| t.name).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn term(lab: f64) -> Term {
+        Term {
+            test: 0,
+            response: "r".into(),
+            lab,
+            minimised: false,
+            weight: 1.0,
+            importance: 3,
+            low: 0.5 * lab,
+            high: 1.5 * lab,
+            curve_scale: 1.0,
+        }
+    }
+
+    #[test]
+    fn weighted_objective_is_the_weighted_rms_of_relative_errors() {
+        let mut a = term(10.0);
+        let b = term(2.0);
+        a.weight = 3.0;
+        // a is 10 % off, b 50 % off: sqrt((3 * 0.01 + 1 * 0.25) / 4) = sqrt(0.07).
+        let y = Combine::Weighted.combine(&[a, b], &[11.0, 1.0]);
+        assert!((y - 100.0 * 0.07f64.sqrt()).abs() < 1e-12, "{y}");
+    }
+
+    #[test]
+    fn desirability_is_the_importance_weighted_geometric_mean() {
+        let mut a = term(10.0);
+        let b = term(2.0);
+        a.importance = 5;
+        // a: 1 - 1/5 = 0.8; b: 1 - 0.25/1 = 0.75; D = (0.8^5 0.75^3)^(1/8).
+        let y = Combine::Desirability.combine(&[a.clone(), b.clone()], &[11.0, 2.25]);
+        let d = (0.8f64.powi(5) * 0.75f64.powi(3)).powf(1.0 / 8.0);
+        assert!((y - (1.0 - d)).abs() < 1e-12, "{y} against {}", 1.0 - d);
+        // Beyond a limit the whole point is worth nothing.
+        assert_eq!(Combine::Desirability.combine(&[a, b], &[16.0, 2.0]), 1.0);
+    }
+
+    #[test]
+    fn a_curve_mse_is_relative_to_the_lab_curve() {
+        let t = Term {
+            minimised: true,
+            lab: 0.0,
+            low: 0.0,
+            high: 0.25 * 4.0,
+            curve_scale: 4.0,
+            ..term(1.0)
+        };
+        // MSE 0.04 against a lab mean square of 4: relative error 0.1.
+        assert!((t.relative_error(0.04) - 0.1).abs() < 1e-12);
+        assert!((t.desirability(0.5) - 0.5).abs() < 1e-12);
+    }
+}

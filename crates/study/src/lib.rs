@@ -11,6 +11,7 @@
 
 pub mod curve;
 mod curve_report;
+mod design_stages;
 pub mod job;
 pub mod lab_curve;
 pub mod paths;

@@ -1,0 +1,540 @@
+//! The design-of-experiments stages: screening, steepest path, response surface, optimisation
+//! and validation. [`plan_stage`] makes a stage's runs from the study and what the stages before
+//! it found ([`Context`]); [`conclude`] fits, selects, optimises or validates once they are done.
+//! The surrogate stages are planned and concluded in `surrogate_stages`.
+
+use doe::design::{self, Design};
+use doe::optimize::{Criterion, Goal, Problem, Subject};
+use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
+
+use crate::spec::{RsmDesign, ScreeningDesign, Stage, Study};
+use crate::stages::{run_seed, sig, tidy, Context, RunSpec, StageResult, Validation};
+use crate::surrogate_stages;
+
+fn factors_of(study: &Study, ctx: &Context) -> Result<Vec<Factor>, String> {
+    ctx.active
+        .iter()
+        .map(|&i| {
+            let (lo, hi) = ctx.region[i];
+            study.parameters[i].factor(lo, hi)
+        })
+        .collect()
+}
+
+fn specs_from_design(study: &Study, st: &mut StageResult, ctx: &Context, d: &Design) {
+    let seed = run_seed(study.seed, st.index, usize::MAX >> 1);
+    for (index, &std) in d.run_order(seed).iter().enumerate() {
+        let coded = d.runs[std].clone();
+        let mut values = ctx.values.clone();
+        for (j, &pi) in st.active.iter().enumerate() {
+            values[pi] = tidy(st.factors[j].to_actual(coded[j]));
+        }
+        st.runs.push(RunSpec {
+            stage: st.index,
+            stage_kind: st.kind,
+            index,
+            label: format!("{} (std {})", point_label(d, &coded), std + 1),
+            coded,
+            values,
+            seed: run_seed(study.seed, st.index, index),
+        });
+    }
+}
+
+/// The runs of a stage. An error (a parameter whose range has shrunk to nothing) stops the
+/// study with the reason.
+pub(crate) fn plan_stage(
+    study: &Study,
+    si: usize,
+    stage: &Stage,
+    ctx: &Context,
+) -> Result<StageResult, String> {
+    let mut st = StageResult::new(si, stage.kind());
+    st.active = ctx.active.clone();
+    st.factors = factors_of(study, ctx)?;
+    let k = st.active.len();
+    match stage {
+        Stage::Screening {
+            design,
+            center_points,
+            ..
+        } => {
+            let d = match design {
+                ScreeningDesign::PlackettBurman { runs } => design::plackett_burman(k, *runs, 0),
+                ScreeningDesign::Fractional { resolution } => {
+                    design::fractional_factorial_by_resolution(k, *resolution)
+                }
+                ScreeningDesign::Factorial => design::full_factorial(k),
+            };
+            match d {
+                Ok(d) => {
+                    let d = d.with_center_points(*center_points);
+                    st.title = format!("{}, {} centre point(s)", d.kind, center_points);
+                    specs_from_design(study, &mut st, ctx, &d);
+                    st.design = Some(d);
+                }
+                Err(e) => st.notes.push(format!("design: {e}")),
+            }
+        }
+        Stage::Steepest {
+            steps,
+            proportional,
+        } => {
+            let biggest = ctx.direction.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+            let dir: Vec<f64> = ctx
+                .direction
+                .iter()
+                .map(|c| {
+                    if *proportional {
+                        c / biggest.max(1e-300)
+                    } else if *c >= 0.0 {
+                        1.0
+                    } else {
+                        -1.0
+                    }
+                })
+                .collect();
+            st.title = format!(
+                "steepest path, {steps} steps across the ranges ({})",
+                if *proportional {
+                    "in proportion to the coefficients"
+                } else {
+                    "by the signs of the effects"
+                }
+            );
+            for i in 0..*steps {
+                let t = -1.0 + 2.0 * i as f64 / (*steps - 1) as f64;
+                let coded: Vec<f64> = dir.iter().map(|d| t * d).collect();
+                let mut values = ctx.values.clone();
+                for (j, &pi) in st.active.iter().enumerate() {
+                    values[pi] = tidy(st.factors[j].to_actual(coded[j]));
+                }
+                st.runs.push(RunSpec {
+                    stage: si,
+                    stage_kind: st.kind,
+                    index: i,
+                    label: format!("step {}", i + 1),
+                    coded,
+                    values,
+                    seed: run_seed(study.seed, si, i),
+                });
+            }
+        }
+        Stage::Rsm {
+            design: kind,
+            center_points,
+            ..
+        } => {
+            let d = match kind {
+                RsmDesign::CentralComposite { alpha } => {
+                    let cp = center_points.unwrap_or(if k == 2 { 5 } else { 6 });
+                    design::central_composite(k, *alpha, cp, None)
+                }
+                RsmDesign::BoxBehnken => design::box_behnken(k, center_points.unwrap_or(5)),
+            };
+            match d {
+                Ok(d) => {
+                    // Axial points must stay inside the parameters' limits: shift the region,
+                    // or shrink it, until they do.
+                    let a = d.alpha.unwrap_or(1.0);
+                    let mut factors = Vec::new();
+                    for (j, &pi) in st.active.iter().enumerate() {
+                        let p = &study.parameters[pi];
+                        let f = &st.factors[j];
+                        let (lo, hi) = (p.transformed(f.low), p.transformed(f.high));
+                        let (lim_lo, lim_hi) = (p.transformed(p.min), p.transformed(p.max));
+                        let mut h = 0.5 * (hi - lo);
+                        let mut c = 0.5 * (hi + lo);
+                        if c - a * h < lim_lo - 1e-12 || c + a * h > lim_hi + 1e-12 {
+                            h = h.min((lim_hi - lim_lo) / (2.0 * a));
+                            // When the region fills the whole range the two bounds for the
+                            // centre meet, and rounding can leave them a hair crossed.
+                            let (c_lo, c_hi) = (lim_lo + a * h, lim_hi - a * h);
+                            c = if c_lo <= c_hi {
+                                c.clamp(c_lo, c_hi)
+                            } else {
+                                0.5 * (lim_lo + lim_hi)
+                            };
+                            st.notes.push(format!(
+                                "{}: the design's ±{} points would leave {} .. {}; its ±1 range is now {} .. {}",
+                                p.name,
+                                sig(a),
+                                sig(p.min),
+                                sig(p.max),
+                                sig(p.actual(c - h)),
+                                sig(p.actual(c + h))
+                            ));
+                        }
+                        factors.push(p.factor(p.actual(c - h), p.actual(c + h))?);
+                    }
+                    st.factors = factors;
+                    st.title = format!("{}, {} runs", d.kind, d.runs.len());
+                    specs_from_design(study, &mut st, ctx, &d);
+                    st.design = Some(d);
+                }
+                Err(e) => st.notes.push(format!("design: {e}")),
+            }
+        }
+        Stage::Optimize { .. } => {
+            st.title = "numerical optimisation (desirability) toward the lab value".into();
+        }
+        Stage::BayesOpt { .. } | Stage::GaBp { .. } | Stage::Smc { .. } => {
+            surrogate_stages::plan(study, stage, &mut st, ctx)?;
+        }
+        Stage::Validate { replicates } => {
+            // The optimum; without an optimisation, the best run so far; else the middle.
+            let point = ctx
+                .calibrated
+                .clone()
+                .or_else(|| ctx.best.clone())
+                .unwrap_or_else(|| ctx.values.clone());
+            st.title = format!("{replicates} replicate simulations at the calibrated point");
+            for i in 0..*replicates {
+                st.runs.push(RunSpec {
+                    stage: si,
+                    stage_kind: st.kind,
+                    index: i,
+                    label: format!("replicate {}", i + 1),
+                    coded: Vec::new(),
+                    values: point.clone(),
+                    seed: run_seed(study.seed, si, i),
+                });
+            }
+            st.calibrated = Some(point);
+        }
+    }
+    Ok(st)
+}
+
+fn experiment(study: &Study, st: &StageResult) -> Experiment {
+    let ok = st.successes();
+    Experiment {
+        response_name: study.target.response.clone(),
+        factor_names: st.factors.iter().map(|f| f.name.clone()).collect(),
+        factors: Some(st.factors.clone()),
+        coded: ok.iter().map(|(s, _)| s.coded.clone()).collect(),
+        response: ok.iter().map(|(_, y)| *y).collect(),
+    }
+}
+
+fn enough(st: &StageResult, needed: usize, what: &str) -> Result<(), String> {
+    let ok = st.usable();
+    if ok < needed {
+        // Runs stored as done without a response (a store from elsewhere) do not count.
+        let without = st.done() - ok;
+        return Err(format!(
+            "{ok} of {} runs finished{} ({} failed{}); {what} needs at least {needed}. Look at the failures, narrow the ranges or make the test more robust, then run again with --retry-failed",
+            st.runs.len(),
+            if without > 0 {
+                format!(" with a response, {without} without")
+            } else {
+                String::new()
+            },
+            st.failed(),
+            st.first_failure()
+        ));
+    }
+    Ok(())
+}
+
+/// A fit's complaint, prefixed with the failed runs when they are the likely cause.
+fn with_failures(st: &StageResult, e: String) -> String {
+    if st.failed() == 0 {
+        return e;
+    }
+    format!(
+        "{} of {} runs failed{}; the finished ones cannot be modelled: {e}",
+        st.failed(),
+        st.runs.len(),
+        st.first_failure()
+    )
+}
+
+pub(crate) fn conclude(
+    study: &Study,
+    stage: &Stage,
+    st: &mut StageResult,
+    ctx: &mut Context,
+) -> Result<(), String> {
+    let target = study.target.value;
+    if st.runs.is_empty() && stage.runs_simulations() {
+        return Err(st.notes.join("; "));
+    }
+    if st.failed() > 0 {
+        st.notes.push(format!(
+            "{} of {} runs failed{}",
+            st.failed(),
+            st.runs.len(),
+            st.first_failure()
+        ));
+    }
+    match stage {
+        Stage::Screening {
+            alpha,
+            min_factors,
+            max_factors,
+            ..
+        } => {
+            let k = st.active.len();
+            let terms = ModelOrder::Linear.terms(k);
+            enough(
+                st,
+                terms.len() + 1,
+                "a first-order model with one residual degree of freedom",
+            )?;
+            let fit = Fit::new(&experiment(study, st), &terms, Curvature::Auto)
+                .map_err(|e| with_failures(st, e))?;
+            // p of each main effect, in factor order.
+            let p: Vec<f64> = (0..k)
+                .map(|j| {
+                    fit.terms
+                        .iter()
+                        .skip(1)
+                        .zip(&fit.anova_terms)
+                        .find(|(t, _)| t.powers[j] == 1 && t.order() == 1)
+                        .and_then(|(_, r)| r.p)
+                        .unwrap_or(1.0)
+                })
+                .collect();
+            let coef: Vec<f64> = (0..k)
+                .map(|j| {
+                    fit.terms
+                        .iter()
+                        .zip(&fit.coefficients)
+                        .find(|(t, _)| t.powers[j] == 1 && t.order() == 1)
+                        .map(|(_, c)| c.estimate)
+                        .unwrap_or(0.0)
+                })
+                .collect();
+            let mut order: Vec<usize> = (0..k).collect();
+            order.sort_by(|&a, &b| {
+                p[a].total_cmp(&p[b])
+                    .then(coef[b].abs().total_cmp(&coef[a].abs()))
+            });
+            let significant: Vec<usize> =
+                order.iter().copied().filter(|&j| p[j] < *alpha).collect();
+            let mut chosen: Vec<usize> = significant.clone();
+            if chosen.len() < *min_factors {
+                chosen = order[..(*min_factors).min(k)].to_vec();
+                st.notes.push(format!(
+                    "{} parameter(s) significant at p < {}; the {} with the smallest p go on",
+                    significant.len(),
+                    alpha,
+                    chosen.len()
+                ));
+            }
+            if chosen.len() > *max_factors {
+                chosen.truncate(*max_factors);
+                st.notes.push(format!(
+                    "{} parameters significant at p < {}; the {} with the smallest p go on (max_factors)",
+                    significant.len(),
+                    alpha,
+                    max_factors
+                ));
+            }
+            chosen.sort_unstable();
+            let selected: Vec<usize> = chosen.iter().map(|&j| st.active[j]).collect();
+            for (j, &pi) in st.active.iter().enumerate() {
+                if !chosen.contains(&j) {
+                    // Held at the middle of its range, as the published studies do.
+                    let pmid = &study.parameters[pi];
+                    let (lo, hi) = ctx.region[pi];
+                    ctx.values[pi] =
+                        pmid.actual(0.5 * (pmid.transformed(lo) + pmid.transformed(hi)));
+                }
+            }
+            ctx.direction = chosen.iter().map(|&j| coef[j]).collect();
+            ctx.model = Some((fit.clone(), st.active.clone()));
+            ctx.active = selected.clone();
+            st.selected = selected;
+            st.fit = Some(fit);
+        }
+        Stage::Steepest { .. } => {
+            enough(st, 1, "choosing the best step")?;
+            let ok = st.successes();
+            let (best_spec, best_y) = ok
+                .iter()
+                .min_by(|a, b| (a.1 - target).abs().total_cmp(&(b.1 - target).abs()))
+                .copied()
+                .ok_or("no run of the path gave a response")?;
+            let b = best_spec.index;
+            let last = st.runs.len() - 1;
+            let (lo_i, hi_i) = if b == 0 {
+                (0, 1)
+            } else if b == last {
+                (last - 1, last)
+            } else {
+                (b - 1, b + 1)
+            };
+            if b == 0 || b == last {
+                st.notes.push(format!(
+                    "the step nearest the lab value is at the end of the path (step {}): the lab value may lie outside the parameters' ranges",
+                    b + 1
+                ));
+            }
+            for &pi in &st.active {
+                let p = &study.parameters[pi];
+                let a = st.runs[lo_i].values[pi];
+                let c = st.runs[hi_i].values[pi];
+                if a == c {
+                    // A parameter the path does not move (its coefficient is zero, to the digits
+                    // values are kept to) keeps the range it had: a range of nothing cannot be
+                    // designed over.
+                    let (lo, hi) = ctx.region[pi];
+                    st.notes.push(format!(
+                        "{}: the path does not move it (its coefficient is about zero); its range stays {} .. {}",
+                        p.name,
+                        sig(lo),
+                        sig(hi)
+                    ));
+                    ctx.values[pi] = a;
+                    continue;
+                }
+                ctx.region[pi] = (a.min(c), a.max(c));
+                ctx.values[pi] = if b == 0 || b == last {
+                    p.actual(0.5 * (p.transformed(a) + p.transformed(c)))
+                } else {
+                    st.runs[b].values[pi]
+                };
+            }
+            st.notes
+                .push(match study.target.relative_error_percent(best_y) {
+                    Some(e) => format!(
+                        "step {} gives {} against the lab's {} (relative error {e:.2} %)",
+                        b + 1,
+                        sig(best_y),
+                        sig(target),
+                    ),
+                    None => format!(
+                        "step {} gives the smallest {}: {}",
+                        b + 1,
+                        study.target.response,
+                        sig(best_y)
+                    ),
+                });
+            st.best_step = Some(b);
+        }
+        Stage::Rsm {
+            reduce, alpha_out, ..
+        } => {
+            let k = st.active.len();
+            let terms = ModelOrder::Quadratic.terms(k);
+            enough(
+                st,
+                terms.len() + 1,
+                "a quadratic model with one residual degree of freedom",
+            )?;
+            let exp = experiment(study, st);
+            let full = Fit::new(&exp, &terms, Curvature::Off).map_err(|e| with_failures(st, e))?;
+            let fit = if *reduce {
+                Fit::reduce(&exp, &terms, Curvature::Off, *alpha_out, true)
+                    .map_err(|e| with_failures(st, e))?
+            } else {
+                full.clone()
+            };
+            if !fit.removed.is_empty() {
+                st.notes.push(format!(
+                    "backward elimination (alpha out {alpha_out}) removed {}",
+                    fit.removed
+                        .iter()
+                        .map(|(n, p)| format!("{n} (p {})", doe::fit::fmt_p(*p)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+            ctx.model = Some((fit.clone(), st.active.clone()));
+            st.full_fit = Some(full);
+            st.fit = Some(fit);
+        }
+        Stage::Optimize { solutions, starts } => {
+            let (fit, active) = ctx
+                .model
+                .clone()
+                .ok_or("no stage before it fitted a model (put a screening or rsm stage first)")?;
+            let observed = &fit.experiment.response;
+            let (goal, lo, hi) = if study.target.minimised() {
+                // Minimise the model itself: below the lower limit every point would be equally
+                // desirable, so the limit is put under the model's least value in the ±1 box
+                // (each term of a coded polynomial lies in -1..1 there).
+                let reach: f64 = fit
+                    .coefficients
+                    .iter()
+                    .skip(1)
+                    .map(|c| c.estimate.abs())
+                    .sum();
+                let floor = fit.coefficients.first().map(|c| c.estimate).unwrap_or(0.0) - reach;
+                let hi = observed.iter().copied().fold(f64::MIN, f64::max);
+                let lo = floor.min(hi) - 1e-9 * (1.0 + hi.abs() + reach);
+                (Goal::Minimize, lo, hi)
+            } else {
+                let lo = observed.iter().copied().fold(target, f64::min);
+                let hi = observed.iter().copied().fold(target, f64::max);
+                (Goal::Target(target), lo, hi)
+            };
+            let problem = Problem {
+                fits: vec![&fit],
+                criteria: vec![(
+                    Subject::Response(0),
+                    Criterion {
+                        name: study.target.response.clone(),
+                        goal,
+                        lower: lo,
+                        upper: hi,
+                        weight_lower: 1.0,
+                        weight_upper: 1.0,
+                        importance: 3,
+                    },
+                )],
+                bounds: vec![(-1.0, 1.0); active.len()],
+            };
+            let found = problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
+            let best = found.first().ok_or("the search found no solution")?.clone();
+            let mut point = ctx.values.clone();
+            for (j, &pi) in active.iter().enumerate() {
+                point[pi] = best.actual.as_ref().map(|a| a[j]).unwrap_or(point[pi]);
+            }
+            if best.desirability <= 0.0 && !study.target.minimised() {
+                st.notes.push("the model does not reach the lab value inside the ranges; the closest setting is taken".into());
+            }
+            st.active = active;
+            st.factors = fit.experiment.factors.clone().unwrap_or_default();
+            st.solutions = found;
+            st.fit = Some(fit);
+            ctx.calibrated = Some(point.clone());
+            st.calibrated = Some(point);
+        }
+        Stage::BayesOpt { .. } | Stage::GaBp { .. } | Stage::Smc { .. } => {
+            surrogate_stages::conclude(study, stage, st, ctx)?;
+        }
+        Stage::Validate { .. } => {
+            enough(st, 1, "validation")?;
+            let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
+            let n = ys.len();
+            let mean = ys.iter().sum::<f64>() / n as f64;
+            let std = (n >= 2).then(|| {
+                (ys.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+            });
+            st.validation = Some(Validation {
+                runs: n,
+                mean,
+                std,
+                relative_error_percent: study.target.relative_error_percent(mean),
+            });
+        }
+    }
+    Ok(())
+}
+
+fn point_label(d: &Design, run: &[f64]) -> String {
+    let nonzero = run.iter().filter(|v| v.abs() > 1e-12).count();
+    let label = if nonzero == 0 {
+        "center"
+    } else if d.alpha.is_some_and(|a| (a - 1.0).abs() > 1e-9) && nonzero == 1 {
+        "axial"
+    } else if nonzero == run.len() {
+        "factorial"
+    } else {
+        "edge"
+    };
+    label.to_string()
+}

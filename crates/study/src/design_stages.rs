@@ -7,7 +7,7 @@ use doe::design::{self, Design};
 use doe::optimize::{Criterion, Goal, Problem, Subject};
 use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 
-use crate::spec::{RsmDesign, ScreeningDesign, Stage, Study};
+use crate::spec::{Combine, RsmDesign, ScreeningDesign, Stage, Study};
 use crate::stages::{run_seed, sig, tidy, Context, RunSpec, StageResult, Validation};
 use crate::surrogate_stages;
 
@@ -345,6 +345,7 @@ pub(crate) fn conclude(
             }
             ctx.direction = chosen.iter().map(|&j| coef[j]).collect();
             ctx.model = Some((fit.clone(), st.active.clone()));
+            ctx.model_targets = st.target_values();
             ctx.active = selected.clone();
             st.selected = selected;
             st.fit = Some(fit);
@@ -443,6 +444,7 @@ pub(crate) fn conclude(
                 ));
             }
             ctx.model = Some((fit.clone(), st.active.clone()));
+            ctx.model_targets = st.target_values();
             st.full_fit = Some(full);
             st.fit = Some(fit);
         }
@@ -451,43 +453,39 @@ pub(crate) fn conclude(
                 .model
                 .clone()
                 .ok_or("no stage before it fitted a model (put a screening or rsm stage first)")?;
-            let observed = &fit.experiment.response;
-            let (goal, lo, hi) = if study.target.minimised() {
-                // Minimise the model itself: below the lower limit every point would be equally
-                // desirable, so the limit is put under the model's least value in the ±1 box
-                // (each term of a coded polynomial lies in -1..1 there).
-                let reach: f64 = fit
-                    .coefficients
-                    .iter()
-                    .skip(1)
-                    .map(|c| c.estimate.abs())
-                    .sum();
-                let floor = fit.coefficients.first().map(|c| c.estimate).unwrap_or(0.0) - reach;
-                let hi = observed.iter().copied().fold(f64::MIN, f64::max);
-                let lo = floor.min(hi) - 1e-9 * (1.0 + hi.abs() + reach);
-                (Goal::Minimize, lo, hi)
+            let rows = fit.experiment.response.len();
+            let desirability = study.combine == Some(Combine::Desirability)
+                && ctx.model_targets.len() == rows
+                && rows > 0;
+            let found = if desirability {
+                // Design-Expert's numerical optimisation: each response its own model, their
+                // desirabilities combined.
+                let fits = target_fits(study, &fit, &ctx.model_targets)?;
+                st.notes.push(format!(
+                    "each target's response modelled on the same runs ({}); the search maximises their overall desirability",
+                    fits.iter()
+                        .map(|f| format!("{} R² {:.3}", f.experiment.response_name, f.r2))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+                let problem = Problem {
+                    fits: fits.iter().collect(),
+                    criteria: study
+                        .targets
+                        .iter()
+                        .enumerate()
+                        .map(|(i, t)| (Subject::Response(i), t.term.criterion()))
+                        .collect(),
+                    bounds: vec![(-1.0, 1.0); active.len()],
+                };
+                let found =
+                    problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
+                st.target_fits = fits;
+                found
             } else {
-                let lo = observed.iter().copied().fold(target, f64::min);
-                let hi = observed.iter().copied().fold(target, f64::max);
-                (Goal::Target(target), lo, hi)
+                single_response_solutions(study, &fit, active.len(), st.index, *solutions, *starts)?
             };
-            let problem = Problem {
-                fits: vec![&fit],
-                criteria: vec![(
-                    Subject::Response(0),
-                    Criterion {
-                        name: study.target.response.clone(),
-                        goal,
-                        lower: lo,
-                        upper: hi,
-                        weight_lower: 1.0,
-                        weight_upper: 1.0,
-                        importance: 3,
-                    },
-                )],
-                bounds: vec![(-1.0, 1.0); active.len()],
-            };
-            let found = problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
+
             let best = found.first().ok_or("the search found no solution")?.clone();
             let mut point = ctx.values.clone();
             for (j, &pi) in active.iter().enumerate() {
@@ -495,6 +493,9 @@ pub(crate) fn conclude(
             }
             if best.desirability <= 0.0 && !study.target.minimised() {
                 st.notes.push("the model does not reach the lab value inside the ranges; the closest setting is taken".into());
+            }
+            if desirability && best.desirability <= 0.0 {
+                st.notes.push("no setting inside the ranges brings every target within its limits (desirability 0): widen the limits (low, high) or the ranges".into());
             }
             st.active = active;
             st.factors = fit.experiment.factors.clone().unwrap_or_default();
@@ -509,17 +510,20 @@ pub(crate) fn conclude(
         Stage::Validate { .. } => {
             enough(st, 1, "validation")?;
             let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
-            let n = ys.len();
-            let mean = ys.iter().sum::<f64>() / n as f64;
-            let std = (n >= 2).then(|| {
-                (ys.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
-            });
-            st.validation = Some(Validation {
-                runs: n,
-                mean,
-                std,
-                relative_error_percent: study.target.relative_error_percent(mean),
-            });
+            let mut v = Validation::of(&ys, &study.target);
+            let per_run = st.target_values();
+            if study.combine.is_some() && per_run.len() == ys.len() {
+                v.targets = study
+                    .targets
+                    .iter()
+                    .enumerate()
+                    .map(|(i, t)| {
+                        let ys: Vec<f64> = per_run.iter().map(|r| r[i]).collect();
+                        Validation::of(&ys, t)
+                    })
+                    .collect();
+            }
+            st.validation = Some(v);
         }
     }
     Ok(())
@@ -537,4 +541,80 @@ fn point_label(d: &Design, run: &[f64]) -> String {
         "edge"
     };
     label.to_string()
+}
+
+/// The optimum of the model of the study's one response (or combined objective): on target, or
+/// minimised.
+fn single_response_solutions(
+    study: &Study,
+    fit: &Fit,
+    factors: usize,
+    stage: usize,
+    solutions: usize,
+    starts: usize,
+) -> Result<Vec<doe::optimize::Solution>, String> {
+    let target = study.target.value;
+    let observed = &fit.experiment.response;
+    let (goal, lo, hi) = if study.target.minimised() {
+        // Minimise the model itself: below the lower limit every point would be equally
+        // desirable, so the limit is put under the model's least value in the ±1 box
+        // (each term of a coded polynomial lies in -1..1 there).
+        let reach: f64 = fit
+            .coefficients
+            .iter()
+            .skip(1)
+            .map(|c| c.estimate.abs())
+            .sum();
+        let floor = fit.coefficients.first().map(|c| c.estimate).unwrap_or(0.0) - reach;
+        let hi = observed.iter().copied().fold(f64::MIN, f64::max);
+        let lo = floor.min(hi) - 1e-9 * (1.0 + hi.abs() + reach);
+        (Goal::Minimize, lo, hi)
+    } else {
+        let lo = observed.iter().copied().fold(target, f64::min);
+        let hi = observed.iter().copied().fold(target, f64::max);
+        (Goal::Target(target), lo, hi)
+    };
+    let problem = Problem {
+        fits: vec![fit],
+        criteria: vec![(
+            Subject::Response(0),
+            Criterion {
+                name: study.target.response.clone(),
+                goal,
+                lower: lo,
+                upper: hi,
+                weight_lower: 1.0,
+                weight_upper: 1.0,
+                importance: 3,
+            },
+        )],
+        bounds: vec![(-1.0, 1.0); factors],
+    };
+    problem.solve(starts, run_seed(study.seed, stage, 0), solutions)
+}
+
+/// One model per target, on the runs `fit` was fitted on: the same order of model (linear or
+/// quadratic, all its terms) for each.
+fn target_fits(study: &Study, fit: &Fit, values: &[Vec<f64>]) -> Result<Vec<Fit>, String> {
+    let k = fit.experiment.factor_names.len();
+    let order = if fit.terms.iter().any(|t| t.order() == 2) {
+        ModelOrder::Quadratic
+    } else {
+        ModelOrder::Linear
+    };
+    let terms = order.terms(k);
+    study
+        .targets
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let exp = Experiment {
+                response_name: format!("{} ({})", t.response, study.tests[t.test].name),
+                response: values.iter().map(|r| r[i]).collect(),
+                ..fit.experiment.clone()
+            };
+            Fit::new(&exp, &terms, Curvature::Off)
+                .map_err(|e| format!("the model of {}: {e}", exp.response_name))
+        })
+        .collect()
 }

@@ -25,6 +25,7 @@ pub mod store;
 mod surrogate_report;
 pub mod surrogate_stages;
 pub mod target;
+mod targets_report;
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -143,7 +144,29 @@ pub fn report(path: &Path, out: Option<&Path>) -> Result<PathBuf, String> {
 pub fn status_text(study: &Study, r: &Replay) -> String {
     let mut s = String::new();
     let t = &study.target;
-    if t.minimised() {
+    if let Some(c) = study.combine {
+        let targets: Vec<String> = study
+            .targets
+            .iter()
+            .map(|x| {
+                let lab = if x.minimised() {
+                    "lab curves".to_string()
+                } else {
+                    stages::sig(x.value)
+                };
+                format!("{} {} = {lab}", study.tests[x.test].name, x.response)
+            })
+            .collect();
+        writeln!(
+            s,
+            "{}: {} calibrated against {} (combined: {})",
+            study.name,
+            study.test_kind(),
+            targets.join(", "),
+            c.response()
+        )
+        .unwrap();
+    } else if t.minimised() {
         writeln!(
             s,
             "{}: {} calibrated by minimising {} (the test's {} against the lab curves)",

@@ -12,6 +12,7 @@ use plotters::prelude::*;
 use crate::spec::Study;
 use crate::stages::{self, sig, Replay, StageResult, State};
 use crate::store::{RunRecord, Status};
+use crate::targets_report;
 
 /// Writes the report into `out` (default: `report/` next to the study); returns the folder.
 pub fn write(
@@ -55,6 +56,7 @@ fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String, String> {
         "error_kind".into(),
         "error".into(),
     ]);
+    head.extend(targets_report::csv_head(study));
     w.write_record(&head).map_err(|e| e.to_string())?;
     for r in stored {
         let mut row = vec![
@@ -88,6 +90,7 @@ fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String, String> {
                 .unwrap_or_default(),
         );
         row.push(r.error.clone().unwrap_or_default());
+        row.extend(targets_report::csv_row(study, r));
         w.write_record(&row).map_err(|e| e.to_string())?;
     }
     String::from_utf8(w.into_inner().map_err(|e| e.to_string())?).map_err(|e| e.to_string())
@@ -140,6 +143,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         "validation_std": validation.as_ref().and_then(|v| v.std),
         "validation_runs": validation.as_ref().map(|v| v.runs),
         "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
+        "objective": targets_report::summary(study, validation.as_ref()),
         "imports": study.imports.iter().map(|i| json!({
             "study": i.study,
             "parameter": i.parameter,
@@ -278,6 +282,11 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         None => format!("{}{unit}", sig(t.value)),
     };
     match &t.curve {
+        _ if study.combine.is_some() => card(
+            &mut h,
+            &format!("{} targets", study.targets.len()),
+            &format!("in {} test(s), one objective", study.tests.len()),
+        ),
         Some(c) if t.minimised() => card(
             &mut h,
             &format!("{} curve(s)", c.lab.replicates.len()),
@@ -314,6 +323,7 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         "simulation wall time, summed",
     );
     h.push_str("</div>");
+    targets_report::targets_section(&mut h, study, validation.as_ref());
     let calibrated = stages::calibrated(study, &r.stages);
     h.push_str("<table><tr><th>Factor</th><th class=\"l\">Parameter</th><th class=\"l\">Where in the test</th><th>Range</th><th class=\"l\">Scale</th><th>Calibrated value</th></tr>");
     for (i, p) in study.parameters.iter().enumerate() {
@@ -478,6 +488,9 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
                 plots_div(h, &row);
             }
         }
+        "optimize" if !st.target_fits.is_empty() => {
+            crate::targets_report::optimize_table(h, study, st)
+        }
         "optimize" => {
             if let Some(fit) = &st.fit {
                 let goal = if study.target.minimised() {
@@ -540,12 +553,15 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
                             " against the lab's {}: relative error <b>{e:.2} %</b>",
                             sig(study.target.value)
                         ),
+                        None if study.combine.is_some() => {
+                            " (0 would match every target; the targets' own validation is in the summary)".into()
+                        }
                         None => " (minimised: 0 would be the lab curve itself)".into(),
                     }
                 )
                 .unwrap();
             }
-            if let Ok(svg) = validation_plot(study, st) {
+            if let Some(Ok(svg)) = study.combine.is_none().then(|| validation_plot(study, st)) {
                 plots_div(h, &[svg]);
             }
             heap_pictures(h, st);

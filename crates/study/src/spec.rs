@@ -181,6 +181,7 @@ impl Study {
             "plan",
             "run_time_limit_s",
             "import",
+            "objective",
         ];
         for k in doc.keys() {
             if !KEYS.contains(&k.as_str()) {

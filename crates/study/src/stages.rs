@@ -85,6 +85,35 @@ pub struct Validation {
     pub std: Option<f64>,
     /// None for a minimised response (the curve MSE): its mean says how far off it is.
     pub relative_error_percent: Option<f64>,
+    /// With several targets, each target's validation, in the study's order.
+    pub targets: Vec<Validation>,
+}
+
+impl Validation {
+    /// Mean, standard deviation and relative error of `ys` against `target`.
+    pub fn of(ys: &[f64], target: &crate::spec::Target) -> Validation {
+        let n = ys.len();
+        let mean = ys.iter().sum::<f64>() / n as f64;
+        let std = (n >= 2)
+            .then(|| (ys.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+        Validation {
+            runs: n,
+            mean,
+            std,
+            relative_error_percent: target.relative_error_percent(mean),
+            targets: Vec::new(),
+        }
+    }
+}
+
+/// Each target's simulated value in a run of a study with several targets (what the run
+/// stored under `targets`).
+pub fn target_values(r: &RunRecord) -> Option<Vec<f64>> {
+    r.outputs["targets"]
+        .as_array()?
+        .iter()
+        .map(|t| t["simulated"].as_f64())
+        .collect()
 }
 
 /// What a stage planned and found.
@@ -109,6 +138,9 @@ pub struct StageResult {
     /// Steepest: the step nearest the lab value.
     pub best_step: Option<usize>,
     pub solutions: Vec<Solution>,
+    /// Optimize in a desirability study: each target's model, in the study's order (the
+    /// solutions' predicted responses follow it).
+    pub target_fits: Vec<Fit>,
     /// Optimize and validate: every parameter's value at the calibrated point.
     pub calibrated: Option<Vec<f64>>,
     pub validation: Option<Validation>,
@@ -134,6 +166,7 @@ impl StageResult {
             selected: Vec::new(),
             best_step: None,
             solutions: Vec::new(),
+            target_fits: Vec::new(),
             calibrated: None,
             validation: None,
             surrogate: None,
@@ -174,6 +207,21 @@ impl StageResult {
                     .map(|y| (s, y))
             })
             .collect()
+    }
+
+    /// Each target's simulated values in the finished runs, in the order of [`Self::successes`];
+    /// empty unless every such run has them (a study with several targets).
+    pub(crate) fn target_values(&self) -> Vec<Vec<f64>> {
+        self.runs
+            .iter()
+            .zip(&self.records)
+            .filter_map(|(_, r)| {
+                r.as_ref()
+                    .filter(|r| r.status == Status::Done && r.response.is_some())
+            })
+            .map(target_values)
+            .collect::<Option<Vec<_>>>()
+            .unwrap_or_default()
     }
 
     /// Finished runs that gave a response: what a stage can model.
@@ -236,6 +284,9 @@ pub(crate) struct Context {
     /// Each parameter's current range, actual units.
     pub(crate) region: Vec<(f64, f64)>,
     pub(crate) model: Option<(Fit, Vec<usize>)>,
+    /// With several targets: each target's simulated value in each run the model was fitted
+    /// on (in the model's row order), for the optimiser to model them one by one.
+    pub(crate) model_targets: Vec<Vec<f64>>,
     /// Screening: first-order coefficient of each selected parameter.
     pub(crate) direction: Vec<f64>,
     pub(crate) calibrated: Option<Vec<f64>>,
@@ -290,6 +341,7 @@ pub fn replay(
         values: study.parameters.iter().map(|p| p.middle()).collect(),
         region: study.parameters.iter().map(|p| (p.min, p.max)).collect(),
         model: None,
+        model_targets: Vec::new(),
         direction: Vec::new(),
         calibrated: None,
         best: None,

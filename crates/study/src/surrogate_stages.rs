@@ -16,6 +16,7 @@ use surrogate::gp::{Gp, GpOptions};
 use surrogate::network::{self, BpOptions, TrainedNetwork};
 use surrogate::smc::{self, LikelihoodScale, Posterior};
 
+use crate::spec::Combine;
 use crate::spec::{Stage, Study};
 use crate::stages::{run_seed, sig, tidy, Context, RunSpec, StageResult};
 
@@ -315,10 +316,14 @@ fn extend_bo(
 }
 
 /// A run's misfit for the likelihood: the squared error in units of the lab's spread (the
-/// replicates' standard deviation, or the lab value itself when there are fewer than two), or
-/// the minimised response itself.
+/// replicates' standard deviation, or the lab value itself when there are fewer than two), the
+/// minimised response itself, or for several targets the weighted mean square of their relative
+/// errors.
 pub fn misfit(study: &Study, y: f64) -> f64 {
-    if study.target.minimised() {
+    if study.combine == Some(Combine::Weighted) {
+        // The weighted mean square of the relative errors, as a sum of squares is.
+        (y / 100.0).powi(2)
+    } else if study.target.minimised() {
         y
     } else {
         let s = study

@@ -1,0 +1,214 @@
+//! The report's parts for a study with several targets: the targets and how they combine, the
+//! optimiser's prediction of each target, each target's validation, and their place in
+//! `summary.json` and `results.csv`.
+
+use std::fmt::Write;
+
+use serde_json::json;
+
+use crate::spec::{Combine, Study};
+use crate::stages::{sig, target_values, StageResult, Validation};
+use crate::store::RunRecord;
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn with_unit(v: String, unit: &str) -> String {
+    if unit.is_empty() {
+        v
+    } else {
+        format!("{v} {unit}")
+    }
+}
+
+/// The targets table: each target's test, response, lab value, weight or importance and limits,
+/// and its validation when there is one.
+pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<&Validation>) {
+    let Some(combine) = study.combine else {
+        return;
+    };
+    write!(
+        h,
+        "<p>{} targets, combined into one objective per run, <b>{}</b> = {}.{}</p>",
+        study.targets.len(),
+        esc(combine.response()),
+        esc(combine.describe()),
+        match combine {
+            Combine::Weighted => "",
+            Combine::Desirability =>
+                " A target's desirability is 1 at the lab value and 0 at its limits; the optimise stage models each target's response and maximises their overall desirability, as Design-Expert does.",
+        }
+    )
+    .unwrap();
+    let (wcol, lcol) = match combine {
+        Combine::Weighted => ("weight", ""),
+        Combine::Desirability => ("importance", "<th>limits</th>"),
+    };
+    write!(
+        h,
+        "<table><tr><th class=\"l\">test</th><th class=\"l\">response</th><th>lab (± std over replicates)</th><th>{wcol}</th>{lcol}<th>validation (± std over runs)</th><th>relative error</th></tr>"
+    )
+    .unwrap();
+    for (i, t) in study.targets.iter().enumerate() {
+        let lab = if t.minimised() {
+            format!(
+                "lab curves ({} replicates), minimised",
+                t.replicates.len().max(1)
+            )
+        } else {
+            match t.std() {
+                Some(sd) => with_unit(
+                    format!(
+                        "{} ± {} (n = {})",
+                        sig(t.value),
+                        sig(sd),
+                        t.replicates.len()
+                    ),
+                    &t.unit,
+                ),
+                None => with_unit(sig(t.value), &t.unit),
+            }
+        };
+        let weight = match combine {
+            Combine::Weighted => sig(t.term.weight),
+            Combine::Desirability => t.term.importance.to_string(),
+        };
+        let limits = match combine {
+            Combine::Weighted => String::new(),
+            Combine::Desirability => {
+                format!("<td>{} .. {}</td>", sig(t.term.low), sig(t.term.high))
+            }
+        };
+        let v = validation.and_then(|v| v.targets.get(i));
+        let val = v
+            .map(|v| {
+                let m = match v.std {
+                    Some(sd) => format!("{} ± {} (N = {})", sig(v.mean), sig(sd), v.runs),
+                    None => format!("{} (N = {})", sig(v.mean), v.runs),
+                };
+                with_unit(m, &t.unit)
+            })
+            .unwrap_or_else(|| "-".into());
+        let err = v
+            .map(|v| match v.relative_error_percent {
+                Some(e) => format!("{e:.2} %"),
+                None => format!(
+                    "relative curve error {:.2} %",
+                    100.0 * t.term.relative_error(v.mean)
+                ),
+            })
+            .unwrap_or_else(|| "-".into());
+        write!(
+            h,
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{lab}</td><td>{weight}</td>{limits}<td>{val}</td><td>{err}</td></tr>",
+            esc(&study.tests[t.test].name),
+            esc(&t.response),
+        )
+        .unwrap();
+    }
+    h.push_str("</table>");
+}
+
+/// The optimise stage of a desirability study: each solution's predicted value and desirability
+/// of every target, and the overall desirability.
+pub(crate) fn optimize_table(h: &mut String, study: &Study, st: &StageResult) {
+    if st.target_fits.is_empty() {
+        return;
+    }
+    h.push_str("<p>Each target's model and its fit:</p><table><tr><th class=\"l\">response</th><th>R²</th><th>adj. R²</th><th>model p</th></tr>");
+    for f in &st.target_fits {
+        write!(
+            h,
+            "<tr><td class=\"l\">{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td></tr>",
+            esc(&f.experiment.response_name),
+            f.r2,
+            f.adj_r2,
+            f.model.p.map(doe::fit::fmt_p).unwrap_or_else(|| "-".into())
+        )
+        .unwrap();
+    }
+    h.push_str("</table><table><tr><th>#</th>");
+    for f in &st.factors {
+        write!(h, "<th>{}</th>", esc(&f.name)).unwrap();
+    }
+    for t in &study.targets {
+        write!(h, "<th>predicted {} (d)</th>", esc(&t.response)).unwrap();
+    }
+    h.push_str("<th>desirability D</th></tr>");
+    for (i, s) in st.solutions.iter().enumerate() {
+        write!(
+            h,
+            "<tr{}><td>{}</td>",
+            if i == 0 { " class=\"best\"" } else { "" },
+            i + 1
+        )
+        .unwrap();
+        for v in s.actual.clone().unwrap_or_default() {
+            write!(h, "<td>{}</td>", sig(v)).unwrap();
+        }
+        for (y, d) in s.responses.iter().zip(&s.individual) {
+            write!(h, "<td>{} ({d:.3})</td>", sig(*y)).unwrap();
+        }
+        write!(h, "<td>{:.3}</td></tr>", s.desirability).unwrap();
+    }
+    h.push_str("</table>");
+}
+
+/// `summary.json`'s `targets` and `objective` (null for a study with one target).
+pub(crate) fn summary(study: &Study, validation: Option<&Validation>) -> serde_json::Value {
+    let Some(combine) = study.combine else {
+        return serde_json::Value::Null;
+    };
+    json!({
+        "combine": combine,
+        "response": combine.response(),
+        "targets": study.targets.iter().enumerate().map(|(i, t)| {
+            let v = validation.and_then(|v| v.targets.get(i));
+            json!({
+                "test": study.tests[t.test].name,
+                "response": t.response,
+                "value": t.value,
+                "unit": t.unit,
+                "replicates": t.replicates,
+                "std": t.std(),
+                "minimised": t.minimised(),
+                "weight": t.term.weight,
+                "importance": t.term.importance,
+                "low": t.term.low,
+                "high": t.term.high,
+                "validation_mean": v.map(|v| v.mean),
+                "validation_std": v.and_then(|v| v.std),
+                "validation_runs": v.map(|v| v.runs),
+                "relative_error_percent": v.map(|v| v.relative_error_percent
+                    .unwrap_or(100.0 * t.term.relative_error(v.mean))),
+            })
+        }).collect::<Vec<_>>(),
+    })
+}
+
+/// `results.csv`'s extra column names: one per target (`test.response`).
+pub(crate) fn csv_head(study: &Study) -> Vec<String> {
+    if study.combine.is_none() {
+        return Vec::new();
+    }
+    study
+        .targets
+        .iter()
+        .map(|t| format!("{}.{}", study.tests[t.test].name, t.response))
+        .collect()
+}
+
+/// A run's values of the extra columns.
+pub(crate) fn csv_row(study: &Study, r: &RunRecord) -> Vec<String> {
+    if study.combine.is_none() {
+        return Vec::new();
+    }
+    match target_values(r) {
+        Some(v) if v.len() == study.targets.len() => v.iter().map(|y| y.to_string()).collect(),
+        _ => vec![String::new(); study.targets.len()],
+    }
+}

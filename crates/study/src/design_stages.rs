@@ -238,6 +238,14 @@ fn enough(st: &StageResult, needed: usize, what: &str) -> Result<(), String> {
 }
 
 /// A fit's complaint, prefixed with the failed runs when they are the likely cause.
+/// A desirability study's model complaint, with why its response can be flat.
+fn plateau_hint(study: &Study, e: String) -> String {
+    if study.combine != Some(Combine::Desirability) {
+        return e;
+    }
+    format!("{e} (a run with any target at or beyond its limits has undesirability 1: widen the targets' low and high, or combine = \"weighted\")")
+}
+
 fn with_failures(st: &StageResult, e: String) -> String {
     if st.failed() == 0 {
         return e;
@@ -283,7 +291,7 @@ pub(crate) fn conclude(
                 "a first-order model with one residual degree of freedom",
             )?;
             let fit = Fit::new(&experiment(study, st), &terms, Curvature::Auto)
-                .map_err(|e| with_failures(st, e))?;
+                .map_err(|e| plateau_hint(study, with_failures(st, e)))?;
             // p of each main effect, in factor order.
             let p: Vec<f64> = (0..k)
                 .map(|j| {
@@ -345,7 +353,8 @@ pub(crate) fn conclude(
             }
             ctx.direction = chosen.iter().map(|&j| coef[j]).collect();
             ctx.model = Some((fit.clone(), st.active.clone()));
-            ctx.model_targets = st.target_values();
+            ctx.model_targets = st.target_values(study.targets.len());
+            ctx.model_quadratic = false;
             ctx.active = selected.clone();
             st.selected = selected;
             st.fit = Some(fit);
@@ -426,7 +435,29 @@ pub(crate) fn conclude(
                 "a quadratic model with one residual degree of freedom",
             )?;
             let exp = experiment(study, st);
-            let full = Fit::new(&exp, &terms, Curvature::Off).map_err(|e| with_failures(st, e))?;
+            let per_target = st.target_values(study.targets.len());
+            let full = match Fit::new(&exp, &terms, Curvature::Off) {
+                Ok(f) => f,
+                Err(e)
+                    if study.combine == Some(Combine::Desirability)
+                        && per_target.len() == exp.response.len() =>
+                {
+                    // Every run beyond some target's limits scores 1, and a design can sit
+                    // wholly there; the optimiser models each target's response anyway.
+                    let fits = target_fits(study, &exp, true, &per_target)?;
+                    st.notes.push(format!(
+                        "the combined undesirability cannot be modelled ({e}); the stage's model is the first target's, and optimize models each target"
+                    ));
+                    let first = fits[0].clone();
+                    ctx.model = Some((first.clone(), st.active.clone()));
+                    ctx.model_targets = per_target;
+                    ctx.model_quadratic = true;
+                    st.full_fit = Some(first.clone());
+                    st.fit = Some(first);
+                    return Ok(());
+                }
+                Err(e) => return Err(plateau_hint(study, with_failures(st, e))),
+            };
             let fit = if *reduce {
                 Fit::reduce(&exp, &terms, Curvature::Off, *alpha_out, true)
                     .map_err(|e| with_failures(st, e))?
@@ -444,7 +475,8 @@ pub(crate) fn conclude(
                 ));
             }
             ctx.model = Some((fit.clone(), st.active.clone()));
-            ctx.model_targets = st.target_values();
+            ctx.model_targets = per_target;
+            ctx.model_quadratic = true;
             st.full_fit = Some(full);
             st.fit = Some(fit);
         }
@@ -460,7 +492,12 @@ pub(crate) fn conclude(
             let found = if desirability {
                 // Design-Expert's numerical optimisation: each response its own model, their
                 // desirabilities combined.
-                let fits = target_fits(study, &fit, &ctx.model_targets)?;
+                let fits = target_fits(
+                    study,
+                    &fit.experiment,
+                    ctx.model_quadratic,
+                    &ctx.model_targets,
+                )?;
                 st.notes.push(format!(
                     "each target's response modelled on the same runs ({}); the search maximises their overall desirability",
                     fits.iter()
@@ -511,7 +548,7 @@ pub(crate) fn conclude(
             enough(st, 1, "validation")?;
             let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
             let mut v = Validation::of(&ys, &study.target);
-            let per_run = st.target_values();
+            let per_run = st.target_values(study.targets.len());
             if study.combine.is_some() && per_run.len() == ys.len() {
                 v.targets = study
                     .targets
@@ -593,11 +630,16 @@ fn single_response_solutions(
     problem.solve(starts, run_seed(study.seed, stage, 0), solutions)
 }
 
-/// One model per target, on the runs `fit` was fitted on: the same order of model (linear or
-/// quadratic, all its terms) for each.
-fn target_fits(study: &Study, fit: &Fit, values: &[Vec<f64>]) -> Result<Vec<Fit>, String> {
-    let k = fit.experiment.factor_names.len();
-    let order = if fit.terms.iter().any(|t| t.order() == 2) {
+/// One model per target on the runs of `exp` (each run's target values in `values`): a full
+/// quadratic after a response surface, a linear model after screening.
+fn target_fits(
+    study: &Study,
+    exp: &Experiment,
+    quadratic: bool,
+    values: &[Vec<f64>],
+) -> Result<Vec<Fit>, String> {
+    let k = exp.factor_names.len();
+    let order = if quadratic {
         ModelOrder::Quadratic
     } else {
         ModelOrder::Linear
@@ -611,7 +653,7 @@ fn target_fits(study: &Study, fit: &Fit, values: &[Vec<f64>]) -> Result<Vec<Fit>
             let exp = Experiment {
                 response_name: format!("{} ({})", t.response, study.tests[t.test].name),
                 response: values.iter().map(|r| r[i]).collect(),
-                ..fit.experiment.clone()
+                ..exp.clone()
             };
             Fit::new(&exp, &terms, Curvature::Off)
                 .map_err(|e| format!("the model of {}: {e}", exp.response_name))

@@ -118,11 +118,12 @@ impl Job {
                 // Absolute, so that `demcal run-one` finds them from any working folder.
                 dir: absolute(&t.dir),
                 seed: test_seed(spec.seed, k),
+                // At most one target of a test has a curve (checked when the study is read).
                 curve: study
                     .targets
                     .iter()
-                    .find(|x| x.test == k)
-                    .and_then(|x| x.curve.as_ref())
+                    .filter(|x| x.test == k)
+                    .find_map(|x| x.curve.as_ref())
                     .map(|c| c.comparison()),
             })
             .collect();
@@ -156,6 +157,8 @@ impl Job {
             let key = e.path().to_string();
             format!("{}: {key}: {}", path.display(), e.into_inner())
         })?;
+        job.check()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         if !is_run_dir(&job.out_dir) {
             return Err(format!(
                 "{}: out_dir: expected a run folder named run<digits> (it is cleared before the run), got \"{}\"",
@@ -164,6 +167,52 @@ impl Job {
             ));
         }
         Ok(job)
+    }
+
+    /// The tests and targets must make sense together: at least one test, names that are plain
+    /// folder names (they are joined onto the run folder), and terms exactly when the targets are
+    /// combined, each naming a test the job has.
+    fn check(&self) -> Result<(), String> {
+        if self.tests.is_empty() {
+            return Err("tests: expected at least one test".into());
+        }
+        for (i, t) in self.tests.iter().enumerate() {
+            if t.name.is_empty()
+                || !t
+                    .name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            {
+                return Err(format!(
+                    "tests[{i}].name: expected letters, digits, _ and - (it names a folder), got \"{}\"",
+                    t.name
+                ));
+            }
+        }
+        match (self.combine, self.terms.is_empty()) {
+            (None, false) => return Err("terms: given without combine".into()),
+            (Some(_), true) => {
+                return Err("terms: missing (combine needs each target's term)".into())
+            }
+            (None, true) if self.tests.len() > 1 => return Err(
+                "combine: missing (a job of several tests scores them by combining its targets)"
+                    .into(),
+            ),
+            _ => {}
+        }
+        if let Some((i, t)) = self
+            .terms
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.test >= self.tests.len())
+        {
+            return Err(format!(
+                "terms[{i}].test: {} is not a test of the job (it has {})",
+                t.test,
+                self.tests.len()
+            ));
+        }
+        Ok(())
     }
 
     /// The job as JSON.

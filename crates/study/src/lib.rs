@@ -7,7 +7,8 @@
 //! on this machine ([`runner`]); [`status`] and [`report`] replay without running. The report
 //! ([`report`]) is one self-contained HTML page plus `results.csv` and `summary.json`. A target
 //! may be a curve: the lab's curves ([`lab_curve`]) against the test's, compared as
-//! [`curve`] says.
+//! [`curve`] says. A study may have several tests and targets, combined into one objective per
+//! run by a weighted error or a desirability ([`target`]).
 
 pub mod curve;
 mod curve_report;

@@ -229,7 +229,14 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         esc(&study.name)
     )
     .unwrap();
-    let against = if t.minimised() {
+    let against = if let Some(c) = study.combine {
+        format!(
+            "calibrated against {} targets by minimising {}, {}",
+            study.targets.len(),
+            esc(c.response()),
+            esc(c.describe())
+        )
+    } else if t.minimised() {
         format!(
             "calibrated by minimising {}, the mean squared difference between its curve and the lab's",
             esc(&t.response)
@@ -564,7 +571,7 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
             if let Some(Ok(svg)) = study.combine.is_none().then(|| validation_plot(study, st)) {
                 plots_div(h, &[svg]);
             }
-            heap_pictures(h, st);
+            heap_pictures(h, study, st);
         }
         "bayesopt" | "ga_bp" | "smc" => crate::surrogate_report::stage_html(h, study, st),
         _ => {}
@@ -806,12 +813,15 @@ fn anova_html(h: &mut String, fit: &Fit, title: &str) {
     }
 }
 
-fn heap_pictures(h: &mut String, st: &StageResult) {
+fn heap_pictures(h: &mut String, study: &Study, st: &StageResult) {
     let mut figs = Vec::new();
     for (spec, rec) in st.runs.iter().zip(&st.records) {
         let Some(r) = rec else { continue };
-        let png = Path::new(&r.out_dir).join("heap.png");
-        if let Ok(bytes) = std::fs::read(&png) {
+        // A run of several tests keeps each test's pictures in the test's own folder.
+        let run = Path::new(&r.out_dir);
+        let mut dirs =
+            std::iter::once(run.to_path_buf()).chain(study.tests.iter().map(|t| run.join(&t.name)));
+        if let Some(bytes) = dirs.find_map(|d| std::fs::read(d.join("heap.png")).ok()) {
             figs.push(format!(
                 "<figure><img alt=\"heap of run {}\" src=\"data:image/png;base64,{}\"><figcaption>Run {} (seed {}): {}</figcaption></figure>",
                 spec.index + 1,

@@ -563,11 +563,19 @@ fn parse_tests(
                 inline.remove("name");
                 let file = inline.remove("file");
                 let (table, source, test_dir) = match file {
-                    Some(f) if inline.is_empty() => read_test(dir, &f, &format!("{key}.file"), err)?,
-                    Some(_) => {
+                    Some(f @ toml::Value::String(_)) if inline.is_empty() => {
+                        read_test(dir, &f, &format!("{key}.file"), err)?
+                    }
+                    Some(toml::Value::String(_)) => {
                         return Err(err(
                             &format!("{key}.file"),
                             "give file or the test inline, not both".into(),
+                        ))
+                    }
+                    Some(_) => {
+                        return Err(err(
+                            &format!("{key}.file"),
+                            "expected a test file's path (relative to the study)".into(),
                         ))
                     }
                     None => read_test(dir, &toml::Value::Table(inline), &key, err)?,

@@ -211,7 +211,7 @@ impl StageResult {
 
     /// Each target's simulated values in the finished runs, in the order of [`Self::successes`];
     /// empty unless every such run has them (a study with several targets).
-    pub(crate) fn target_values(&self) -> Vec<Vec<f64>> {
+    pub(crate) fn target_values(&self, targets: usize) -> Vec<Vec<f64>> {
         self.runs
             .iter()
             .zip(&self.records)
@@ -219,7 +219,7 @@ impl StageResult {
                 r.as_ref()
                     .filter(|r| r.status == Status::Done && r.response.is_some())
             })
-            .map(target_values)
+            .map(|r| target_values(r).filter(|v| v.len() == targets))
             .collect::<Option<Vec<_>>>()
             .unwrap_or_default()
     }
@@ -287,6 +287,8 @@ pub(crate) struct Context {
     /// With several targets: each target's simulated value in each run the model was fitted
     /// on (in the model's row order), for the optimiser to model them one by one.
     pub(crate) model_targets: Vec<Vec<f64>>,
+    /// Whether that model is a response surface (quadratic) rather than a screening (linear).
+    pub(crate) model_quadratic: bool,
     /// Screening: first-order coefficient of each selected parameter.
     pub(crate) direction: Vec<f64>,
     pub(crate) calibrated: Option<Vec<f64>>,
@@ -342,6 +344,7 @@ pub fn replay(
         region: study.parameters.iter().map(|p| (p.min, p.max)).collect(),
         model: None,
         model_targets: Vec::new(),
+        model_quadratic: false,
         direction: Vec::new(),
         calibrated: None,
         best: None,

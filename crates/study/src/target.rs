@@ -290,17 +290,19 @@ pub fn parse_target(
         }
         Ok(())
     };
-    only(
-        "weight",
-        Some(Combine::Weighted),
-        "only with [objective] combine = \"weighted\" (a desirability weighs targets by importance)",
-    )?;
-    for k in ["importance", "low", "high"] {
-        only(
-            k,
-            Some(Combine::Desirability),
+    let (weighted, desirability) = match combine {
+        None => (
+            "only in a study of several targets (it weighs targets against each other)",
+            "only in a study of several targets (it weighs targets against each other)",
+        ),
+        Some(_) => (
+            "only with [objective] combine = \"weighted\" (a desirability weighs targets by importance)",
             "only with [objective] combine = \"desirability\"",
-        )?;
+        ),
+    };
+    only("weight", Some(Combine::Weighted), weighted)?;
+    for k in ["importance", "low", "high"] {
+        only(k, Some(Combine::Desirability), desirability)?;
     }
     let test = match t.get("test") {
         None if tests.len() == 1 => 0,
@@ -352,7 +354,12 @@ pub fn parse_target(
         None if curve.is_some() => "curve_mse".to_string(),
         None => outputs
             .first()
-            .ok_or_else(|| err("test", format!("{kind} has no outcome to calibrate against")))?
+            .ok_or_else(|| {
+                err(
+                    &format!("{key}.response"),
+                    format!("{kind} has no outcome to calibrate against"),
+                )
+            })?
             .to_string(),
         Some(toml::Value::String(r)) if outputs.contains(&r.as_str()) => r.clone(),
         Some(toml::Value::String(r))
@@ -521,9 +528,18 @@ fn parse_term(
             "a curve MSE is best at 0: give only high, the MSE at which it is worth nothing".into(),
         ));
     }
-    if !(low < high) || (!minimised && !(low < value && value < high)) {
+    // `limit` refuses NaN, so plain comparisons say what they mean.
+    if minimised && high <= 0.0 {
         return Err(err(
-            &format!("{key}.low"),
+            &format!("{key}.high"),
+            format!("expected a curve MSE > 0 at which the target is worth nothing, got {high}"),
+        ));
+    }
+    let inside = low < value && value < high;
+    if !minimised && !inside {
+        let bad = if low < value { "high" } else { "low" };
+        return Err(err(
+            &format!("{key}.{bad}"),
             format!(
                 "expected low < lab value < high, got low = {low}, lab value = {value}, high = {high}"
             ),

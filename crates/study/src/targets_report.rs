@@ -57,7 +57,7 @@ pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<
         let lab = if t.minimised() {
             format!(
                 "lab curves ({} replicates), minimised",
-                t.replicates.len().max(1)
+                t.curve.as_ref().map_or(0, |c| c.lab.replicates.len())
             )
         } else {
             match t.std() {
@@ -136,7 +136,13 @@ pub(crate) fn optimize_table(h: &mut String, study: &Study, st: &StageResult) {
         write!(h, "<th>{}</th>", esc(&f.name)).unwrap();
     }
     for t in &study.targets {
-        write!(h, "<th>predicted {} (d)</th>", esc(&t.response)).unwrap();
+        write!(
+            h,
+            "<th>predicted {} of {} (d)</th>",
+            esc(&t.response),
+            esc(&study.tests[t.test].name)
+        )
+        .unwrap();
     }
     h.push_str("<th>desirability D</th></tr>");
     for (i, s) in st.solutions.iter().enumerate() {

@@ -137,7 +137,7 @@ fn a_desirability_study_meets_both_targets_through_a_response_surface() {
     );
     let html = std::fs::read_to_string(dir.join("report/index.html")).unwrap();
     assert!(
-        html.contains("predicted value (d)"),
+        html.contains("predicted value of soft (d)"),
         "the per-target optimum table"
     );
     assert!(html.contains("desirability is 1 at the lab value"));
@@ -264,5 +264,160 @@ fn a_parameter_goes_into_every_test_that_has_its_path() {
     assert!(stiff["function"]["variables"].get("c").is_none());
     assert_eq!(s.target.response, "combined_error_percent");
     assert!(s.target.minimised());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A scalar and a curve of one test: the scalar target comes first, so the curve comparison must
+/// still reach the job; the curve's relative error is the root of its MSE over the lab curve's
+/// mean square.
+#[test]
+fn a_scalar_and_a_curve_of_one_test_are_matched_together() {
+    let dir = fresh_dir("curve");
+    std::fs::create_dir_all(dir.join("lab")).unwrap();
+    let mut lab = String::from("displacement_m,force_n\n");
+    for i in 0..=100 {
+        let x = 1e-4 * i as f64;
+        lab.push_str(&format!("{x},{}\n", 5000.0 * x - 2e5 * x * x));
+    }
+    std::fs::write(dir.join("lab/curve.csv"), lab).unwrap();
+    let text = r#"
+name = "scalar and curve"
+seed = 2
+plan = [{ stage = "bayesopt", initial = 10, batch = 2, iterations = 8 }, { stage = "validate", replicates = 2 }]
+
+[test]
+test = "function"
+[test.function]
+expression = "k / 1000"
+variables = { k = 6000, q = 2.5e5 }
+noise = 0.01
+curve = { expression = "k*x - q*x^2", x_max = 0.01, points = 101 }
+
+[[parameter]]
+name = "k"
+path = "function.variables.k"
+min = 4000
+max = 8000
+
+[[parameter]]
+name = "q"
+path = "function.variables.q"
+min = 1e5
+max = 4e5
+
+[objective]
+combine = "weighted"
+
+[[target]]
+response = "value"
+value = 5.0
+
+[[target]]
+curve = "force_displacement"
+lab_curves = "lab/curve.csv"
+normalisation = "none"
+"#;
+    run_study(&dir, text).unwrap();
+    let s = summary(&dir);
+    assert_eq!(s["state"], "complete", "{}", s["state"]);
+    let k = s["calibrated"]["k"].as_f64().unwrap();
+    let q = s["calibrated"]["q"].as_f64().unwrap();
+    assert!(
+        (k - 5000.0).abs() < 250.0 && (q - 2e5).abs() < 5e4,
+        "k {k} q {q}"
+    );
+    let db = study::Store::open(&dir.join("study.db"), false).unwrap();
+    for r in db.runs().unwrap() {
+        assert!(
+            r.outputs["tests"]["function"]["curve_mse"].is_f64(),
+            "{}",
+            r.outputs
+        );
+    }
+    let targets = s["objective"]["targets"].as_array().unwrap();
+    assert_eq!(targets[1]["response"], "curve_mse");
+    assert!(
+        targets[1]["relative_error_percent"].as_f64().unwrap() < 5.0,
+        "{}",
+        targets[1]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_multi_test_example_reads() {
+    let root =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/maize-kernel-multi/study.toml");
+    let s = Study::load(&root).unwrap();
+    assert_eq!(s.tests.len(), 2);
+    assert_eq!(s.targets.len(), 2);
+    // The kernel-steel friction goes into both tests (the heap stands on steel).
+    assert_eq!(s.parameters[0].paths[0].1, vec![0, 1]);
+}
+
+/// With narrow limits every design point has a target beyond them, so the combined
+/// undesirability is 1 everywhere and cannot be modelled; the response surface stage goes on and
+/// the optimiser still finds the point from each target's own model.
+#[test]
+fn a_desirability_study_whose_design_sits_beyond_the_limits_still_optimises() {
+    let dir = fresh_dir("plateau");
+    let text = two_tests(
+        r#"[{ stage = "rsm", design = "ccd", alpha = "face" }, "optimize"]"#,
+        "combine = \"desirability\"",
+        "low = 13.999\nhigh = 14.001",
+    );
+    run_study(&dir, &text).unwrap();
+    let s = summary(&dir);
+    assert_eq!(s["state"], "complete", "{}", s["state"]);
+    let notes = s["stages"][0]["notes"].to_string();
+    assert!(notes.contains("cannot be modelled"), "{notes}");
+    let a = s["calibrated"]["a"].as_f64().unwrap();
+    let b = s["calibrated"]["b"].as_f64().unwrap();
+    assert!((a - A).abs() < 0.03 && (b - B).abs() < 0.03, "a {a} b {b}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_job_file_of_several_tests_is_checked_when_read() {
+    let dir = fresh_dir("job");
+    let p = dir.join("study.toml");
+    std::fs::write(&p, two_tests("[\"rsm\"]", "combine = \"weighted\"", "")).unwrap();
+    let s = Study::load(&p).unwrap();
+    let spec = study::stages::RunSpec {
+        stage: 0,
+        stage_kind: "rsm",
+        index: 0,
+        label: "center".into(),
+        coded: vec![0.0, 0.0],
+        values: vec![0.5, 0.5],
+        seed: 7,
+    };
+    let job = study::Job::new(&s, &spec);
+    assert_eq!(job.tests.len(), 2);
+    assert_ne!(job.tests[0].seed, job.tests[1].seed);
+    let file = dir.join("job.json");
+    let bad = |edit: &dyn Fn(&mut study::Job), want: &str| {
+        let mut j = job.clone();
+        edit(&mut j);
+        std::fs::write(&file, j.to_json()).unwrap();
+        let e = study::Job::load(&file).unwrap_err();
+        assert!(e.contains(want), "expected \"{want}\" in: {e}");
+    };
+    bad(
+        &|j| j.tests[1].name = "../x".into(),
+        "tests[1].name: expected letters",
+    );
+    bad(&|j| j.terms.clear(), "terms: missing");
+    bad(&|j| j.combine = None, "terms: given without combine");
+    bad(
+        &|j| j.terms[1].test = 5,
+        "terms[1].test: 5 is not a test of the job",
+    );
+    bad(&|j| j.tests.clear(), "tests: expected at least one test");
+    // The job as written reads back the same.
+    std::fs::write(&file, job.to_json()).unwrap();
+    let mut back = study::Job::load(&file).unwrap();
+    back.out_dir = job.out_dir.clone();
+    assert_eq!(back, job);
     let _ = std::fs::remove_dir_all(&dir);
 }

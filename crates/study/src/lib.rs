@@ -18,6 +18,7 @@ pub mod lab_curve;
 pub mod paths;
 pub mod plan;
 pub mod report;
+mod report_data;
 pub mod run_error;
 pub mod runner;
 pub mod spec;

@@ -1,0 +1,143 @@
+//! The report's machine-readable files: `results.csv` (every stored run) and `summary.json`
+//! (the calibrated values, the validation, the targets and every stage with its model).
+
+use crate::spec::Study;
+use crate::stages::{self, Replay, State};
+use crate::store::{RunRecord, Status};
+use crate::targets_report;
+
+pub(crate) fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String, String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut head: Vec<String> = ["stage", "stage_kind", "run", "seed", "status"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    head.extend(study.parameters.iter().map(|p| p.name.clone()));
+    head.extend([
+        study.target.response.clone(),
+        "relative_error_percent".into(),
+        "wall_s".into(),
+        "finished_at".into(),
+        "error_kind".into(),
+        "error".into(),
+    ]);
+    head.extend(targets_report::csv_head(study));
+    w.write_record(&head).map_err(|e| e.to_string())?;
+    for r in stored {
+        let mut row = vec![
+            (r.stage + 1).to_string(),
+            r.stage_kind.clone(),
+            (r.index + 1).to_string(),
+            r.seed.to_string(),
+            r.status.as_str().to_string(),
+        ];
+        for p in &study.parameters {
+            row.push(
+                r.inputs
+                    .get(&p.name)
+                    .and_then(|v| v.as_f64())
+                    .map(|v| v.to_string())
+                    .unwrap_or_default(),
+            );
+        }
+        row.push(r.response.map(|v| v.to_string()).unwrap_or_default());
+        row.push(
+            r.response
+                .and_then(|v| study.target.relative_error_percent(v))
+                .map(|e| format!("{e:.4}"))
+                .unwrap_or_default(),
+        );
+        row.push(format!("{:.3}", r.wall_s));
+        row.push(r.finished_at.clone());
+        row.push(
+            r.error_kind
+                .map(|k| k.as_str().to_string())
+                .unwrap_or_default(),
+        );
+        row.push(r.error.clone().unwrap_or_default());
+        row.extend(targets_report::csv_row(study, r));
+        w.write_record(&row).map_err(|e| e.to_string())?;
+    }
+    String::from_utf8(w.into_inner().map_err(|e| e.to_string())?).map_err(|e| e.to_string())
+}
+
+pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_json::Value {
+    use serde_json::json;
+    let calibrated = stages::calibrated(study, &r.stages).map(|v| {
+        study
+            .parameters
+            .iter()
+            .zip(v)
+            .map(|(p, x)| (p.name.clone(), json!(x)))
+            .collect::<serde_json::Map<_, _>>()
+    });
+    let validation = r.stages.iter().rev().find_map(|s| s.validation.clone());
+    let state = match &r.state {
+        State::Complete => "complete".to_string(),
+        State::Pending { stage } => format!("pending at stage {}", stage + 1),
+        State::Stopped(why) => format!("stopped: {why}"),
+    };
+    json!({
+        "study": study.name,
+        "study_file": study.path.display().to_string(),
+        "test": study.test_kind(),
+        "state": state,
+        "target": {
+            "response": study.target.response,
+            "value": study.target.value,
+            "unit": study.target.unit,
+            "minimised": study.target.minimised(),
+            "curve": study.target.curve.as_ref().map(|c| json!({
+                "curve": c.curve,
+                "lab_curves": c.files,
+                "normalisation": c.normalisation,
+                "replicates": c.lab.replicates.len(),
+            })),
+            "replicates": study.target.replicates,
+            "std": study.target.std(),
+        },
+        "parameters": study.parameters.iter().map(|p| json!({
+            "name": p.name,
+            "paths": p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>(),
+            "min": p.min,
+            "max": p.max,
+            "scale": if p.scale == doe::Scale::Log { "log" } else { "linear" },
+        })).collect::<Vec<_>>(),
+        "calibrated": calibrated,
+        "validation_mean": validation.as_ref().map(|v| v.mean),
+        "validation_std": validation.as_ref().and_then(|v| v.std),
+        "validation_runs": validation.as_ref().map(|v| v.runs),
+        "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
+        "objective": targets_report::summary(study, validation.as_ref()),
+        "imports": study.imports.iter().map(|i| json!({
+            "study": i.study,
+            "parameter": i.parameter,
+            "value": i.value,
+            "paths": i.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "stages": r.stages.iter().map(|s| {
+            let mut entry = json!({
+            "stage": s.index + 1,
+            "kind": s.kind,
+            "title": s.title,
+            "runs": s.runs.len(),
+            "done": s.done(),
+            "failed": s.failed(),
+            "complete": s.complete,
+            "selected": s.selected.iter().map(|&i| study.parameters[i].name.clone()).collect::<Vec<_>>(),
+            "best_step": s.best_step.map(|b| b + 1),
+            "model": s.fit.as_ref().map(|f| f.to_json()),
+            "solutions": s.solutions,
+            "notes": s.notes,
+            });
+            if let Some((key, value)) = crate::surrogate_report::stage_json(study, s) {
+                entry[key] = value;
+            }
+            entry
+        }).collect::<Vec<_>>(),
+        "runs_total": stored.len(),
+        "runs_failed": stored.iter().filter(|r| r.status == Status::Failed).count(),
+        "simulation_wall_s": stored.iter().map(|r| r.wall_s).sum::<f64>(),
+        "demcal_version": env!("CARGO_PKG_VERSION"),
+    })
+}

@@ -1,0 +1,608 @@
+//! The DEM engine's stages on a GPU, through wgpu's Vulkan back end (the one with f64 shaders;
+//! Mesa's lavapipe where there is no GPU).
+//!
+//! Design notes.
+//!
+//! - **Where it plugs in.** [`GpuStages`] implements the engine's stage boundary,
+//!   [`dem::sim::Backend`]: the pipeline in `dem::sim::Simulation::step` decides what runs when,
+//!   and calls integrate, pair forces, wall forces and particle sums. This first slice copies the
+//!   arrays to the device for each stage and back, so it is a check path that proves the kernels
+//!   against the CPU stage by stage, not yet the fast path: a back end that keeps the state on the
+//!   device across steps (binning, neighbour lists and history on the GPU) is the next slice.
+//! - **What runs on the GPU.** Integration, Hertz-Mindlin pair forces with the tangential spring and
+//!   both rolling models (cdt, epsd), and the particle sums with the second half kick. Wall
+//!   contacts, JKR cohesion (any pair with a surface energy), the Hooke law, and stages whose
+//!   arrays would pass the device's largest binding run on the CPU back end (the stage hands them
+//!   over), so any scene runs.
+//! - **Precision.** Positions, velocities, forces and history are f64 on the device
+//!   (`wgpu::Features::SHADER_F64`; Mesa's lavapipe has it, so the kernels are tested on any
+//!   machine). WGSL's f64 has only the basic operations and `sqrt`, which is all these kernels use.
+//!   Results agree with the CPU to round-off (a GPU compiler may fuse a multiply and an add; on
+//!   lavapipe the cdt scenes of the tests agree bit for bit); they are deterministic for a given
+//!   device, since every thread writes its own slots and every particle sums its slots in the
+//!   CPU's order.
+//! - **Failures.** A context that cannot be made (no Vulkan adapter with f64 shaders, a kernel the
+//!   driver refuses) is an error naming the adapter. A device lost in the middle of a stage (a
+//!   driver reset) panics: the `Backend` stages cannot return errors yet.
+//! - **Kernels** are WGSL files in `src/wgsl/`, each put together with the shared `common.wgsl`
+//!   (and `spin.wgsl` where the spin kick is used).
+
+use std::sync::Arc;
+
+use dem::contact::{ContactModel, RollingModel};
+use dem::neighbour::NeighbourList;
+use dem::particles::Particles;
+use dem::sim::walls::WallLists;
+use dem::sim::{Backend, CpuBackend, SimulationParams, StepInputs};
+use glam::DVec3;
+use wgpu::util::DeviceExt;
+
+const COMMON: &str = include_str!("wgsl/common.wgsl");
+const SPIN: &str = include_str!("wgsl/spin.wgsl");
+const INTEGRATE: &str = include_str!("wgsl/integrate.wgsl");
+const PAIR_FORCES: &str = include_str!("wgsl/pair_forces.wgsl");
+const PARTICLE_SUMS: &str = include_str!("wgsl/particle_sums.wgsl");
+
+/// Threads per workgroup, as the kernels declare.
+const WORKGROUP: u32 = 64;
+/// Most workgroups along one dispatch dimension (WebGPU's guaranteed limit).
+const MAX_GROUPS: u32 = 65_535;
+
+/// A GPU with f64 shaders and the compiled kernels.
+pub struct GpuContext {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    adapter: String,
+    /// The largest storage buffer a kernel can bind, in bytes.
+    max_binding: u64,
+    integrate: wgpu::ComputePipeline,
+    pair_forces: wgpu::ComputePipeline,
+    particle_sums: wgpu::ComputePipeline,
+}
+
+impl GpuContext {
+    /// The best Vulkan adapter with f64 shaders: a discrete GPU before an integrated or virtual
+    /// one before a CPU driver (lavapipe). The error says what is missing.
+    pub fn new() -> Result<GpuContext, String> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        let rank = |t: wgpu::DeviceType| match t {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Other => 3,
+            wgpu::DeviceType::Cpu => 4,
+        };
+        let without: Vec<String> = adapters
+            .iter()
+            .filter(|a| !a.features().contains(wgpu::Features::SHADER_F64))
+            .map(|a| a.get_info().name)
+            .collect();
+        let adapter = adapters
+            .into_iter()
+            .filter(|a| a.features().contains(wgpu::Features::SHADER_F64))
+            .min_by_key(|a| rank(a.get_info().device_type))
+            .ok_or_else(|| {
+                if without.is_empty() {
+                    "no Vulkan adapter; on Linux without a GPU, Mesa's lavapipe provides one (apt-get install mesa-vulkan-drivers)".to_string()
+                } else {
+                    format!(
+                        "no Vulkan adapter with f64 shaders, which the GPU stages need ({} lack them)",
+                        without.join(", ")
+                    )
+                }
+            })?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("demcal"),
+            required_features: wgpu::Features::SHADER_F64,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("the GPU {} refused a device: {e}", info.name))?;
+        // A kernel the driver refuses is an error, not a panic.
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipeline = |name: &str, body: &str, spin: bool| {
+            let source = format!("{COMMON}\n{}\n{body}", if spin { SPIN } else { "" });
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: None,
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let integrate = pipeline("integrate", INTEGRATE, true);
+        let pair_forces = pipeline("pair_forces", PAIR_FORCES, false);
+        let particle_sums = pipeline("particle_sums", PARTICLE_SUMS, true);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(format!(
+                "the GPU {} refused the kernels: {}",
+                info.name,
+                e.to_string().replace('\n', " ")
+            ));
+        }
+        let max_binding = device.limits().max_storage_buffer_binding_size;
+        Ok(GpuContext {
+            max_binding,
+            adapter: format!("{} ({:?})", info.name, info.backend),
+            device,
+            queue,
+            integrate,
+            pair_forces,
+            particle_sums,
+        })
+    }
+
+    /// The adapter's name and API, for logs and benchmarks.
+    pub fn adapter(&self) -> &str {
+        &self.adapter
+    }
+
+    /// Whether arrays of `bytes` (the largest of a stage) fit one binding, and the stage's
+    /// indices fit u32 (`11 q` for a pair's output slot).
+    fn fits(&self, bytes: usize) -> bool {
+        (bytes as u64) <= self.max_binding && bytes / 8 < u32::MAX as usize
+    }
+
+    /// A storage buffer holding `data` (at least 8 bytes: bindings cannot be empty).
+    fn storage<T: bytemuck::Pod>(&self, data: &[T]) -> wgpu::Buffer {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let padded;
+        let contents = if bytes.len() < 8 {
+            padded = [bytes, &[0u8; 8][..8 - bytes.len()]].concat();
+            &padded[..]
+        } else {
+            bytes
+        };
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: None,
+                contents,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            })
+    }
+
+    /// Runs `pipeline` over `threads` threads with `buffers` bound in order, then reads back the
+    /// buffers listed in `read` (indices into `buffers`).
+    fn run(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+        threads: u32,
+        read: &[usize],
+    ) -> Vec<Vec<u8>> {
+        let layout = pipeline.get_bind_group_layout(0);
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &layout,
+            entries: &entries,
+        });
+        let (x, y) = groups(threads);
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        let staging: Vec<wgpu::Buffer> = read
+            .iter()
+            .map(|&k| {
+                let size = buffers[k].size();
+                let s = self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: None,
+                    size,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                encoder.copy_buffer_to_buffer(buffers[k], 0, &s, 0, size);
+                s
+            })
+            .collect();
+        self.queue.submit([encoder.finish()]);
+        for s in &staging {
+            s.slice(..).map_async(wgpu::MapMode::Read, |r| {
+                r.expect("mapping a read-back buffer");
+            });
+        }
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("waiting for the GPU");
+        staging
+            .iter()
+            .map(|s| {
+                let view = s.slice(..).get_mapped_range().expect("a mapped buffer");
+                view.to_vec()
+            })
+            .collect()
+    }
+}
+
+/// Workgroups for `threads` threads: along x, and rows of `MAX_GROUPS` along y beyond that.
+fn groups(threads: u32) -> (u32, u32) {
+    let g = threads.div_ceil(WORKGROUP).max(1);
+    if g <= MAX_GROUPS {
+        (g, 1)
+    } else {
+        (MAX_GROUPS, g.div_ceil(MAX_GROUPS))
+    }
+}
+
+/// Row width of a dispatch in threads (what `thread_index` multiplies y by).
+fn row_width(threads: u32) -> u32 {
+    groups(threads).0 * WORKGROUP
+}
+
+fn flat(parts: &[&[DVec3]]) -> Vec<f64> {
+    parts
+        .iter()
+        .flat_map(|p| p.iter().flat_map(|v| [v.x, v.y, v.z]))
+        .collect()
+}
+
+fn f64s(bytes: &[u8]) -> Vec<f64> {
+    bytemuck::pod_collect_to_vec(bytes)
+}
+
+fn vec3_at(v: &[f64], k: usize) -> DVec3 {
+    DVec3::new(v[k], v[k + 1], v[k + 2])
+}
+
+/// The params buffer `common.wgsl` describes.
+fn params_of(params: &SimulationParams, clumps: bool, kick: bool, materials: usize) -> Vec<f64> {
+    let (has, lo, hi) = match params.domain {
+        Some((lo, hi)) => (1.0, lo, hi),
+        None => (0.0, DVec3::ZERO, DVec3::ZERO),
+    };
+    let (rolling, viscous) = match params.rolling_model {
+        RollingModel::ConstantDirectionalTorque => (0.0, 0.0),
+        RollingModel::Epsd { viscous_damping } => (1.0, viscous_damping),
+    };
+    let g = params.gravity;
+    vec![
+        params.time_step,
+        g.x,
+        g.y,
+        g.z,
+        has,
+        lo.x,
+        lo.y,
+        lo.z,
+        hi.x,
+        hi.y,
+        hi.z,
+        if clumps { 1.0 } else { 0.0 },
+        if kick { 1.0 } else { 0.0 },
+        rolling,
+        viscous,
+        materials as f64,
+    ]
+}
+
+/// The engine's stages on a GPU (see the crate notes for what runs there).
+#[derive(Clone)]
+pub struct GpuStages {
+    ctx: Arc<GpuContext>,
+}
+
+impl GpuStages {
+    pub fn new() -> Result<GpuStages, String> {
+        Ok(GpuStages {
+            ctx: Arc::new(GpuContext::new()?),
+        })
+    }
+
+    /// Stages on a context already made (compiling the kernels takes a moment).
+    pub fn with_context(ctx: Arc<GpuContext>) -> GpuStages {
+        GpuStages { ctx }
+    }
+
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// Whether the pair stage runs on the GPU for these inputs: Hertz-Mindlin with no surface
+    /// energy on any material pair (JKR is chosen per pair by its surface energy).
+    pub fn runs_pairs(inputs: &StepInputs) -> bool {
+        matches!(inputs.params.contact_model, ContactModel::HertzMindlin(_))
+            && !inputs.cohesive
+            && inputs
+                .materials
+                .pairs()
+                .iter()
+                .all(|q| q.surface_energy == 0.0)
+    }
+}
+
+impl Backend for GpuStages {
+    fn name(&self) -> &'static str {
+        "gpu"
+    }
+
+    fn integrate(
+        &self,
+        p: &mut Particles,
+        built_at: &[DVec3],
+        params: &SimulationParams,
+        clumps: bool,
+    ) -> Result<f64, usize> {
+        let n = p.len();
+        if n == 0 {
+            return Ok(0.0);
+        }
+        assert_eq!(
+            built_at.len(),
+            n,
+            "positions at the last build, one per particle"
+        );
+        let c = &self.ctx;
+        if !c.fits(72 * n) {
+            return CpuBackend.integrate(p, built_at, params, clumps);
+        }
+        let threads = n as u32;
+        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
+        let mut loads = flat(&[&p.force, &p.torque]);
+        loads.extend(&p.rolling_torque_limit);
+        let loads = c.storage(&loads);
+        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
+            .into_iter()
+            .flat_map(|v| v.iter().copied())
+            .collect();
+        let props = c.storage(&props);
+        let body = c.storage(&p.body);
+        let built = c.storage(&flat(&[built_at]));
+        let par = c.storage(&params_of(params, clumps, false, 0));
+        let counts = c.storage(&[threads, 0, 0, 0, row_width(threads)]);
+        let moved = c.storage(&vec![0.0f64; n]);
+        let outside = c.storage(&vec![0u32; n]);
+        let out = c.run(
+            &c.integrate,
+            &[
+                &state, &loads, &props, &body, &built, &par, &counts, &moved, &outside,
+            ],
+            threads,
+            &[0, 7, 8],
+        );
+        let s = f64s(&out[0]);
+        for i in 0..n {
+            p.position[i] = vec3_at(&s, 3 * i);
+            p.velocity[i] = vec3_at(&s, 3 * (n + i));
+            p.angular_velocity[i] = vec3_at(&s, 3 * (2 * n + i));
+        }
+        let moved = f64s(&out[1]);
+        let outside: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
+        match (0..n).find(|&i| !moved[i].is_finite() || outside[i] != 0) {
+            Some(i) => Err(i),
+            None => Ok(moved[..n].iter().copied().fold(0.0, f64::max).sqrt()),
+        }
+    }
+
+    fn pair_forces(&self, p: &Particles, lists: &mut NeighbourList, inputs: &StepInputs) {
+        if !Self::runs_pairs(inputs) {
+            return CpuBackend.pair_forces(p, lists, inputs);
+        }
+        let pairs = lists.pairs.len();
+        if pairs == 0 {
+            return;
+        }
+        let n = p.len();
+        let c = &self.ctx;
+        if !c.fits((72 * n).max(88 * pairs)) {
+            return CpuBackend.pair_forces(p, lists, inputs);
+        }
+        let threads = pairs as u32;
+        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
+        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
+            .into_iter()
+            .flat_map(|v| v.iter().copied())
+            .collect();
+        let props = c.storage(&props);
+        let mut ints: Vec<u32> = p.material.iter().map(|&m| m as u32).collect();
+        ints.extend(&p.body);
+        let ints = c.storage(&ints);
+        let ij: Vec<u32> = lists.pairs.iter().flat_map(|q| [q.i, q.j]).collect();
+        let ij = c.storage(&ij);
+        let history: Vec<f64> = lists
+            .pairs
+            .iter()
+            .flat_map(|q| {
+                let (t, r) = (q.history.tangential, q.history.rolling);
+                [t.x, t.y, t.z, r.x, r.y, r.z]
+            })
+            .collect();
+        let history = c.storage(&history);
+        let output = c.storage(&vec![0.0f64; 11 * pairs]);
+        let table: Vec<f64> = inputs
+            .materials
+            .pairs()
+            .iter()
+            .flat_map(|q| {
+                [
+                    q.e_star,
+                    q.g_star,
+                    q.damping_ratio,
+                    q.hertz_damping,
+                    q.static_friction,
+                    q.rolling_friction,
+                    q.surface_energy,
+                ]
+            })
+            .collect();
+        let table = c.storage(&table);
+        let par = c.storage(&params_of(
+            inputs.params,
+            inputs.clumps,
+            false,
+            inputs.materials.len(),
+        ));
+        let counts = c.storage(&[n as u32, threads, 0, 0, row_width(threads)]);
+        let out = c.run(
+            &c.pair_forces,
+            &[
+                &state, &props, &ints, &ij, &history, &output, &table, &par, &counts,
+            ],
+            threads,
+            &[4, 5],
+        );
+        let h = f64s(&out[0]);
+        let o = f64s(&out[1]);
+        for (q, pair) in lists.pairs.iter_mut().enumerate() {
+            pair.history.tangential = vec3_at(&h, 6 * q);
+            pair.history.rolling = vec3_at(&h, 6 * q + 3);
+            let slot = &mut lists.output[q];
+            slot.force = vec3_at(&o, 11 * q);
+            slot.torque_i = vec3_at(&o, 11 * q + 3);
+            slot.torque_j = vec3_at(&o, 11 * q + 6);
+            slot.rolling_i = o[11 * q + 9];
+            slot.rolling_j = o[11 * q + 10];
+        }
+    }
+
+    /// Wall contacts run on the CPU in this slice.
+    fn wall_forces(&self, p: &Particles, walls: &mut WallLists, inputs: &StepInputs) {
+        CpuBackend.wall_forces(p, walls, inputs)
+    }
+
+    fn particle_sums(
+        &self,
+        p: &mut Particles,
+        lists: &NeighbourList,
+        walls: &WallLists,
+        inputs: &StepInputs,
+        kick: bool,
+    ) {
+        let n = p.len();
+        if n == 0 {
+            return;
+        }
+        let c = &self.ctx;
+        let csr_len = 3 * (n + 1) + lists.reverse.len();
+        if !c.fits(
+            (72 * n)
+                .max(88 * lists.output.len())
+                .max(56 * walls.output().len())
+                .max(4 * csr_len),
+        ) {
+            return CpuBackend.particle_sums(p, lists, walls, inputs, kick);
+        }
+        let threads = n as u32;
+        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
+        let loads = c.storage(&vec![0.0f64; 7 * n]);
+        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
+            .into_iter()
+            .flat_map(|v| v.iter().copied())
+            .collect();
+        let props = c.storage(&props);
+        let body = c.storage(&p.body);
+        let pair_out: Vec<f64> = lists
+            .output
+            .iter()
+            .flat_map(|o| {
+                let (f, a, b) = (o.force, o.torque_i, o.torque_j);
+                [
+                    f.x,
+                    f.y,
+                    f.z,
+                    a.x,
+                    a.y,
+                    a.z,
+                    b.x,
+                    b.y,
+                    b.z,
+                    o.rolling_i,
+                    o.rolling_j,
+                ]
+            })
+            .collect();
+        let pair_out = c.storage(&pair_out);
+        // The CPU stage indexes these rows for every particle; they must be there.
+        for (what, r) in [
+            ("pair row starts", &lists.row_start),
+            ("reverse row starts", &lists.reverse_start),
+        ] {
+            assert_eq!(r.len(), n + 1, "{what}: one per particle and one more");
+        }
+        assert_eq!(
+            walls.start().len(),
+            n + 1,
+            "wall row starts: one per particle and one more"
+        );
+        let mut csr: Vec<u32> = lists.row_start.clone();
+        csr.extend(&lists.reverse_start);
+        csr.extend(&lists.reverse);
+        csr.extend(walls.start());
+        let csr = c.storage(&csr);
+        let wall_out: Vec<f64> = walls
+            .output()
+            .iter()
+            .flat_map(|o| {
+                let (f, t) = (o.force, o.particle_torque);
+                [f.x, f.y, f.z, t.x, t.y, t.z, o.rolling]
+            })
+            .collect();
+        let wall_out = c.storage(&wall_out);
+        let par = c.storage(&params_of(
+            inputs.params,
+            inputs.clumps,
+            kick,
+            inputs.materials.len(),
+        ));
+        let counts = c.storage(&[
+            threads,
+            lists.pairs.len() as u32,
+            lists.reverse.len() as u32,
+            walls.output().len() as u32,
+            row_width(threads),
+        ]);
+        let out = c.run(
+            &c.particle_sums,
+            &[
+                &state, &loads, &props, &body, &pair_out, &csr, &wall_out, &par, &counts,
+            ],
+            threads,
+            &[0, 1],
+        );
+        let s = f64s(&out[0]);
+        let l = f64s(&out[1]);
+        for i in 0..n {
+            p.velocity[i] = vec3_at(&s, 3 * (n + i));
+            p.angular_velocity[i] = vec3_at(&s, 3 * (2 * n + i));
+            p.force[i] = vec3_at(&l, 3 * i);
+            p.torque[i] = vec3_at(&l, 3 * (n + i));
+            p.rolling_torque_limit[i] = l[6 * n + i];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dispatches_cover_every_thread_once() {
+        assert_eq!(groups(0), (1, 1));
+        assert_eq!(groups(64), (1, 1));
+        assert_eq!(groups(65), (2, 1));
+        let big = 64 * MAX_GROUPS + 1;
+        assert_eq!(groups(big), (MAX_GROUPS, 2));
+        // thread_index = x + y * row_width reaches every thread below `big`, and no more rows.
+        let (x, y) = groups(big);
+        assert!(x * WORKGROUP * y >= big);
+        assert_eq!(row_width(big), MAX_GROUPS * WORKGROUP);
+    }
+}

@@ -1,0 +1,17 @@
+// Shared by every kernel: the layout of the params buffer and small vector helpers.
+//
+// params (f64): 0 dt, 1..3 gravity, 4 has_domain, 5..7 domain low, 8..10 domain high,
+// 11 clumps, 12 kick, 13 rolling model (0 cdt, 1 epsd), 14 rolling viscous damping,
+// 15 number of materials.
+// counts (u32): 0 particles, 1 pairs, 2 reverse entries, 3 wall candidates, 4 row width of a
+// 2-D dispatch (threads).
+
+const NO_BODY: u32 = 0xffffffffu;
+
+fn thread_index(gid: vec3<u32>) -> u32 {
+    return gid.x + gid.y * counts[4];
+}
+
+fn param3(k: u32) -> vec3<f64> {
+    return vec3<f64>(params[k], params[k + 1u], params[k + 2u]);
+}

@@ -10,10 +10,13 @@
 //!   against the CPU stage by stage, not yet the fast path: a back end that keeps the state on the
 //!   device across steps (binning, neighbour lists and history on the GPU) is the next slice.
 //! - **What runs on the GPU.** Integration, Hertz-Mindlin pair forces with the tangential spring and
-//!   both rolling models (cdt, epsd), and the particle sums with the second half kick. Wall
-//!   contacts, JKR cohesion (any pair with a surface energy), the Hooke law, and stages whose
-//!   arrays would pass the device's largest binding run on the CPU back end (the stage hands them
-//!   over), so any scene runs.
+//!   both rolling models (cdt, epsd), wall contacts with every element kind (planes, rectangles,
+//!   discs, cylinder shells, triangles; moving geometry through its velocity field; faces before
+//!   edges, as `dem::sim::walls::wall_contacts` does), and the particle sums with the second half
+//!   kick. JKR cohesion (any pair with a surface energy), the Hooke law, a stage whose arrays would
+//!   pass the device's largest binding, and a particle touching more than 32 walls at once are
+//!   handed to the CPU back end inside the stage ([`GpuStages::handed_to_cpu`] counts them), so
+//!   any scene runs.
 //! - **Precision.** Positions, velocities, forces and history are f64 on the device
 //!   (`wgpu::Features::SHADER_F64`; Mesa's lavapipe has it, so the kernels are tested on any
 //!   machine). WGSL's f64 has only the basic operations and `sqrt`, which is all these kernels use.
@@ -25,11 +28,14 @@
 //!   driver refuses) is an error naming the adapter. A device lost in the middle of a stage (a
 //!   driver reset) panics: the `Backend` stages cannot return errors yet.
 //! - **Kernels** are WGSL files in `src/wgsl/`, each put together with the shared `common.wgsl`
-//!   (and `spin.wgsl` where the spin kick is used).
+//!   (and `spin.wgsl` where the spin kick is used). Clumps, bonds, list rebuilds and geometry
+//!   motion stay in the pipeline on the host, as for the CPU back end.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use dem::contact::{ContactModel, RollingModel};
+use dem::geometry::Element;
 use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
 use dem::sim::walls::WallLists;
@@ -42,6 +48,7 @@ const SPIN: &str = include_str!("wgsl/spin.wgsl");
 const INTEGRATE: &str = include_str!("wgsl/integrate.wgsl");
 const PAIR_FORCES: &str = include_str!("wgsl/pair_forces.wgsl");
 const PARTICLE_SUMS: &str = include_str!("wgsl/particle_sums.wgsl");
+const WALL_FORCES: &str = include_str!("wgsl/wall_forces.wgsl");
 
 /// Threads per workgroup, as the kernels declare.
 const WORKGROUP: u32 = 64;
@@ -58,6 +65,7 @@ pub struct GpuContext {
     integrate: wgpu::ComputePipeline,
     pair_forces: wgpu::ComputePipeline,
     particle_sums: wgpu::ComputePipeline,
+    wall_forces: wgpu::ComputePipeline,
 }
 
 impl GpuContext {
@@ -121,6 +129,7 @@ impl GpuContext {
         let integrate = pipeline("integrate", INTEGRATE, true);
         let pair_forces = pipeline("pair_forces", PAIR_FORCES, false);
         let particle_sums = pipeline("particle_sums", PARTICLE_SUMS, true);
+        let wall_forces = pipeline("wall_forces", WALL_FORCES, false);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!(
                 "the GPU {} refused the kernels: {}",
@@ -137,6 +146,7 @@ impl GpuContext {
             integrate,
             pair_forces,
             particle_sums,
+            wall_forces,
         })
     }
 
@@ -263,6 +273,83 @@ fn vec3_at(v: &[f64], k: usize) -> DVec3 {
     DVec3::new(v[k], v[k + 1], v[k + 2])
 }
 
+/// The material pair table, 7 numbers a pair (`pair_forces.wgsl` names them).
+fn pair_table(inputs: &StepInputs) -> Vec<f64> {
+    inputs
+        .materials
+        .pairs()
+        .iter()
+        .flat_map(|q| {
+            [
+                q.e_star,
+                q.g_star,
+                q.damping_ratio,
+                q.hertz_damping,
+                q.static_friction,
+                q.rolling_friction,
+                q.surface_energy,
+            ]
+        })
+        .collect()
+}
+
+/// An element as `wall_forces.wgsl` reads it: its kind, then its numbers, 16 in all.
+fn element_row(e: &Element) -> [f64; 16] {
+    let mut row = [0.0; 16];
+    let mut put = |k: usize, v: DVec3| row[k..k + 3].copy_from_slice(&[v.x, v.y, v.z]);
+    let (kind, scalars): (f64, Vec<(usize, f64)>) = match *e {
+        Element::Plane { point, normal } => {
+            put(1, point);
+            put(4, normal);
+            (0.0, vec![])
+        }
+        Element::Rect {
+            center,
+            normal,
+            u,
+            v,
+            half_u,
+            half_v,
+        } => {
+            put(1, center);
+            put(4, normal);
+            put(7, u);
+            put(10, v);
+            (1.0, vec![(13, half_u), (14, half_v)])
+        }
+        Element::Disc {
+            center,
+            normal,
+            radius,
+        } => {
+            put(1, center);
+            put(4, normal);
+            (2.0, vec![(7, radius)])
+        }
+        Element::CylinderShell {
+            base,
+            axis,
+            radius,
+            length,
+        } => {
+            put(1, base);
+            put(4, axis);
+            (3.0, vec![(7, radius), (8, length)])
+        }
+        Element::Triangle { a, b, c } => {
+            put(1, a);
+            put(4, b);
+            put(7, c);
+            (4.0, vec![])
+        }
+    };
+    row[0] = kind;
+    for (k, v) in scalars {
+        row[k] = v;
+    }
+    row
+}
+
 /// The params buffer `common.wgsl` describes.
 fn params_of(params: &SimulationParams, clumps: bool, kick: bool, materials: usize) -> Vec<f64> {
     let (has, lo, hi) = match params.domain {
@@ -298,18 +385,32 @@ fn params_of(params: &SimulationParams, clumps: bool, kick: bool, materials: usi
 #[derive(Clone)]
 pub struct GpuStages {
     ctx: Arc<GpuContext>,
+    /// Stage calls handed to the CPU back end (a cohesive scene, the Hooke law, arrays too large
+    /// for one binding, a particle touching more walls than the wall kernel keeps).
+    handed_to_cpu: Arc<AtomicUsize>,
 }
 
 impl GpuStages {
     pub fn new() -> Result<GpuStages, String> {
-        Ok(GpuStages {
-            ctx: Arc::new(GpuContext::new()?),
-        })
+        Ok(GpuStages::with_context(Arc::new(GpuContext::new()?)))
     }
 
     /// Stages on a context already made (compiling the kernels takes a moment).
     pub fn with_context(ctx: Arc<GpuContext>) -> GpuStages {
-        GpuStages { ctx }
+        GpuStages {
+            ctx,
+            handed_to_cpu: Arc::new(AtomicUsize::new(0)),
+        }
+    }
+
+    /// How many stage calls went to the CPU back end so far.
+    pub fn handed_to_cpu(&self) -> usize {
+        self.handed_to_cpu.load(Ordering::Relaxed)
+    }
+
+    fn to_cpu(&self) -> CpuBackend {
+        self.handed_to_cpu.fetch_add(1, Ordering::Relaxed);
+        CpuBackend
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -352,7 +453,7 @@ impl Backend for GpuStages {
         );
         let c = &self.ctx;
         if !c.fits(72 * n) {
-            return CpuBackend.integrate(p, built_at, params, clumps);
+            return self.to_cpu().integrate(p, built_at, params, clumps);
         }
         let threads = n as u32;
         let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
@@ -394,7 +495,7 @@ impl Backend for GpuStages {
 
     fn pair_forces(&self, p: &Particles, lists: &mut NeighbourList, inputs: &StepInputs) {
         if !Self::runs_pairs(inputs) {
-            return CpuBackend.pair_forces(p, lists, inputs);
+            return self.to_cpu().pair_forces(p, lists, inputs);
         }
         let pairs = lists.pairs.len();
         if pairs == 0 {
@@ -403,7 +504,7 @@ impl Backend for GpuStages {
         let n = p.len();
         let c = &self.ctx;
         if !c.fits((72 * n).max(88 * pairs)) {
-            return CpuBackend.pair_forces(p, lists, inputs);
+            return self.to_cpu().pair_forces(p, lists, inputs);
         }
         let threads = pairs as u32;
         let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
@@ -427,23 +528,7 @@ impl Backend for GpuStages {
             .collect();
         let history = c.storage(&history);
         let output = c.storage(&vec![0.0f64; 11 * pairs]);
-        let table: Vec<f64> = inputs
-            .materials
-            .pairs()
-            .iter()
-            .flat_map(|q| {
-                [
-                    q.e_star,
-                    q.g_star,
-                    q.damping_ratio,
-                    q.hertz_damping,
-                    q.static_friction,
-                    q.rolling_friction,
-                    q.surface_energy,
-                ]
-            })
-            .collect();
-        let table = c.storage(&table);
+        let table = c.storage(&pair_table(inputs));
         let par = c.storage(&params_of(
             inputs.params,
             inputs.clumps,
@@ -473,9 +558,115 @@ impl Backend for GpuStages {
         }
     }
 
-    /// Wall contacts run on the CPU in this slice.
     fn wall_forces(&self, p: &Particles, walls: &mut WallLists, inputs: &StepInputs) {
-        CpuBackend.wall_forces(p, walls, inputs)
+        let count = walls.candidates().len();
+        if count == 0 {
+            return;
+        }
+        let n = p.len();
+        let c = &self.ctx;
+        let elements: usize = inputs.geometries.iter().map(|g| g.elements.len()).sum();
+        if !Self::runs_pairs(inputs) || !c.fits((72 * n).max(80 * count).max(128 * elements)) {
+            return self.to_cpu().wall_forces(p, walls, inputs);
+        }
+        assert_eq!(
+            walls.start().len(),
+            n + 1,
+            "wall row starts: one per particle and one more"
+        );
+        let threads = n as u32;
+        let mut flat_elements: Vec<f64> = Vec::with_capacity(16 * elements);
+        let mut geoms: Vec<f64> = Vec::with_capacity(8 * inputs.geometries.len());
+        for g in inputs.geometries {
+            let (lin, ang) = (g.velocity.linear, g.velocity.angular);
+            geoms.extend([
+                g.material as f64,
+                (flat_elements.len() / 16) as f64,
+                lin.x,
+                lin.y,
+                lin.z,
+                ang.x,
+                ang.y,
+                ang.z,
+            ]);
+            for e in &g.elements {
+                flat_elements.extend(element_row(e));
+            }
+        }
+        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
+        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
+            .into_iter()
+            .flat_map(|v| v.iter().copied())
+            .collect();
+        let props = c.storage(&props);
+        let mut ints: Vec<u32> = p.material.iter().map(|&m| m as u32).collect();
+        ints.extend(&p.body);
+        let ints = c.storage(&ints);
+        let flat_elements = c.storage(&flat_elements);
+        let geoms = c.storage(&geoms);
+        let cands: Vec<u32> = walls
+            .candidates()
+            .iter()
+            .flat_map(|w| [w.geometry as u32, w.element])
+            .collect();
+        let cands = c.storage(&cands);
+        let starts = c.storage(walls.start());
+        let history: Vec<f64> = walls
+            .candidates()
+            .iter()
+            .flat_map(|w| {
+                let (t, r) = (w.history.tangential, w.history.rolling);
+                [t.x, t.y, t.z, r.x, r.y, r.z]
+            })
+            .collect();
+        let history = c.storage(&history);
+        let output = c.storage(&vec![0.0f64; 10 * count]);
+        let table = c.storage(&pair_table(inputs));
+        let par = c.storage(&params_of(
+            inputs.params,
+            inputs.clumps,
+            false,
+            inputs.materials.len(),
+        ));
+        let counts = c.storage(&[threads, 0, 0, count as u32, row_width(threads)]);
+        let status = c.storage(&vec![0u32; n]);
+        let out = c.run(
+            &c.wall_forces,
+            &[
+                &state,
+                &props,
+                &ints,
+                &flat_elements,
+                &geoms,
+                &cands,
+                &starts,
+                &history,
+                &output,
+                &table,
+                &par,
+                &counts,
+                &status,
+            ],
+            threads,
+            &[7, 8, 12],
+        );
+        let status: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
+        if status[..n].iter().any(|&s| s != 0) {
+            // A particle touching more walls at once than the kernel keeps: the CPU has no limit.
+            return self.to_cpu().wall_forces(p, walls, inputs);
+        }
+        let h = f64s(&out[0]);
+        let o = f64s(&out[1]);
+        for (k, w) in walls.candidates_mut().iter_mut().enumerate() {
+            w.history.tangential = vec3_at(&h, 6 * k);
+            w.history.rolling = vec3_at(&h, 6 * k + 3);
+        }
+        for (k, slot) in walls.output_mut().iter_mut().enumerate() {
+            slot.force = vec3_at(&o, 10 * k);
+            slot.torque = vec3_at(&o, 10 * k + 3);
+            slot.particle_torque = vec3_at(&o, 10 * k + 6);
+            slot.rolling = o[10 * k + 9];
+        }
     }
 
     fn particle_sums(
@@ -498,7 +689,7 @@ impl Backend for GpuStages {
                 .max(56 * walls.output().len())
                 .max(4 * csr_len),
         ) {
-            return CpuBackend.particle_sums(p, lists, walls, inputs, kick);
+            return self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
         }
         let threads = n as u32;
         let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));

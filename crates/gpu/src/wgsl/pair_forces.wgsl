@@ -38,18 +38,6 @@ fn put_out3(k: u32, v: vec3<f64>) {
     output[k + 2u] = v.z;
 }
 
-fn len2(v: vec3<f64>) -> f64 {
-    return v.x * v.x + v.y * v.y + v.z * v.z;
-}
-
-fn dot3(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-
-fn cross3(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
-    return vec3<f64>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
-}
-
 fn clear_output(q: u32) {
     for (var k = 0u; k < 11u; k++) {
         output[11u * q + k] = 0.0lf;

@@ -38,10 +38,6 @@ struct Closest {
     feature: u32,
 }
 
-fn zero3() -> vec3<f64> {
-    return vec3<f64>(0.0lf, 0.0lf, 0.0lf);
-}
-
 fn get3(k: u32) -> vec3<f64> {
     return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
 }
@@ -52,18 +48,6 @@ fn el3(k: u32) -> vec3<f64> {
 
 fn geom3(k: u32) -> vec3<f64> {
     return vec3<f64>(geoms[k], geoms[k + 1u], geoms[k + 2u]);
-}
-
-fn len2(v: vec3<f64>) -> f64 {
-    return v.x * v.x + v.y * v.y + v.z * v.z;
-}
-
-fn dot3(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-
-fn cross3(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
-    return vec3<f64>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
 }
 
 fn none() -> Closest {

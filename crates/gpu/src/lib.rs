@@ -28,13 +28,14 @@
 //!   driver refuses) is an error naming the adapter. A device lost in the middle of a stage (a
 //!   driver reset) panics: the `Backend` stages cannot return errors yet.
 //! - **Kernels** are WGSL files in `src/wgsl/`, each put together with the shared `common.wgsl`
-//!   (and `spin.wgsl` where the spin kick is used). Clumps, bonds, list rebuilds and geometry
+//!   and the shared parts they use (`spin.wgsl`, the spin kick; `contact.wgsl`, the contact law
+//!   that pairs and walls share). Clumps, bonds, list rebuilds and geometry
 //!   motion stay in the pipeline on the host, as for the CPU back end.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
-use dem::contact::{ContactModel, RollingModel};
+use dem::contact::{ContactHistory, ContactModel, RollingModel};
 use dem::geometry::Element;
 use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
@@ -45,6 +46,7 @@ use wgpu::util::DeviceExt;
 
 const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SPIN: &str = include_str!("wgsl/spin.wgsl");
+const CONTACT: &str = include_str!("wgsl/contact.wgsl");
 const INTEGRATE: &str = include_str!("wgsl/integrate.wgsl");
 const PAIR_FORCES: &str = include_str!("wgsl/pair_forces.wgsl");
 const PARTICLE_SUMS: &str = include_str!("wgsl/particle_sums.wgsl");
@@ -111,8 +113,14 @@ impl GpuContext {
         .map_err(|e| format!("the GPU {} refused a device: {e}", info.name))?;
         // A kernel the driver refuses is an error, not a panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = |name: &str, body: &str, spin: bool| {
-            let source = format!("{COMMON}\n{}\n{body}", if spin { SPIN } else { "" });
+        // Each kernel is its file after the shared parts it uses.
+        let pipeline = |name: &str, parts: &[&str]| {
+            let source = [COMMON]
+                .iter()
+                .chain(parts)
+                .copied()
+                .collect::<Vec<_>>()
+                .join("\n");
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -126,10 +134,10 @@ impl GpuContext {
                 cache: None,
             })
         };
-        let integrate = pipeline("integrate", INTEGRATE, true);
-        let pair_forces = pipeline("pair_forces", PAIR_FORCES, false);
-        let particle_sums = pipeline("particle_sums", PARTICLE_SUMS, true);
-        let wall_forces = pipeline("wall_forces", WALL_FORCES, false);
+        let integrate = pipeline("integrate", &[SPIN, INTEGRATE]);
+        let pair_forces = pipeline("pair_forces", &[CONTACT, PAIR_FORCES]);
+        let particle_sums = pipeline("particle_sums", &[SPIN, PARTICLE_SUMS]);
+        let wall_forces = pipeline("wall_forces", &[CONTACT, WALL_FORCES]);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!(
                 "the GPU {} refused the kernels: {}",
@@ -263,6 +271,35 @@ fn flat(parts: &[&[DVec3]]) -> Vec<f64> {
         .iter()
         .flat_map(|p| p.iter().flat_map(|v| [v.x, v.y, v.z]))
         .collect()
+}
+
+/// `state` of the kernels: position, velocity and angular velocity, 3N each.
+fn state_of(p: &Particles) -> Vec<f64> {
+    flat(&[&p.position, &p.velocity, &p.angular_velocity])
+}
+
+/// `props` of the kernels: radius, mass, inverse mass, inverse inertia, N each.
+fn props_of(p: &Particles) -> Vec<f64> {
+    [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
+        .into_iter()
+        .flat_map(|v| v.iter().copied())
+        .collect()
+}
+
+/// `ints` of the kernels: material, then body, N each.
+fn ints_of(p: &Particles) -> Vec<u32> {
+    let mut ints: Vec<u32> = p.material.iter().map(|&m| m as u32).collect();
+    ints.extend(&p.body);
+    ints
+}
+
+/// Contact histories, 6 numbers each: tangential spring, rolling moment.
+fn history_of<'a>(h: impl Iterator<Item = &'a ContactHistory>) -> Vec<f64> {
+    h.flat_map(|h| {
+        let (t, r) = (h.tangential, h.rolling);
+        [t.x, t.y, t.z, r.x, r.y, r.z]
+    })
+    .collect()
 }
 
 fn f64s(bytes: &[u8]) -> Vec<f64> {
@@ -456,15 +493,11 @@ impl Backend for GpuStages {
             return self.to_cpu().integrate(p, built_at, params, clumps);
         }
         let threads = n as u32;
-        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
+        let state = c.storage(&state_of(p));
         let mut loads = flat(&[&p.force, &p.torque]);
         loads.extend(&p.rolling_torque_limit);
         let loads = c.storage(&loads);
-        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
-            .into_iter()
-            .flat_map(|v| v.iter().copied())
-            .collect();
-        let props = c.storage(&props);
+        let props = c.storage(&props_of(p));
         let body = c.storage(&p.body);
         let built = c.storage(&flat(&[built_at]));
         let par = c.storage(&params_of(params, clumps, false, 0));
@@ -507,26 +540,12 @@ impl Backend for GpuStages {
             return self.to_cpu().pair_forces(p, lists, inputs);
         }
         let threads = pairs as u32;
-        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
-        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
-            .into_iter()
-            .flat_map(|v| v.iter().copied())
-            .collect();
-        let props = c.storage(&props);
-        let mut ints: Vec<u32> = p.material.iter().map(|&m| m as u32).collect();
-        ints.extend(&p.body);
-        let ints = c.storage(&ints);
+        let state = c.storage(&state_of(p));
+        let props = c.storage(&props_of(p));
+        let ints = c.storage(&ints_of(p));
         let ij: Vec<u32> = lists.pairs.iter().flat_map(|q| [q.i, q.j]).collect();
         let ij = c.storage(&ij);
-        let history: Vec<f64> = lists
-            .pairs
-            .iter()
-            .flat_map(|q| {
-                let (t, r) = (q.history.tangential, q.history.rolling);
-                [t.x, t.y, t.z, r.x, r.y, r.z]
-            })
-            .collect();
-        let history = c.storage(&history);
+        let history = c.storage(&history_of(lists.pairs.iter().map(|q| &q.history)));
         let output = c.storage(&vec![0.0f64; 11 * pairs]);
         let table = c.storage(&pair_table(inputs));
         let par = c.storage(&params_of(
@@ -593,15 +612,9 @@ impl Backend for GpuStages {
                 flat_elements.extend(element_row(e));
             }
         }
-        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
-        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
-            .into_iter()
-            .flat_map(|v| v.iter().copied())
-            .collect();
-        let props = c.storage(&props);
-        let mut ints: Vec<u32> = p.material.iter().map(|&m| m as u32).collect();
-        ints.extend(&p.body);
-        let ints = c.storage(&ints);
+        let state = c.storage(&state_of(p));
+        let props = c.storage(&props_of(p));
+        let ints = c.storage(&ints_of(p));
         let flat_elements = c.storage(&flat_elements);
         let geoms = c.storage(&geoms);
         let cands: Vec<u32> = walls
@@ -611,15 +624,7 @@ impl Backend for GpuStages {
             .collect();
         let cands = c.storage(&cands);
         let starts = c.storage(walls.start());
-        let history: Vec<f64> = walls
-            .candidates()
-            .iter()
-            .flat_map(|w| {
-                let (t, r) = (w.history.tangential, w.history.rolling);
-                [t.x, t.y, t.z, r.x, r.y, r.z]
-            })
-            .collect();
-        let history = c.storage(&history);
+        let history = c.storage(&history_of(walls.candidates().iter().map(|w| &w.history)));
         let output = c.storage(&vec![0.0f64; 10 * count]);
         let table = c.storage(&pair_table(inputs));
         let par = c.storage(&params_of(
@@ -692,13 +697,9 @@ impl Backend for GpuStages {
             return self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
         }
         let threads = n as u32;
-        let state = c.storage(&flat(&[&p.position, &p.velocity, &p.angular_velocity]));
+        let state = c.storage(&state_of(p));
         let loads = c.storage(&vec![0.0f64; 7 * n]);
-        let props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
-            .into_iter()
-            .flat_map(|v| v.iter().copied())
-            .collect();
-        let props = c.storage(&props);
+        let props = c.storage(&props_of(p));
         let body = c.storage(&p.body);
         let pair_out: Vec<f64> = lists
             .output

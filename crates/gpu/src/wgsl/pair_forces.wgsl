@@ -1,7 +1,5 @@
-// Hertz-Mindlin (no slip) between candidate pairs, with the tangential spring and the rolling
-// resistance of the chosen model (CpuBackend::pair_forces with contact::hertz_mindlin,
-// contact::tangential_spring and contact::rolling). One thread per pair; each writes its own
-// history and output slot.
+// Hertz-Mindlin between candidate pairs (CpuBackend::pair_forces; the law is in contact.wgsl).
+// One thread per pair; each writes its own history and output slot.
 //
 // history (per pair, 6): tangential spring xyz, rolling moment xyz
 // output (per pair, 11): force on i xyz, torque on i xyz, torque on j xyz, rolling i, rolling j
@@ -80,88 +78,30 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let wi = get3(6u * n + 3u * i);
     let wj = get3(6u * n + 3u * j);
     let m_eff = 1.0lf / (props[2u * n + i] + props[2u * n + j]);
-    let mats = u32(params[15]);
-    let t = 7u * (ints[i] * mats + ints[j]);
-    let e_star = table[t];
-    let g_star = table[t + 1u];
-    let hertz_damping = table[t + 3u];
-    let static_friction = table[t + 4u];
-    let rolling_friction = table[t + 5u];
-    let dt = params[0];
+    let t = 7u * (ints[i] * u32(params[15]) + ints[j]);
     let v_rel = get3(3u * n + 3u * i) - get3(3u * n + 3u * j);
-    let spin_lever = ci * wi + cj * wj;
-
-    // Hertz normal force and the Mindlin tangential stiffness.
-    let a = sqrt(r_eff * d);
-    let f_elastic = (4.0lf / 3.0lf) * e_star * a * d;
-    let s_n = 2.0lf * e_star * a;
-    let s_t = 8.0lf * g_star * a;
-    let v_n = dot3(v_rel, nrm);
-    let gamma_n = hertz_damping * sqrt(s_n * m_eff);
-    let f_n = f_elastic - gamma_n * v_n;
-    let v_t = v_rel - v_n * nrm;
-    let v_c = v_t - cross3(spin_lever, nrm);
-    let gamma_t = hertz_damping * sqrt(s_t * m_eff);
-    let load = f_n;
-    let limit = static_friction * abs(load);
-
-    // The tangential spring, rotated into the contact plane, capped by friction.
-    var shear = hist3(6u * q);
-    let old_len2 = len2(shear);
-    if (old_len2 > 0.0lf) {
-        let projected = shear - dot3(shear, nrm) * nrm;
-        let new_len2 = len2(projected);
-        if (new_len2 > 0.0lf) {
-            shear = projected * sqrt(old_len2 / new_len2);
-        } else {
-            shear = vec3<f64>(0.0lf, 0.0lf, 0.0lf);
-        }
-    }
-    shear += v_c * dt;
-    var f_t = -s_t * shear - gamma_t * v_c;
-    let ft2 = len2(f_t);
-    if (ft2 > limit * limit) {
-        f_t *= limit / sqrt(ft2);
-        if (s_t > 0.0lf) {
-            shear = -(f_t + gamma_t * v_c) / s_t;
-        } else {
-            shear = vec3<f64>(0.0lf, 0.0lf, 0.0lf);
-        }
-    }
-    put_hist3(6u * q, shear);
-    let secant = (4.0lf / 3.0lf) * e_star * a;
-
-    // Rolling resistance.
-    var rolling_torque = vec3<f64>(0.0lf, 0.0lf, 0.0lf);
-    var rolling_resistance = 0.0lf;
-    if (params[13] == 0.0lf) {
-        rolling_resistance = rolling_friction * abs(load);
-    } else {
-        let rel_spin = wi - wj;
-        let w = rel_spin - dot3(rel_spin, nrm) * nrm;
-        let k_r = 2.25lf * secant * rolling_friction * rolling_friction * r_eff * r_eff;
-        let moment = hist3(6u * q + 3u);
-        var m = moment - dot3(moment, nrm) * nrm + k_r * w * dt;
-        let lim = rolling_friction * r_eff * abs(load);
-        let m2 = len2(m);
-        if (m2 > lim * lim) {
-            m *= lim / sqrt(m2);
-            rolling_torque = -m;
-        } else {
-            let ai = props[n + i] * ri * ri;
-            let aj = props[n + j] * rj * rj;
-            let inertia = 1.4lf * ai * aj / (ai + aj);
-            let damping = params[14] * 2.0lf * sqrt(inertia * k_r);
-            rolling_torque = -(m + damping * w);
-        }
-        put_hist3(6u * q + 3u, m);
-    }
-
-    let force = f_n * nrm + f_t;
-    let nxf = cross3(nrm, f_t);
-    put_out3(11u * q, force);
-    put_out3(11u * q + 3u, -ci * nxf + rolling_torque);
-    put_out3(11u * q + 6u, -cj * nxf - rolling_torque);
-    output[11u * q + 9u] = rolling_resistance * ci;
-    output[11u * q + 10u] = rolling_resistance * cj;
+    let ai = props[n + i] * ri * ri;
+    let aj = props[n + j] * rj * rj;
+    let c = hertz_mindlin(
+        t,
+        nrm,
+        d,
+        r_eff,
+        m_eff,
+        v_rel,
+        ci * wi + cj * wj,
+        wi - wj,
+        1.4lf * ai * aj / (ai + aj),
+        hist3(6u * q),
+        hist3(6u * q + 3u),
+    );
+    put_hist3(6u * q, c.shear);
+    put_hist3(6u * q + 3u, c.moment);
+    let nxf = cross3(nrm, c.tangential);
+    put_out3(11u * q, c.force);
+    put_out3(11u * q + 3u, -ci * nxf + c.rolling_torque);
+    put_out3(11u * q + 6u, -cj * nxf - c.rolling_torque);
+    output[11u * q + 9u] = c.rolling_resistance * ci;
+    output[11u * q + 10u] = c.rolling_resistance * cj;
 }
+

@@ -240,7 +240,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = props[n + i];
     let material = ints[i];
     let mats = u32(params[15]);
-    let dt = params[0];
     let tol = 1.0e-9lf + 1.0e-6lf * r;
     var taken_cand: array<u32, KEEP>;
     var taken_point: array<vec3<f64>, KEEP>;
@@ -304,78 +303,25 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let lin = geom3(8u * g + 2u);
             let ang = geom3(8u * g + 5u);
             let v_rel = vel - (lin + cross3(ang, contact_point));
-            let spin_lever = ci * spin;
-            let t = 7u * (material * mats + u32(geoms[8u * g]));
-            let e_star = table[t];
-            let g_star = table[t + 1u];
-            let hertz_damping = table[t + 3u];
-            let static_friction = table[t + 4u];
-            let rolling_friction = table[t + 5u];
-            let r_eff = r;
-            let m_eff = m;
-
-            let a_c = sqrt(r_eff * d);
-            let f_elastic = (4.0lf / 3.0lf) * e_star * a_c * d;
-            let s_n = 2.0lf * e_star * a_c;
-            let s_t = 8.0lf * g_star * a_c;
-            let v_n = dot3(v_rel, nrm);
-            let gamma_n = hertz_damping * sqrt(s_n * m_eff);
-            let f_n = f_elastic - gamma_n * v_n;
-            let v_t = v_rel - v_n * nrm;
-            let v_c = v_t - cross3(spin_lever, nrm);
-            let gamma_t = hertz_damping * sqrt(s_t * m_eff);
-            let load = f_n;
-            let limit = static_friction * abs(load);
-
-            var shear = hist3(6u * c);
-            let old_len2 = len2(shear);
-            if (old_len2 > 0.0lf) {
-                let projected = shear - dot3(shear, nrm) * nrm;
-                let new_len2 = len2(projected);
-                if (new_len2 > 0.0lf) {
-                    shear = projected * sqrt(old_len2 / new_len2);
-                } else {
-                    shear = zero3();
-                }
-            }
-            shear += v_c * dt;
-            var f_t = -s_t * shear - gamma_t * v_c;
-            let ft2 = len2(f_t);
-            if (ft2 > limit * limit) {
-                f_t *= limit / sqrt(ft2);
-                if (s_t > 0.0lf) {
-                    shear = -(f_t + gamma_t * v_c) / s_t;
-                } else {
-                    shear = zero3();
-                }
-            }
-            put_hist3(6u * c, shear);
-            let secant = (4.0lf / 3.0lf) * e_star * a_c;
-
-            var rolling_torque = zero3();
-            var rolling_resistance = 0.0lf;
-            if (params[13] == 0.0lf) {
-                rolling_resistance = rolling_friction * abs(load);
-            } else {
-                let rel_spin = spin - ang;
-                let w = rel_spin - dot3(rel_spin, nrm) * nrm;
-                let k_r = 2.25lf * secant * rolling_friction * rolling_friction * r_eff * r_eff;
-                let moment = hist3(6u * c + 3u);
-                var mm = moment - dot3(moment, nrm) * nrm + k_r * w * dt;
-                let lim = rolling_friction * r_eff * abs(load);
-                let m2 = len2(mm);
-                if (m2 > lim * lim) {
-                    mm *= lim / sqrt(m2);
-                    rolling_torque = -mm;
-                } else {
-                    let inertia = 1.4lf * m * r * r;
-                    let damping = params[14] * 2.0lf * sqrt(inertia * k_r);
-                    rolling_torque = -(mm + damping * w);
-                }
-                put_hist3(6u * c + 3u, mm);
-            }
-
-            let force = f_n * nrm + f_t;
+            let hm = hertz_mindlin(
+                7u * (material * mats + u32(geoms[8u * g])),
+                nrm,
+                d,
+                r,
+                m,
+                v_rel,
+                ci * spin,
+                spin - ang,
+                1.4lf * m * r * r,
+                hist3(6u * c),
+                hist3(6u * c + 3u),
+            );
+            put_hist3(6u * c, hm.shear);
+            put_hist3(6u * c + 3u, hm.moment);
+            let force = hm.force;
+            let rolling_torque = hm.rolling_torque;
+            let f_t = hm.tangential;
+            let rolling_resistance = hm.rolling_resistance;
             let rolling_limit = rolling_resistance * ci;
             var reaction_rolling = -rolling_torque;
             if (rolling_limit > 0.0lf) {

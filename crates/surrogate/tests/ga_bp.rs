@@ -386,48 +386,117 @@ fn polynomial_metrics(
     polynomial_metrics_of(x, y, split, if quadratic { 2 } else { 0 })
 }
 
-/// `kind` 0: linear, 1: the reduced quadratic D, E, G, D^2, G^2, 2: the full quadratic.
+/// The terms of a polynomial in D, E, G: `kind` 0 linear, 1 the reduced quadratic D, E, G, D^2,
+/// G^2 (the published RSM model), 2 the full quadratic.
+fn polynomial_terms(r: &[f64], kind: usize) -> Vec<f64> {
+    let mut t = vec![1.0, r[0], r[1], r[2]];
+    if kind == 1 {
+        t.extend([r[0] * r[0], r[2] * r[2]]);
+    }
+    if kind == 2 {
+        t.extend([
+            r[0] * r[1],
+            r[0] * r[2],
+            r[1] * r[2],
+            r[0] * r[0],
+            r[1] * r[1],
+            r[2] * r[2],
+        ]);
+    }
+    t
+}
+
+/// The polynomial of `kind` fitted by least squares on `rows`, as a predictor.
+fn polynomial_fit(
+    x: &[Vec<f64>],
+    y: &[f64],
+    rows: &[usize],
+    kind: usize,
+) -> impl Fn(&[f64]) -> f64 {
+    let k = polynomial_terms(&x[0], kind).len();
+    let a =
+        nalgebra::DMatrix::from_fn(rows.len(), k, |i, j| polynomial_terms(&x[rows[i]], kind)[j]);
+    let b = nalgebra::DVector::from_fn(rows.len(), |i, _| y[rows[i]]);
+    let c = a.svd(true, true).solve(&b, 1e-12).unwrap();
+    move |r: &[f64]| {
+        polynomial_terms(r, kind)
+            .iter()
+            .zip(c.iter())
+            .map(|(t, c)| t * c)
+            .sum::<f64>()
+    }
+}
+
 fn polynomial_metrics_of(
     x: &[Vec<f64>],
     y: &[f64],
     split: u64,
     kind: usize,
 ) -> (surrogate::FitMetrics, surrogate::FitMetrics) {
-    let terms = |r: &[f64]| {
-        let mut t = vec![1.0, r[0], r[1], r[2]];
-        if kind == 1 {
-            t.extend([r[0] * r[0], r[2] * r[2]]);
-        }
-        if kind == 2 {
-            t.extend([
-                r[0] * r[1],
-                r[0] * r[2],
-                r[1] * r[2],
-                r[0] * r[0],
-                r[1] * r[1],
-                r[2] * r[2],
-            ]);
-        }
-        t
-    };
     let (tr, te) = surrogate::split_stratified(y, 0.8, split);
-    let k = terms(&x[0]).len();
-    let a = nalgebra::DMatrix::from_fn(tr.len(), k, |i, j| terms(&x[tr[i]])[j]);
-    let b = nalgebra::DVector::from_fn(tr.len(), |i, _| y[tr[i]]);
-    let c = a.svd(true, true).solve(&b, 1e-12).unwrap();
-    let pred = |i: usize| {
-        terms(&x[i])
-            .iter()
-            .zip(c.iter())
-            .map(|(t, c)| t * c)
-            .sum::<f64>()
-    };
+    let pred = polynomial_fit(x, y, &tr, kind);
     let m = |rows: &[usize]| {
         let obs: Vec<f64> = rows.iter().map(|&i| y[i]).collect();
-        let p: Vec<f64> = rows.iter().map(|&i| pred(i)).collect();
+        let p: Vec<f64> = rows.iter().map(|&i| pred(&x[i])).collect();
         surrogate::FitMetrics::of(&obs, &p)
     };
     (m(&tr), m(&te))
+}
+
+/// Not a check: pooled 5-fold cross-validation on the silage CCD, every row predicted once by a
+/// model that did not train on it (folds stratified on the response, 10 fold seeds), for GA-BP as
+/// the `ga_bp` stage trains it (10 early-stopped networks) and for the published reduced
+/// quadratic. About 30 s. `cargo test --release -p demcal-surrogate --test ga_bp -- --ignored
+/// --nocapture survey_cross_validation`.
+#[test]
+#[ignore]
+fn survey_cross_validation() {
+    let (x, y) = silage();
+    let n = y.len();
+    for seed in 0..10u64 {
+        // Sorted by response, each block of 5 rows is dealt at random to the 5 folds.
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| y[a].total_cmp(&y[b]));
+        let mut fold = vec![0usize; n];
+        let mut s = seed.wrapping_mul(6_364_136_223_846_793_005) ^ 0x9e37_79b9;
+        for chunk in order.chunks(5) {
+            let mut f: Vec<usize> = (0..5).collect();
+            for i in (1..5).rev() {
+                s = s
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                f.swap(i, (s >> 33) as usize % (i + 1));
+            }
+            for (p, &row) in chunk.iter().enumerate() {
+                fold[row] = f[p];
+            }
+        }
+        let (mut net, mut quad) = (vec![0.0; n], vec![0.0; n]);
+        for k in 0..5 {
+            let tr: Vec<usize> = (0..n).filter(|&i| fold[i] != k).collect();
+            let xt: Vec<Vec<f64>> = tr.iter().map(|&i| x[i].clone()).collect();
+            let yt: Vec<f64> = tr.iter().map(|&i| y[i]).collect();
+            // Nearly every training row trains (one is the network's own test row).
+            let opts = BpOptions {
+                train_fraction: 0.97,
+                ..ensemble_options(seed * 10 + k as u64)
+            };
+            let t = train(&xt, &yt, &opts).unwrap();
+            let q = polynomial_fit(&x, &y, &tr, 1);
+            for i in (0..n).filter(|&i| fold[i] == k) {
+                net[i] = t.network.predict(&x[i]);
+                quad[i] = q(&x[i]);
+            }
+        }
+        let (a, b) = (
+            surrogate::FitMetrics::of(&y, &net),
+            surrogate::FitMetrics::of(&y, &quad),
+        );
+        println!(
+            "fold seed {seed}: cross-validated R2 GA-BP {:.3} (RMSE {:.2}), reduced quadratic {:.3} (RMSE {:.2})",
+            a.r2, a.rmse, b.r2, b.rmse
+        );
+    }
 }
 
 /// Not a check: prints plain BP and GA-BP fits (published GA settings, timed) on the silage CCD

@@ -511,7 +511,7 @@ pub(crate) fn conclude(
                         .targets
                         .iter()
                         .enumerate()
-                        .map(|(i, t)| (Subject::Response(i), t.term.criterion()))
+                        .map(|(i, t)| (Subject::Response(i), t.term().criterion()))
                         .collect(),
                     bounds: vec![(-1.0, 1.0); active.len()],
                 };

@@ -128,7 +128,7 @@ impl Study {
 
     /// Each target's term, for a combined objective.
     pub fn terms(&self) -> Vec<Term> {
-        self.targets.iter().map(|t| t.term.clone()).collect()
+        self.targets.iter().map(Target::term).collect()
     }
 
     /// The folder the study lives in; the store, run outputs and report go there.

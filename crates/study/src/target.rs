@@ -35,15 +35,39 @@ pub struct Target {
     pub curve: Option<CurveTarget>,
     /// The study's test (index) the response comes from.
     pub test: usize,
-    /// How the target enters a combined objective.
-    pub term: Term,
+    /// Whether the response is minimised (a curve MSE, a combined objective) rather than matched.
+    pub minimised: bool,
+    /// Weight in a weighted objective.
+    pub weight: f64,
+    /// Importance (1 to 5) in a desirability.
+    pub importance: u8,
+    /// Desirability limits (see [`Term`]).
+    pub low: f64,
+    pub high: f64,
+    /// The lab curve's mean square (1 without a curve).
+    pub curve_scale: f64,
 }
 
 impl Target {
     /// Whether the response is minimised rather than matched: a curve MSE, or a combined
     /// objective, whose target is 0.
     pub fn minimised(&self) -> bool {
-        self.term.minimised
+        self.minimised
+    }
+
+    /// What a run needs of the target to score itself.
+    pub fn term(&self) -> Term {
+        Term {
+            test: self.test,
+            response: self.response.clone(),
+            lab: self.value,
+            minimised: self.minimised,
+            weight: self.weight,
+            importance: self.importance,
+            low: self.low,
+            high: self.high,
+            curve_scale: self.curve_scale,
+        }
     }
 
     /// |sim - lab| / lab in %; none for a minimised response (a relative error of a target of
@@ -79,17 +103,12 @@ impl Target {
             unit: combine.unit().to_string(),
             curve: None,
             test: 0,
-            term: Term {
-                test: 0,
-                response: combine.response().to_string(),
-                lab: 0.0,
-                minimised: true,
-                weight: 1.0,
-                importance: 3,
-                low: 0.0,
-                high: 1.0,
-                curve_scale: 1.0,
-            },
+            minimised: true,
+            weight: 1.0,
+            importance: 3,
+            low: 0.0,
+            high: 1.0,
+            curve_scale: 1.0,
         }
     }
 }
@@ -455,7 +474,12 @@ pub fn parse_target(
         unit,
         curve,
         test,
-        term,
+        minimised: term.minimised,
+        weight: term.weight,
+        importance: term.importance,
+        low: term.low,
+        high: term.high,
+        curve_scale: term.curve_scale,
     })
 }
 

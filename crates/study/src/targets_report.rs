@@ -74,13 +74,13 @@ pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<
             }
         };
         let weight = match combine {
-            Combine::Weighted => sig(t.term.weight),
-            Combine::Desirability => t.term.importance.to_string(),
+            Combine::Weighted => sig(t.weight),
+            Combine::Desirability => t.importance.to_string(),
         };
         let limits = match combine {
             Combine::Weighted => String::new(),
             Combine::Desirability => {
-                format!("<td>{} .. {}</td>", sig(t.term.low), sig(t.term.high))
+                format!("<td>{} .. {}</td>", sig(t.low), sig(t.high))
             }
         };
         let v = validation.and_then(|v| v.targets.get(i));
@@ -98,7 +98,7 @@ pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<
                 Some(e) => format!("{e:.2} %"),
                 None => format!(
                     "relative curve error {:.2} %",
-                    100.0 * t.term.relative_error(v.mean)
+                    100.0 * t.term().relative_error(v.mean)
                 ),
             })
             .unwrap_or_else(|| "-".into());
@@ -182,15 +182,15 @@ pub(crate) fn summary(study: &Study, validation: Option<&Validation>) -> serde_j
                 "replicates": t.replicates,
                 "std": t.std(),
                 "minimised": t.minimised(),
-                "weight": t.term.weight,
-                "importance": t.term.importance,
-                "low": t.term.low,
-                "high": t.term.high,
+                "weight": t.weight,
+                "importance": t.importance,
+                "low": t.low,
+                "high": t.high,
                 "validation_mean": v.map(|v| v.mean),
                 "validation_std": v.and_then(|v| v.std),
                 "validation_runs": v.map(|v| v.runs),
                 "relative_error_percent": v.map(|v| v.relative_error_percent
-                    .unwrap_or(100.0 * t.term.relative_error(v.mean))),
+                    .unwrap_or(100.0 * t.term().relative_error(v.mean))),
             })
         }).collect::<Vec<_>>(),
     })

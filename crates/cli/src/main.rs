@@ -37,6 +37,9 @@ enum Command {
         /// Write output here instead of the scene's [output] directory.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Run the stages on the CPU or the GPU (default: the scene's simulation.backend, or cpu).
+        #[arg(long, value_parser = ["cpu", "gpu"])]
+        backend: Option<String>,
     },
     /// Measure the angle of repose of a heap given as spheres: a CSV file (x, y, z, radius) or a
     /// LIGGGHTS/LAMMPS custom dump (last frame), the way `demcal test` measures its own heaps.
@@ -80,6 +83,9 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Run the stages on the CPU or the GPU (default: the file's backend, or cpu).
+        #[arg(long, value_parser = ["cpu", "gpu"])]
+        backend: Option<String>,
     },
     /// Run (or resume) a calibration study: every stage of its plan, the runs stored in
     /// <study>.db next to it, then the report in report/ next to it.
@@ -94,6 +100,9 @@ enum Command {
         /// Run failed simulations again instead of keeping their failure.
         #[arg(long)]
         retry_failed: bool,
+        /// Run the simulations on the CPU or the GPU (default: the study's backend, or cpu).
+        #[arg(long, value_parser = ["cpu", "gpu"])]
+        backend: Option<String>,
     },
     /// Run one simulation of a study from a job file (the unit a cluster executor submits) and
     /// write its record as JSON.
@@ -134,6 +143,9 @@ enum Command {
         steps: Option<u64>,
         #[arg(long)]
         threads: Option<usize>,
+        /// Run the stages on the CPU or the GPU.
+        #[arg(long, value_parser = ["cpu", "gpu"], default_value = "cpu")]
+        backend: String,
     },
 }
 
@@ -428,8 +440,17 @@ fn doe_command(action: DoeCommand) -> Result<(), String> {
     }
 }
 
-fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> Result<(), String> {
-    let file = virtual_tests::TestFile::load(path)?;
+fn run_test(
+    path: &Path,
+    seed: Option<u64>,
+    json: bool,
+    out: Option<&Path>,
+    backend: Option<String>,
+) -> Result<(), String> {
+    let mut file = virtual_tests::TestFile::load(path)?;
+    if let Some(b) = backend.or(file.backend.take()) {
+        file.backend = Some(chosen_backend(&b)?.to_string());
+    }
     // A test with a curve writes it (and its logs) by default next to the file, so that the
     // curve_csv it reports exists.
     let default_out;
@@ -472,6 +493,15 @@ fn run_test(path: &Path, seed: Option<u64>, json: bool, out: Option<&Path>) -> R
         println!("{}", done.json);
     }
     Ok(())
+}
+
+/// The back end `name` when this machine has it, else the CPU, said once on standard error.
+fn chosen_backend(name: &str) -> Result<&'static str, String> {
+    let (chosen, why) = dem::sim::resolve_backend(name)?;
+    if let Some(why) = why {
+        eprintln!("warning: backend \"{name}\": {why}");
+    }
+    Ok(chosen)
 }
 
 fn heap_angle(
@@ -576,50 +606,59 @@ fn set_threads(threads: Option<usize>) -> Result<(), String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Simulate {
-            scene,
-            threads,
-            out,
-        } => set_threads(threads).and_then(|_| simulate(&scene, out.as_deref())),
-        Command::Doe { action } => doe_command(action),
-        Command::Surrogate { action } => surrogate_command(action),
-        Command::Run {
-            study,
-            jobs,
-            restart,
-            retry_failed,
-        } => run_study(&study, jobs, restart, retry_failed),
-        Command::RunOne {
-            job,
-            record,
-            threads,
-        } => set_threads(threads).and_then(|_| run_job(&job, record.as_deref())),
-        Command::Status { study } => study::status(&study).map(|s| print!("{s}")),
-        Command::Report { study, out } => study::report(&study, out.as_deref()).map(|dir| {
-            println!("wrote {}", dir.join("index.html").display());
-        }),
-        Command::Test {
-            test,
-            seed,
-            json,
-            out,
-            threads,
-        } => set_threads(threads).and_then(|_| run_test(&test, seed, json, out.as_deref())),
-        Command::HeapAngle {
-            file,
-            planes,
-            axis,
-            base,
-            out,
-            json,
-        } => heap_angle(&file, planes, &axis, base, out.as_deref(), json),
-        Command::Bench {
-            name,
-            steps,
-            threads,
-        } => set_threads(threads).and_then(|_| bench(&name, steps)),
-    };
+    // The GPU back end, for scene, test and study files and `--backend gpu`.
+    dem_gpu::register();
+    let result =
+        match cli.command {
+            Command::Simulate {
+                scene,
+                threads,
+                out,
+                backend,
+            } => set_threads(threads)
+                .and_then(|_| simulate(&scene, out.as_deref(), backend.as_deref())),
+            Command::Doe { action } => doe_command(action),
+            Command::Surrogate { action } => surrogate_command(action),
+            Command::Run {
+                study,
+                jobs,
+                restart,
+                retry_failed,
+                backend,
+            } => run_study(&study, jobs, restart, retry_failed, backend),
+            Command::RunOne {
+                job,
+                record,
+                threads,
+            } => set_threads(threads).and_then(|_| run_job(&job, record.as_deref())),
+            Command::Status { study } => study::status(&study).map(|s| print!("{s}")),
+            Command::Report { study, out } => study::report(&study, out.as_deref()).map(|dir| {
+                println!("wrote {}", dir.join("index.html").display());
+            }),
+            Command::Test {
+                test,
+                seed,
+                json,
+                out,
+                threads,
+                backend,
+            } => set_threads(threads)
+                .and_then(|_| run_test(&test, seed, json, out.as_deref(), backend)),
+            Command::HeapAngle {
+                file,
+                planes,
+                axis,
+                base,
+                out,
+                json,
+            } => heap_angle(&file, planes, &axis, base, out.as_deref(), json),
+            Command::Bench {
+                name,
+                steps,
+                threads,
+                backend,
+            } => set_threads(threads).and_then(|_| bench(&name, steps, &backend)),
+        };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -629,7 +668,13 @@ fn main() -> ExitCode {
     }
 }
 
-fn run_study(path: &Path, jobs: usize, restart: bool, retry_failed: bool) -> Result<(), String> {
+fn run_study(
+    path: &Path,
+    jobs: usize,
+    restart: bool,
+    retry_failed: bool,
+    backend: Option<String>,
+) -> Result<(), String> {
     check_count("--jobs", jobs)?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
@@ -646,6 +691,7 @@ fn run_study(path: &Path, jobs: usize, restart: bool, retry_failed: bool) -> Res
         jobs,
         restart,
         retry_failed,
+        backend,
     };
     print!("{}", study::run(path, &opts, interrupted)?);
     Ok(())
@@ -708,8 +754,8 @@ fn progress_bar(len: u64) -> ProgressBar {
     bar
 }
 
-fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
-    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<(), String> {
+    let scene = Scene::load_with_backend(path, backend).map_err(|e| e.to_string())?;
     let Scene {
         mut simulation,
         steps,
@@ -721,7 +767,7 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     } = scene;
     let dt = simulation.params.time_step;
     eprintln!(
-        "{}: {} particles, {} geometries, dt = {:.3e} s ({:.1} % of the Rayleigh step {:.3e} s), {} collision time {:.3e} s, {} steps",
+        "{}: {} particles, {} geometries, dt = {:.3e} s ({:.1} % of the Rayleigh step {:.3e} s), {} collision time {:.3e} s, {} steps, on the {}",
         path.display(),
         simulation.particles.len(),
         simulation.geometries.len(),
@@ -730,7 +776,8 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
         rayleigh_time_step,
         simulation.params.contact_model.name(),
         collision_time,
-        steps
+        steps,
+        simulation.backend_name().to_uppercase()
     );
     for n in &notes {
         eprintln!("{n}");
@@ -854,7 +901,7 @@ fn simulate(path: &Path, out: Option<&Path>) -> Result<(), String> {
     Ok(())
 }
 
-fn bench(name: &str, steps: Option<u64>) -> Result<(), String> {
+fn bench(name: &str, steps: Option<u64>, backend: &str) -> Result<(), String> {
     let total = steps.unwrap_or(if name == "bonded" { 20_000 } else { 50_000 });
     let bar = progress_bar(total);
     let mut log = LogLine::new();
@@ -865,11 +912,14 @@ fn bench(name: &str, steps: Option<u64>) -> Result<(), String> {
         }
     };
     let r = if name == "bonded" {
-        dem::bench::bonded(steps, progress)?
+        dem::bench::bonded(steps, backend, progress)?
     } else {
-        dem::bench::settle(steps, progress)?
+        dem::bench::settle(steps, backend, progress)?
     };
     bar.finish_and_clear();
+    for w in &r.remarks {
+        eprintln!("warning: {w}");
+    }
     println!("stages: {}", r.stages);
     println!(
         "neighbour rebuilds: {}, threads: {}",

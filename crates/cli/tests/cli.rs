@@ -188,6 +188,7 @@ fn bench_settle_prints_the_agreed_line() {
     let last = stdout.lines().last().unwrap();
     let fields: Vec<&str> = last.split(' ').collect();
     assert_eq!(fields[0], "settle:");
+    assert_eq!(fields[1], "backend=cpu");
     let keys: Vec<&str> = fields[1..]
         .iter()
         .map(|f| f.split('=').next().unwrap())
@@ -195,6 +196,7 @@ fn bench_settle_prints_the_agreed_line() {
     assert_eq!(
         keys,
         [
+            "backend",
             "particles",
             "steps",
             "wall_s",
@@ -203,10 +205,10 @@ fn bench_settle_prints_the_agreed_line() {
             "kinetic_energy_j"
         ]
     );
-    assert_eq!(fields[1], "particles=21160");
-    assert_eq!(fields[2], "steps=300");
+    assert_eq!(fields[2], "particles=21160");
+    assert_eq!(fields[3], "steps=300");
     // After 6 ms of free fall from rest the lattice has not moved far: the top is still near 0.17 m.
-    let bed: f64 = fields[5]
+    let bed: f64 = fields[6]
         .trim_start_matches("bed_height_m=")
         .parse()
         .unwrap();
@@ -592,6 +594,18 @@ fn study_errors_are_one_line() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(
         err.contains("plan[2].stage: unknown stage \"rsn\""),
+        "{err}"
+    );
+    std::fs::write(&path, format!("backend = \"opencl\"\n{}", slow_bowl())).unwrap();
+    let out = demcal()
+        .args(["run".as_ref(), path.as_os_str()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("study.toml: backend: expected \"cpu\" or \"gpu\", got \"opencl\""),
         "{err}"
     );
     let out = demcal()

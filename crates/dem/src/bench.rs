@@ -28,6 +28,10 @@ pub struct BenchResult {
     pub bonds_broken: usize,
     /// Share of the step time spent on bond forces.
     pub bond_share: f64,
+    /// The back end that ran the stages, and what it said about the scene (what it left to the
+    /// CPU, or why the CPU ran instead).
+    pub backend: &'static str,
+    pub remarks: Vec<String>,
 }
 
 impl BenchResult {
@@ -48,7 +52,8 @@ impl BenchResult {
             String::new()
         };
         format!(
-            "{name}: particles={} steps={} wall_s={:.1} particle_steps_per_s={:.1e}{bonds} bed_height_m={:.4} kinetic_energy_j={:.1e}",
+            "{name}: backend={} particles={} steps={} wall_s={:.1} particle_steps_per_s={:.1e}{bonds} bed_height_m={:.4} kinetic_energy_j={:.1e}",
+            self.backend,
             self.particles,
             self.steps,
             self.wall_s,
@@ -75,13 +80,33 @@ pub fn bed_height(particles: &crate::Particles) -> f64 {
 
 /// Runs the settle scene for `steps` steps (default: the scene's 50 000), calling `progress`
 /// with the number of steps done from time to time.
-pub fn settle(steps: Option<u64>, progress: impl FnMut(u64)) -> Result<BenchResult, String> {
-    run(SETTLE_SCENE, "examples/scenes/settle.toml", steps, progress)
+pub fn settle(
+    steps: Option<u64>,
+    backend: &str,
+    progress: impl FnMut(u64),
+) -> Result<BenchResult, String> {
+    run(
+        SETTLE_SCENE,
+        "examples/scenes/settle.toml",
+        steps,
+        backend,
+        progress,
+    )
 }
 
 /// Runs the bonded scene for `steps` steps (default: the scene's 20 000).
-pub fn bonded(steps: Option<u64>, progress: impl FnMut(u64)) -> Result<BenchResult, String> {
-    run(BONDED_SCENE, "examples/scenes/bonded.toml", steps, progress)
+pub fn bonded(
+    steps: Option<u64>,
+    backend: &str,
+    progress: impl FnMut(u64),
+) -> Result<BenchResult, String> {
+    run(
+        BONDED_SCENE,
+        "examples/scenes/bonded.toml",
+        steps,
+        backend,
+        progress,
+    )
 }
 
 /// The most steps a benchmark may be asked for (a day of the settle scene on one core).
@@ -91,6 +116,7 @@ fn run(
     text: &str,
     name: &str,
     steps: Option<u64>,
+    backend: &str,
     mut progress: impl FnMut(u64),
 ) -> Result<BenchResult, String> {
     if let Some(n) = steps {
@@ -101,6 +127,7 @@ fn run(
     let scene = Scene::from_toml(text, name, Path::new(".")).map_err(|e| e.to_string())?;
     let steps = steps.unwrap_or(scene.steps);
     let mut sim = scene.simulation;
+    let remarks = sim.choose_backend(backend);
     let start = Instant::now();
     let chunk = 1000;
     let mut done = 0;
@@ -127,6 +154,8 @@ fn run(
         bonds_broken,
         bond_share: sim.timers.extension_forces.as_secs_f64()
             / sim.timers.total().as_secs_f64().max(1e-12),
+        backend: sim.backend_name(),
+        remarks,
     })
 }
 

@@ -526,3 +526,23 @@ fn sizes_that_look_like_millimetres_are_named() {
         ],
     );
 }
+
+#[test]
+fn unknown_backend_is_refused_and_a_missing_one_falls_back_to_the_cpu() {
+    let e = error_after("[simulation]", "[simulation]\nbackend = \"cuda\"");
+    assert_has(
+        &e,
+        &[
+            "simulation.backend",
+            "unknown back end \"cuda\"",
+            "expected cpu or gpu",
+        ],
+    );
+    // This test program registers no GPU back end: the scene runs on the CPU and says why.
+    let s = load(&GOOD.replacen("[simulation]", "[simulation]\nbackend = \"gpu\"", 1)).unwrap();
+    assert_eq!(s.simulation.backend_name(), "cpu");
+    assert_eq!(
+        s.warnings,
+        ["backend \"gpu\": this program was built without it; running on the CPU"]
+    );
+}

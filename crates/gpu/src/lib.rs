@@ -9,14 +9,17 @@
 //!   arrays to the device for each stage and back, so it is a check path that proves the kernels
 //!   against the CPU stage by stage, not yet the fast path: a back end that keeps the state on the
 //!   device across steps (binning, neighbour lists and history on the GPU) is the next slice.
-//! - **What runs on the GPU.** Integration, Hertz-Mindlin pair forces with the tangential spring and
-//!   both rolling models (cdt, epsd), wall contacts with every element kind (planes, rectangles,
-//!   discs, cylinder shells, triangles; moving geometry through its velocity field; faces before
-//!   edges, as `dem::sim::walls::wall_contacts` does), and the particle sums with the second half
-//!   kick. JKR cohesion (any pair with a surface energy), the Hooke law, a stage whose arrays would
-//!   pass the device's largest binding, and a particle touching more than 32 walls at once are
-//!   handed to the CPU back end inside the stage ([`GpuStages::handed_to_cpu`] counts them), so
-//!   any scene runs.
+//! - **What runs on the GPU.** Integration, Hertz-Mindlin pair forces with or without JKR
+//!   cohesion, the tangential spring and both rolling models (cdt, epsd), wall contacts with every
+//!   element kind (planes, rectangles, discs, cylinder shells, triangles; moving geometry through
+//!   its velocity field; faces before edges, as `dem::sim::walls::wall_contacts` does; the JKR
+//!   cut-off), and the particle sums with the second half kick. The Hooke law, a stage whose
+//!   arrays would pass the device's largest binding, and a particle touching more than 32 walls at
+//!   once are handed to the CPU back end inside the stage ([`GpuStages::handed_to_cpu`] counts
+//!   them), so any scene runs.
+//! - **How it is chosen.** [`register`] makes "gpu" one of the engine's named back ends
+//!   (`dem::sim::make_backend`), built on one process-wide context ([`shared_context`]), so scene,
+//!   test and study files and `--backend gpu` can name it.
 //! - **Precision.** Positions, velocities, forces and history are f64 on the device
 //!   (`wgpu::Features::SHADER_F64`; Mesa's lavapipe has it, so the kernels are tested on any
 //!   machine). WGSL's f64 has only the basic operations and `sqrt`, which is all these kernels use.
@@ -33,7 +36,7 @@
 //!   motion stay in the pipeline on the host, as for the CPU back end.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use dem::contact::{ContactHistory, ContactModel, RollingModel};
 use dem::geometry::Element;
@@ -388,7 +391,13 @@ fn element_row(e: &Element) -> [f64; 16] {
 }
 
 /// The params buffer `common.wgsl` describes.
-fn params_of(params: &SimulationParams, clumps: bool, kick: bool, materials: usize) -> Vec<f64> {
+fn params_of(
+    params: &SimulationParams,
+    clumps: bool,
+    kick: bool,
+    materials: usize,
+    cohesive: bool,
+) -> Vec<f64> {
     let (has, lo, hi) = match params.domain {
         Some((lo, hi)) => (1.0, lo, hi),
         None => (0.0, DVec3::ZERO, DVec3::ZERO),
@@ -415,7 +424,25 @@ fn params_of(params: &SimulationParams, clumps: bool, kick: bool, materials: usi
         rolling,
         viscous,
         materials as f64,
+        if cohesive { 1.0 } else { 0.0 },
     ]
+}
+
+/// The process's GPU context, made on first use: compiling the kernels takes a moment, and every
+/// simulation of a process (a study's runs, a batch) shares one device.
+pub fn shared_context() -> Result<Arc<GpuContext>, String> {
+    static SHARED: OnceLock<Result<Arc<GpuContext>, String>> = OnceLock::new();
+    SHARED
+        .get_or_init(|| GpuContext::new().map(Arc::new))
+        .clone()
+}
+
+/// Registers the back end "gpu" with the engine (`dem::sim::make_backend`), so that scene files,
+/// test files, studies and `--backend gpu` can choose it. Call once at start-up.
+pub fn register() {
+    dem::sim::register_backend("gpu", || {
+        Ok(Box::new(GpuStages::with_context(shared_context()?)))
+    });
 }
 
 /// The engine's stages on a GPU (see the crate notes for what runs there).
@@ -454,22 +481,30 @@ impl GpuStages {
         &self.ctx
     }
 
-    /// Whether the pair stage runs on the GPU for these inputs: Hertz-Mindlin with no surface
-    /// energy on any material pair (JKR is chosen per pair by its surface energy).
+    /// Whether the contact stages run on the GPU for these inputs: Hertz-Mindlin, with or
+    /// without JKR cohesion (the Hooke law runs on the CPU).
     pub fn runs_pairs(inputs: &StepInputs) -> bool {
         matches!(inputs.params.contact_model, ContactModel::HertzMindlin(_))
-            && !inputs.cohesive
-            && inputs
-                .materials
-                .pairs()
-                .iter()
-                .all(|q| q.surface_energy == 0.0)
     }
 }
 
 impl Backend for GpuStages {
     fn name(&self) -> &'static str {
         "gpu"
+    }
+
+    fn remarks(&self, inputs: &StepInputs) -> Vec<String> {
+        let mut r = vec![format!(
+            "on {}; this first GPU back end copies the particles to the device and back at every stage, so it checks the kernels but is slower than the CPU",
+            self.ctx.adapter
+        )];
+        if !Self::runs_pairs(inputs) {
+            r.push(format!(
+                "the {} contact law runs on the CPU (the GPU stages run hertz_mindlin)",
+                inputs.params.contact_model.name()
+            ));
+        }
+        r
     }
 
     fn integrate(
@@ -500,7 +535,7 @@ impl Backend for GpuStages {
         let props = c.storage(&props_of(p));
         let body = c.storage(&p.body);
         let built = c.storage(&flat(&[built_at]));
-        let par = c.storage(&params_of(params, clumps, false, 0));
+        let par = c.storage(&params_of(params, clumps, false, 0, false));
         let counts = c.storage(&[threads, 0, 0, 0, row_width(threads)]);
         let moved = c.storage(&vec![0.0f64; n]);
         let outside = c.storage(&vec![0u32; n]);
@@ -553,6 +588,7 @@ impl Backend for GpuStages {
             inputs.clumps,
             false,
             inputs.materials.len(),
+            inputs.cohesive,
         ));
         let counts = c.storage(&[n as u32, threads, 0, 0, row_width(threads)]);
         let out = c.run(
@@ -632,6 +668,7 @@ impl Backend for GpuStages {
             inputs.clumps,
             false,
             inputs.materials.len(),
+            inputs.cohesive,
         ));
         let counts = c.storage(&[threads, 0, 0, count as u32, row_width(threads)]);
         let status = c.storage(&vec![0u32; n]);
@@ -753,6 +790,7 @@ impl Backend for GpuStages {
             inputs.clumps,
             kick,
             inputs.materials.len(),
+            inputs.cohesive,
         ));
         let counts = c.storage(&[
             threads,

@@ -85,6 +85,9 @@ pub struct Job {
     pub combine: Option<Combine>,
     /// Seconds of wall time after which the run stops and fails.
     pub run_time_limit_s: Option<f64>,
+    /// The back end the tests run on; none means the CPU.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub backend: Option<String>,
     /// Where the run writes its pictures and result.
     pub out_dir: PathBuf,
     /// The exact tests and seed; a stored record is reused only while it matches.
@@ -143,6 +146,7 @@ impl Job {
             },
             combine: study.combine,
             run_time_limit_s: study.run_time_limit_s,
+            backend: (study.backend != "cpu").then(|| study.backend.clone()),
             out_dir: absolute(&run_dir(study, spec)),
             fingerprint: spec.fingerprint(study),
         }
@@ -377,8 +381,11 @@ impl Job {
         // Why the progress callback stopped the run, which the test hands back as a plain stop.
         let stopped = std::cell::Cell::new(None::<RunError>);
         let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
-            let file = virtual_tests::TestFile::from_table_in(&t.label, &t.test, &t.dir)
+            let mut file = virtual_tests::TestFile::from_table_in(&t.label, &t.test, &t.dir)
                 .map_err(|e| RunError::new(RunErrorKind::BadSettings, e))?;
+            if self.backend.is_some() {
+                file.backend.clone_from(&self.backend);
+            }
             let mut progress = |phase: &str, time: f64| -> Result<(), String> {
                 if interrupted.load(Ordering::Relaxed) {
                     stopped.set(Some(RunError::new(RunErrorKind::Interrupted, "interrupted")));

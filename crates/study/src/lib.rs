@@ -48,11 +48,20 @@ pub struct RunOptions {
     pub restart: bool,
     /// Forget failed runs so that they run again.
     pub retry_failed: bool,
+    /// The back end in place of the study's `backend` ("cpu" or "gpu").
+    pub backend: Option<String>,
 }
 
 /// Runs (or resumes) a study, then writes its report. Returns what to print.
 pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
-    let study = Study::load(path)?;
+    let mut study = Study::load(path)?;
+    // A back end this machine lacks falls back to the CPU, said once here.
+    let wanted = opts.backend.clone().unwrap_or(study.backend.clone());
+    let (chosen, why) = dem::sim::resolve_backend(&wanted)?;
+    if let Some(why) = why {
+        eprintln!("warning: backend \"{wanted}\": {why}");
+    }
+    study.backend = chosen.to_string();
     let db = study.store_path();
     // One `demcal run` per study at a time, held until the report is written.
     let _lock = store::StoreLock::acquire(&db)?;

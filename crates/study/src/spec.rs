@@ -115,6 +115,10 @@ pub struct Study {
     pub plan: Vec<Stage>,
     /// Wall-clock limit of one simulation; a run over it is stopped and stored as failed.
     pub run_time_limit_s: Option<f64>,
+    /// The back end the simulations run on (`backend`, or `demcal run --backend`): "cpu" or
+    /// "gpu". Results do not depend on it beyond round-off, so it is not part of a run's
+    /// fingerprint: a study can move between machines and keep its runs.
+    pub backend: String,
     /// The study file's text, stored with the runs.
     pub text: String,
 }
@@ -182,6 +186,7 @@ impl Study {
             "run_time_limit_s",
             "import",
             "objective",
+            "backend",
         ];
         for k in doc.keys() {
             if !KEYS.contains(&k.as_str()) {
@@ -211,6 +216,19 @@ impl Study {
                     .filter(|t| *t > 0.0)
                     .ok_or_else(|| err("run_time_limit_s", "expected seconds > 0".into()))?,
             ),
+        };
+
+        let backend = match doc.get("backend") {
+            None => "cpu".to_string(),
+            Some(toml::Value::String(b)) if dem::sim::BACKEND_NAMES.contains(&b.as_str()) => {
+                b.clone()
+            }
+            Some(v) => {
+                return Err(err(
+                    "backend",
+                    format!("expected \"cpu\" or \"gpu\", got {v}"),
+                ))
+            }
         };
 
         // The tests: a path to a test file, the test file's content inline, or several
@@ -414,6 +432,7 @@ impl Study {
             target,
             plan,
             run_time_limit_s,
+            backend,
             text: text.to_string(),
         };
         // The test must read with every parameter set (middle values), and its settings and

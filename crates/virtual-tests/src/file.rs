@@ -18,6 +18,7 @@ use dem::scene::{
     prepare_shapes, GeometryDescription, GroupParticles, OutputDescription, ParticleGroup,
     RunLength, Scene, SceneDescription, SceneError, SimulationSettings,
 };
+use dem::sim::BACKEND_NAMES;
 use serde::de::DeserializeOwned;
 
 /// A test file read into its parts.
@@ -29,6 +30,9 @@ pub struct TestFile {
     pub folder: PathBuf,
     pub test: String,
     pub seed: Option<u64>,
+    /// The back end that runs the test's simulations (`backend`, or the command line's
+    /// `--backend`); `None` leaves the scene's default, the CPU.
+    pub backend: Option<String>,
     /// `[[material]]`, `[[interaction]]` and `[[particle_type]]`, typed.
     pub parts: SharedParts,
     /// The table named after the test.
@@ -49,6 +53,7 @@ impl TestFile {
             if ![
                 "test",
                 "seed",
+                "backend",
                 "material",
                 "interaction",
                 "particle_type",
@@ -58,7 +63,7 @@ impl TestFile {
             .contains(&key.as_str())
             {
                 return Err(format!(
-                    "{name}: {key}: unknown key (expected test, seed, material, interaction, particle_type, bond, {test})"
+                    "{name}: {key}: unknown key (expected test, seed, backend, material, interaction, particle_type, bond, {test})"
                 ));
             }
         }
@@ -66,6 +71,20 @@ impl TestFile {
             None => None,
             Some(toml::Value::Integer(s)) if *s >= 0 => Some(*s as u64),
             Some(_) => return Err(format!("{name}: seed: expected a whole number >= 0")),
+        };
+        let backend = match value.get("backend") {
+            None => None,
+            Some(toml::Value::String(b)) if BACKEND_NAMES.contains(&b.as_str()) => Some(b.clone()),
+            Some(v) => {
+                return Err(format!(
+                    "{name}: backend: expected {}, got {v}",
+                    BACKEND_NAMES
+                        .iter()
+                        .map(|b| format!("\"{b}\""))
+                        .collect::<Vec<_>>()
+                        .join(" or ")
+                ))
+            }
         };
         let settings = value
             .get(test)
@@ -87,6 +106,7 @@ impl TestFile {
             folder: folder.to_path_buf(),
             test: test.to_string(),
             seed,
+            backend,
             parts,
             settings,
         })
@@ -217,6 +237,20 @@ impl TestFile {
     /// `<test>.particles.*`, placement problems as `placement_key` (the setting that placed
     /// them, e.g. `angle_of_repose.fill`), run settings as `<test>.<setting>`.
     pub fn build(&self, scene: &SceneDescription, placement_key: &str) -> Result<Scene, String> {
+        let on_backend;
+        let scene = match &self.backend {
+            Some(b) if *b != scene.simulation.backend => {
+                on_backend = SceneDescription {
+                    simulation: SimulationSettings {
+                        backend: b.clone(),
+                        ..scene.simulation.clone()
+                    },
+                    ..scene.clone()
+                };
+                &on_backend
+            }
+            _ => scene,
+        };
         Scene::from_description(scene, &self.name).map_err(|e| self.scene_error(e, placement_key))
     }
 

@@ -144,6 +144,11 @@ fn incline_file_errors_name_the_key() {
             "types = [\"tile\"], fractions = [\"all\"] }",
             "incline_slide.particles.fractions: expected one number",
         ),
+        (
+            "test = \"incline_slide\"",
+            "test = \"incline_slide\"\nbackend = \"tpu\"",
+            "incline.toml: backend: expected \"cpu\" or \"gpu\", got \"tpu\"",
+        ),
     ] {
         let text = base.replace(from, to);
         let e = TestFile::parse("incline.toml", &text)

@@ -14,7 +14,7 @@ use crate::geometry::Geometry;
 use crate::material::{Interaction, Material, MaterialTable};
 use crate::mixture::{self, Item, Mixture, ParticleType};
 use crate::particles::Particles;
-use crate::sim::{Simulation, SimulationParams};
+use crate::sim::{Simulation, SimulationParams, BACKEND_NAMES};
 use crate::specimen::StalkSpecimen;
 use crate::timestep;
 use glam::DVec3;
@@ -63,6 +63,16 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
                 ),
             ));
         }
+    }
+    if !BACKEND_NAMES.contains(&s.backend.as_str()) {
+        return Err(ctx.err(
+            "simulation.backend",
+            format!(
+                "unknown back end \"{}\" (expected {})",
+                s.backend,
+                BACKEND_NAMES.join(" or ")
+            ),
+        ));
     }
     let rolling_name = s.rolling_friction_model.as_str();
     let damping = s.rolling_viscous_damping;
@@ -499,6 +509,8 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
     if let Some(bonds) = bonds {
         super::bonds::attach(bonds, &mut simulation, ctx, &mut warnings, &mut notes)?;
     }
+    // Last, so that the back end sees the whole scene when it says what it leaves to the CPU.
+    warnings.extend(simulation.choose_backend(&s.backend));
     Ok(Scene {
         simulation,
         steps,

@@ -99,6 +99,9 @@ pub struct SimulationSettings {
     pub max_initial_overlap: f64,
     /// Speed (m/s) for the collision-time check; default the fastest foreseen.
     pub expected_max_speed: Option<f64>,
+    /// The back end that runs the stages, by name (`dem::sim::BACKEND_NAMES`); default "cpu".
+    /// One that cannot be had here (no GPU) falls back to the CPU with a warning.
+    pub backend: String,
 }
 
 impl SimulationSettings {
@@ -118,6 +121,7 @@ impl SimulationSettings {
             domain: None,
             max_initial_overlap: defaults.max_initial_overlap,
             expected_max_speed: None,
+            backend: "cpu".into(),
         }
     }
 }

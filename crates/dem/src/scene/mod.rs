@@ -85,6 +85,12 @@ impl Scene {
     /// Reads and builds a scene file. Relative paths inside (STL files, output directory) are taken
     /// relative to the file's folder.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Scene::load_with_backend(path, None)
+    }
+
+    /// [`Scene::load`], on the back end `backend` in place of the file's `simulation.backend`
+    /// when given (the command line's `--backend`).
+    pub fn load_with_backend(path: &Path, backend: Option<&str>) -> Result<Scene, SceneError> {
         let name = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| SceneError {
             file: name.clone(),
@@ -92,7 +98,11 @@ impl Scene {
             message: format!("cannot read the scene file: {e}"),
         })?;
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        Scene::from_toml(&text, &name, &base)
+        let mut description = parse::scene(&text, &name, &base)?;
+        if let Some(b) = backend {
+            description.simulation.backend = b.to_string();
+        }
+        Scene::from_description(&description, &name)
     }
 
     /// Builds a scene from TOML text; `file` names it in errors, `base` resolves relative paths.

@@ -37,6 +37,13 @@ pub struct StepInputs<'a> {
 pub trait Backend: Send + Sync {
     fn name(&self) -> &'static str;
 
+    /// What this back end hands to the CPU for a simulation with these inputs, one line each for
+    /// the user (a law it does not run yet, ...). Nothing by default.
+    fn remarks(&self, inputs: &StepInputs) -> Vec<String> {
+        let _ = inputs;
+        Vec::new()
+    }
+
     /// Half kick (from the forces of the last step) and drift of every sphere that is not a clump
     /// member. Returns the largest displacement since `built_at` (the positions at the last list
     /// build), or the index of the first particle that is not finite or outside

@@ -25,12 +25,14 @@ mod bodies;
 mod cpu;
 mod extension;
 mod params;
+mod registry;
 pub mod walls;
 
 pub use backend::{Backend, StepInputs};
 pub use cpu::{kick_spin, CpuBackend};
 pub use extension::StepExtension;
 pub use params::{SimError, SimulationParams, StageTimers};
+pub use registry::{make_backend, register_backend, resolve_backend, BackendMaker, BACKEND_NAMES};
 
 use crate::clump::Bodies;
 use crate::geometry::{ElementGrid, Geometry, Load};
@@ -113,6 +115,44 @@ impl Simulation {
 
     pub fn backend_name(&self) -> &'static str {
         self.backend.name()
+    }
+
+    /// Runs the stages on the back end registered as `name` (see [`make_backend`]); on an error
+    /// the current back end stays.
+    pub fn use_backend(&mut self, name: &str) -> Result<(), String> {
+        if name != self.backend.name() {
+            self.backend = make_backend(name)?;
+        }
+        Ok(())
+    }
+
+    /// Runs on the back end `name` when this machine has it, and otherwise stays on the CPU:
+    /// the lines say which back end runs and what it leaves to the CPU, or why the CPU runs
+    /// instead (for the user; nothing for "cpu").
+    pub fn choose_backend(&mut self, name: &str) -> Vec<String> {
+        if name == "cpu" {
+            let _ = self.use_backend("cpu");
+            return Vec::new();
+        }
+        match self.use_backend(name) {
+            Ok(()) => self
+                .backend
+                .remarks(&self.inputs(!self.bodies.is_empty()))
+                .into_iter()
+                .map(|r| format!("backend \"{name}\": {r}"))
+                .collect(),
+            Err(why) => vec![format!("backend \"{name}\": {why}; running on the CPU")],
+        }
+    }
+
+    fn inputs(&self, clumps: bool) -> StepInputs<'_> {
+        StepInputs {
+            materials: &self.materials,
+            geometries: &self.geometries,
+            params: &self.params,
+            clumps,
+            cohesive: self.cohesive_reach > 0.0,
+        }
     }
 
     /// Adds clumps whose member spheres are already among the particles (see [`Bodies::add`]).
@@ -392,6 +432,7 @@ impl Simulation {
         let clumps = !self.bodies.is_empty();
         let force_hooks = self.extensions.iter().any(|e| e.adds_forces());
         let extension_before = self.timers.extension_forces;
+        // Field by field (not `self.inputs`): the stages borrow the lists mutably beside it.
         let inputs = StepInputs {
             materials: &self.materials,
             geometries: &self.geometries,

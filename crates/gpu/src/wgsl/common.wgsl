@@ -2,7 +2,7 @@
 //
 // params (f64): 0 dt, 1..3 gravity, 4 has_domain, 5..7 domain low, 8..10 domain high,
 // 11 clumps, 12 kick, 13 rolling model (0 cdt, 1 epsd), 14 rolling viscous damping,
-// 15 number of materials.
+// 15 number of materials, 16 cohesive (some material pair has a surface energy).
 // counts (u32): 0 particles, 1 pairs, 2 reverse entries, 3 wall candidates, 4 row width of a
 // 2-D dispatch (threads).
 

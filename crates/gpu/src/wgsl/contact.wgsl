@@ -1,8 +1,60 @@
-// Hertz-Mindlin (no slip, no cohesion) with the tangential spring and the chosen rolling model:
-// contact::evaluate with contact::hertz_mindlin, contact::tangential_spring and contact::rolling,
-// written once for particle pairs and particle-wall contacts. Reads the kernel's `table` (7
-// numbers a material pair, from offset `t`) and `params` (dt 0, rolling model 13, rolling viscous
-// damping 14).
+// Hertz-Mindlin (no slip) with optional JKR cohesion, the tangential spring and the chosen
+// rolling model: contact::evaluate with contact::hertz_mindlin, contact::jkr,
+// contact::tangential_spring and contact::rolling, written once for particle pairs and
+// particle-wall contacts. Reads the kernel's `table` (7 numbers a material pair, from offset
+// `t`) and `params` (dt 0, rolling model 13, rolling viscous damping 14).
+
+const PI: f64 = 3.141592653589793lf;
+const FRAC_1_SQRT_2: f64 = 0.7071067811865476lf;
+
+// Cube root of x > 0: WGSL's f64 has no pow, so Newton's iteration refines the f32 root (7
+// digits) to f64 round-off in two steps; the third settles the last bit.
+fn cbrt64(x: f64) -> f64 {
+    if (x <= 0.0lf) {
+        return 0.0lf;
+    }
+    var y = f64(pow(f32(x), 1.0 / 3.0));
+    for (var k = 0; k < 3; k++) {
+        y = y - (y * y * y - x) / (3.0lf * y * y);
+    }
+    return y;
+}
+
+// contact::jkr_cutoff_overlap: the (negative) overlap down to which a JKR contact attracts.
+fn jkr_cutoff_overlap(gamma: f64, e_star: f64, r_eff: f64) -> f64 {
+    if (gamma <= 0.0lf) {
+        return 0.0lf;
+    }
+    let a_c = cbrt64(9.0lf * PI * gamma * r_eff * r_eff / (2.0lf * e_star) * (0.75lf - FRAC_1_SQRT_2));
+    return a_c * a_c / r_eff - sqrt(4.0lf * PI * gamma * a_c / e_star);
+}
+
+// The cut-off overlap of material pair `t` at effective radius r_eff.
+fn cutoff_of(t: u32, r_eff: f64) -> f64 {
+    return jkr_cutoff_overlap(table[t + 6u], table[t], r_eff);
+}
+
+// contact::jkr_contact_radius: Newton on g(s) = s^4/R* - c s - d from a point where g >= 0.
+fn jkr_contact_radius(d: f64, gamma: f64, e_star: f64, r_eff: f64) -> f64 {
+    let c = sqrt(4.0lf * PI * gamma / e_star);
+    let s_min = cbrt64(c * r_eff / 4.0lf);
+    var s = sqrt(sqrt(r_eff * max(d, 0.0lf))) + cbrt64(c * r_eff);
+    for (var k = 0; k < 60; k++) {
+        let s2 = s * s;
+        let g = s2 * s2 / r_eff - c * s - d;
+        let slope = 4.0lf * (s2 * s) / r_eff - c;
+        if (slope <= 0.0lf) {
+            break;
+        }
+        let next = max(s - g / slope, s_min);
+        if (abs(s - next) <= 1.0e-14lf * s) {
+            s = next;
+            break;
+        }
+        s = next;
+    }
+    return s * s;
+}
 
 struct Contact {
     // Total force on the particle (i): normal plus tangential.
@@ -35,11 +87,22 @@ fn hertz_mindlin(
     let hertz_damping = table[t + 3u];
     let static_friction = table[t + 4u];
     let rolling_friction = table[t + 5u];
+    let gamma = table[t + 6u];
     let dt = params[0];
 
-    // Hertz normal force and the Mindlin tangential stiffness.
-    let a = sqrt(r_eff * d);
-    let f_elastic = (4.0lf / 3.0lf) * e_star * a * d;
+    // Hertz (or with a surface energy JKR) normal force and the Mindlin tangential stiffness.
+    var a = 0.0lf;
+    var f_elastic = 0.0lf;
+    var pull_off = 0.0lf;
+    if (gamma > 0.0lf) {
+        a = jkr_contact_radius(d, gamma, e_star, r_eff);
+        f_elastic = (4.0lf * e_star / (3.0lf * r_eff)) * a * a * a
+            - 4.0lf * sqrt(PI * gamma * e_star) * (a * sqrt(a));
+        pull_off = 6.0lf * PI * gamma * r_eff;
+    } else {
+        a = sqrt(r_eff * d);
+        f_elastic = (4.0lf / 3.0lf) * e_star * a * d;
+    }
     let s_n = 2.0lf * e_star * a;
     let s_t = 8.0lf * g_star * a;
     let v_n = dot3(v_rel, nrm);
@@ -48,7 +111,7 @@ fn hertz_mindlin(
     let v_t = v_rel - v_n * nrm;
     let v_c = v_t - cross3(spin_lever, nrm);
     let gamma_t = hertz_damping * sqrt(s_t * m_eff);
-    let load = f_n;
+    let load = f_n + pull_off;
     let limit = static_friction * abs(load);
 
     // The tangential spring, rotated into the contact plane, capped by friction.

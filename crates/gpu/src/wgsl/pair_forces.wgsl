@@ -63,7 +63,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sum = ri + rj;
     let dist2 = len2(delta);
     let r_eff = ri * rj / sum;
-    if (dist2 >= sum * sum) {
+    let t = 7u * (ints[i] * u32(params[15]) + ints[j]);
+    // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off.
+    var reach = sum;
+    if (params[16] != 0.0lf) {
+        reach = sum - cutoff_of(t, r_eff);
+    }
+    if (dist2 >= reach * reach) {
         for (var k = 0u; k < 6u; k++) {
             history[6u * q + k] = 0.0lf;
         }
@@ -78,7 +84,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let wi = get3(6u * n + 3u * i);
     let wj = get3(6u * n + 3u * j);
     let m_eff = 1.0lf / (props[2u * n + i] + props[2u * n + j]);
-    let t = 7u * (ints[i] * u32(params[15]) + ints[j]);
     let v_rel = get3(3u * n + 3u * i) - get3(3u * n + 3u * j);
     let ai = props[n + i] * ri * ri;
     let aj = props[n + j] * rj * rj;

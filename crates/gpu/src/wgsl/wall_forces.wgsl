@@ -249,8 +249,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var c = w0; c < w1; c++) {
             let g = cands[2u * c];
             let el = u32(geoms[8u * g + 1u]) + cands[2u * c + 1u];
-            // Non-cohesive: the cut-off overlap is 0, so the reach is the radius.
-            let cl = closest(el, x, r);
+            let t = 7u * (material * mats + u32(geoms[8u * g]));
+            // A cohesive contact reaches down to the law's cut-off (0 without a surface energy).
+            let cutoff = cutoff_of(t, r);
+            let cl = closest(el, x, r - cutoff);
             if (!cl.found) {
                 if (phase == FACE) {
                     clear(c);
@@ -262,7 +264,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let d = r - cl.distance;
             var duplicate = false;
-            if (d > 0.0lf) {
+            if (d > cutoff) {
                 for (var a = 0u; a < min(taken, KEEP); a++) {
                     let ca = taken_cand[a];
                     if (cands[2u * ca] != g) {
@@ -284,7 +286,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     }
                 }
             }
-            if (d <= 0.0lf || duplicate) {
+            if (d <= cutoff || duplicate) {
                 clear(c);
                 continue;
             }
@@ -304,7 +306,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let ang = geom3(8u * g + 5u);
             let v_rel = vel - (lin + cross3(ang, contact_point));
             let hm = hertz_mindlin(
-                7u * (material * mats + u32(geoms[8u * g])),
+                t,
                 nrm,
                 d,
                 r,

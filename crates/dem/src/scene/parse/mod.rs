@@ -176,6 +176,7 @@ struct SimulationSection {
     domain: Option<BoxEntry>,
     max_initial_overlap: Option<f64>,
     expected_max_speed: Option<f64>,
+    backend: Option<String>,
 }
 
 #[derive(Deserialize, Debug, Clone, Copy)]
@@ -390,6 +391,7 @@ fn simulation(ctx: &Ctx, s: SimulationSection) -> Result<SimulationSettings, Sce
             .max_initial_overlap
             .unwrap_or(defaults.max_initial_overlap),
         expected_max_speed: s.expected_max_speed,
+        backend: s.backend.unwrap_or(defaults.backend),
     })
 }
 

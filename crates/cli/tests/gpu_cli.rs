@@ -1,0 +1,274 @@
+//! `--backend gpu` and `backend = "gpu"` end to end: the same results as the CPU, a study that
+//! resumes after a kill, and a clear fallback where there is no GPU. With
+//! `DEMCAL_REQUIRE_GPU=1` (CI, with Mesa's lavapipe) the GPU must be there.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn demcal() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_demcal"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("demcal-gpu-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn ok(out: Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Whether the GPU ran: without one the program says it runs on the CPU, which CI must not see.
+fn check_gpu(stderr: &str) {
+    let fell_back = stderr.contains("running on the CPU");
+    if std::env::var("DEMCAL_REQUIRE_GPU").as_deref() == Ok("1") {
+        assert!(!fell_back, "DEMCAL_REQUIRE_GPU=1 but: {stderr}");
+    } else if fell_back {
+        eprintln!("no GPU here; the fallback was checked instead: {stderr}");
+    }
+}
+
+/// Equal to the CPU to round-off: bit for bit on lavapipe (no fused multiply-add), to a
+/// granular flow's spread on a GPU whose compiler fuses.
+fn assert_close(what: &str, gpu: f64, cpu: f64) {
+    let lavapipe = std::env::var("VK_ICD_FILENAMES").is_ok_and(|f| f.contains("lvp"));
+    let tolerance = if lavapipe {
+        1e-9 * cpu.abs().max(1.0)
+    } else {
+        2.0
+    };
+    assert!(
+        (gpu - cpu).abs() <= tolerance,
+        "{what}: GPU {gpu}, CPU {cpu}"
+    );
+}
+
+fn field(line: &str, key: &str) -> f64 {
+    line.split(' ')
+        .find_map(|f| f.strip_prefix(&format!("{key}=")))
+        .unwrap_or_else(|| panic!("no {key} in {line}"))
+        .parse()
+        .unwrap()
+}
+
+/// 150 spheres poured into a cup, on either back end.
+#[test]
+fn simulate_on_the_gpu_gives_the_cpus_result() {
+    let dir = temp_dir("simulate");
+    let scene = dir.join("cup.toml");
+    std::fs::write(
+        &scene,
+        r#"
+[simulation]
+duration = 0.02
+time_step_percent = 20
+
+[output]
+directory = "out"
+
+[[material]]
+name = "glass"
+density = 2500
+poisson_ratio = 0.25
+shear_modulus = 1e7
+
+[[interaction]]
+materials = ["glass", "glass"]
+restitution = 0.5
+static_friction = 0.5
+rolling_friction = 0.05
+
+[[geometry]]
+name = "cup"
+type = "cylinder"
+material = "glass"
+base = [0.0, 0.0, 0.0]
+radius = 0.02
+length = 0.05
+caps = "bottom"
+
+[[particles]]
+material = "glass"
+size = { type = "fixed", radius = 0.002 }
+region = { type = "cylinder", base = [0.0, 0.0, 0.0], radius = 0.02, length = 0.05 }
+fill = { type = "random", count = 150, seed = 4 }
+"#,
+    )
+    .unwrap();
+    let run = |backend: &str| {
+        let out = demcal()
+            .args(["simulate".as_ref(), scene.as_os_str()])
+            .args(["--backend", backend])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        (ok(out), err)
+    };
+    let (cpu, _) = run("cpu");
+    let (gpu, err) = run("gpu");
+    check_gpu(&err);
+    let (cpu, gpu) = (cpu.lines().last().unwrap(), gpu.lines().last().unwrap());
+    assert_eq!(field(cpu, "steps"), field(gpu, "steps"));
+    assert_close(
+        "kinetic energy",
+        field(gpu, "kinetic_energy_j"),
+        field(cpu, "kinetic_energy_j"),
+    );
+}
+
+/// A small lifted-cylinder heap (120 spheres), the quickstart's test made small.
+const REPOSE: &str = r#"
+test = "angle_of_repose"
+seed = 1
+
+[[material]]
+name = "bead"
+density = 1500
+poisson_ratio = 0.3
+shear_modulus = 5.0e6
+
+[[material]]
+name = "steel"
+density = 7850
+poisson_ratio = 0.3
+shear_modulus = 7.0e10
+
+[[interaction]]
+materials = ["bead", "bead"]
+restitution = 0.4
+static_friction = 0.5
+rolling_friction = 0.1
+
+[[interaction]]
+materials = ["bead", "steel"]
+restitution = 0.5
+static_friction = 0.5
+rolling_friction = 0.1
+
+[angle_of_repose]
+particles = { material = "bead", size = { type = "fixed", radius = 0.0025 } }
+wall_material = "steel"
+cylinder_diameter = 0.03
+cylinder_height = 0.06
+plate_size = 0.12
+fill = { count = 120 }
+lift_speed = 0.2
+settle_speed = 0.05
+"#;
+
+fn study(dir: &Path, backend: &str) -> PathBuf {
+    std::fs::write(dir.join("repose.toml"), REPOSE).unwrap();
+    let path = dir.join("study.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"name = "small heap"
+seed = 2
+test = "repose.toml"
+backend = "{backend}"
+plan = [{{ stage = "validate", replicates = 2 }}]
+
+[[parameter]]
+name = "static_friction"
+path = "interaction[bead,bead].static_friction"
+min = 0.4
+max = 0.6
+
+[target]
+response = "angle_of_repose_deg"
+value = 15
+"#
+        ),
+    )
+    .unwrap();
+    path
+}
+
+/// (stage, run, response) of every stored run, sorted.
+fn responses(dir: &Path) -> Vec<(String, String, String)> {
+    let text = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (stage, run, response) = (col("stage"), col("run"), col("angle_of_repose_deg"));
+    let mut rows: Vec<_> = r
+        .records()
+        .map(|row| {
+            let row = row.unwrap();
+            (
+                row[stage].to_string(),
+                row[run].to_string(),
+                row[response].to_string(),
+            )
+        })
+        .collect();
+    rows.sort();
+    rows
+}
+
+#[test]
+fn a_gpu_study_killed_mid_way_resumes_and_matches_the_cpu() {
+    let cpu_dir = temp_dir("study-cpu");
+    let cpu = study(&cpu_dir, "cpu");
+    ok(demcal()
+        .args(["run".as_ref(), cpu.as_os_str()])
+        .output()
+        .unwrap());
+
+    let dir = temp_dir("study-gpu");
+    let path = study(&dir, "gpu");
+    let mut child = demcal()
+        .args(["run".as_ref(), path.as_os_str()])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Kill once the first run is stored.
+    let t0 = std::time::Instant::now();
+    let mut stored = false;
+    while t0.elapsed().as_secs() < 300 && !stored {
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        let out = demcal()
+            .args(["status".as_ref(), path.as_os_str()])
+            .output()
+            .unwrap();
+        stored = String::from_utf8_lossy(&out.stdout).contains(" 1 done");
+    }
+    let _ = child.kill();
+    child.wait().unwrap();
+    ok(demcal()
+        .args(["report".as_ref(), path.as_os_str()])
+        .output()
+        .unwrap());
+    let before = responses(&dir);
+
+    // Resumed with the flag (the study's key says the same).
+    let out = demcal()
+        .args(["run".as_ref(), path.as_os_str()])
+        .args(["--backend", "gpu"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    ok(out);
+    check_gpu(&err);
+    let after = responses(&dir);
+    let want = responses(&cpu_dir);
+    assert_eq!(after.len(), 2, "{after:?}");
+    for row in &before {
+        assert!(after.contains(row), "run lost or re-run: {row:?}");
+    }
+    for (g, c) in after.iter().zip(&want) {
+        assert_eq!((&g.0, &g.1), (&c.0, &c.1));
+        let parse = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
+        assert_close("angle of repose", parse(&g.2), parse(&c.2));
+    }
+}

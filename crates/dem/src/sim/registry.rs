@@ -1,0 +1,79 @@
+//! Back ends registered by name, as LAMMPS registers its styles: "cpu" is built in, and a crate
+//! that provides another (demcal-gpu's "gpu") registers a maker for it once at start-up, so scene
+//! files, test files and studies can name it without the engine depending on that crate.
+
+use super::backend::Backend;
+use super::cpu::CpuBackend;
+use std::sync::RwLock;
+
+/// Makes a back end, or says why it cannot (no GPU, no f64 shaders, ...).
+pub type BackendMaker = fn() -> Result<Box<dyn Backend>, String>;
+
+/// The back ends a file may name, whether or not this build or machine has them: a name outside
+/// this list is a typo (an error); a name in it that cannot be made falls back to the CPU.
+pub const BACKEND_NAMES: &[&str] = &["cpu", "gpu"];
+
+static MAKERS: RwLock<Vec<(&'static str, BackendMaker)>> = RwLock::new(Vec::new());
+
+/// Registers (or replaces) the maker of the back end `name`.
+pub fn register_backend(name: &'static str, maker: BackendMaker) {
+    let mut makers = MAKERS.write().unwrap_or_else(|e| e.into_inner());
+    makers.retain(|(n, _)| *n != name);
+    makers.push((name, maker));
+}
+
+/// The back end called `name`. The error says why it cannot be had, in a form that reads after
+/// "backend = \"gpu\": ".
+pub fn make_backend(name: &str) -> Result<Box<dyn Backend>, String> {
+    if name == "cpu" {
+        return Ok(Box::new(CpuBackend));
+    }
+    if !BACKEND_NAMES.contains(&name) {
+        return Err(format!(
+            "unknown back end (expected {})",
+            BACKEND_NAMES.join(" or ")
+        ));
+    }
+    let maker = MAKERS
+        .read()
+        .unwrap_or_else(|e| e.into_inner())
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, m)| *m);
+    match maker {
+        Some(make) => make(),
+        None => Err("this program was built without it".to_string()),
+    }
+}
+
+/// Checks that `name` can be had: `Ok(name)` when it can, and otherwise `Ok("cpu")` with the
+/// message a front end prints once before falling back; `Err` only for a name that is no back
+/// end at all.
+pub fn resolve_backend(name: &str) -> Result<(&'static str, Option<String>), String> {
+    let Some(&known) = BACKEND_NAMES.iter().find(|&&n| n == name) else {
+        return Err(format!(
+            "unknown back end \"{name}\" (expected {})",
+            BACKEND_NAMES.join(" or ")
+        ));
+    };
+    match make_backend(known) {
+        Ok(_) => Ok((known, None)),
+        Err(why) => Ok(("cpu", Some(format!("{why}; running on the CPU")))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_is_built_in_and_unknown_names_are_refused() {
+        assert_eq!(make_backend("cpu").unwrap().name(), "cpu");
+        let Err(e) = make_backend("cuda") else {
+            panic!("\"cuda\" was made")
+        };
+        assert!(e.contains("expected cpu or gpu"), "{e}");
+        assert!(resolve_backend("cuda").is_err());
+        assert_eq!(resolve_backend("cpu").unwrap(), ("cpu", None));
+    }
+}

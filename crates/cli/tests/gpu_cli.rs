@@ -35,15 +35,12 @@ fn check_gpu(stderr: &str) {
     }
 }
 
-/// Equal to the CPU to round-off: bit for bit on lavapipe (no fused multiply-add), to a
-/// granular flow's spread on a GPU whose compiler fuses.
-fn assert_close(what: &str, gpu: f64, cpu: f64) {
+/// Equal to the CPU: to round-off on lavapipe (no fused multiply-add; in fact bit for bit), and
+/// within `spread` (a granular flow's scatter from round-off differences) on a GPU whose compiler
+/// fuses.
+fn assert_close(what: &str, gpu: f64, cpu: f64, spread: f64) {
     let lavapipe = std::env::var("VK_ICD_FILENAMES").is_ok_and(|f| f.contains("lvp"));
-    let tolerance = if lavapipe {
-        1e-9 * cpu.abs().max(1.0)
-    } else {
-        2.0
-    };
+    let tolerance = if lavapipe { 1e-9 * cpu.abs() } else { spread };
     assert!(
         (gpu - cpu).abs() <= tolerance,
         "{what}: GPU {gpu}, CPU {cpu}"
@@ -120,6 +117,7 @@ fill = { type = "random", count = 150, seed = 4 }
         "kinetic energy",
         field(gpu, "kinetic_energy_j"),
         field(cpu, "kinetic_energy_j"),
+        0.05 * field(cpu, "kinetic_energy_j"),
     );
 }
 
@@ -269,6 +267,6 @@ fn a_gpu_study_killed_mid_way_resumes_and_matches_the_cpu() {
     for (g, c) in after.iter().zip(&want) {
         assert_eq!((&g.0, &g.1), (&c.0, &c.1));
         let parse = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
-        assert_close("angle of repose", parse(&g.2), parse(&c.2));
+        assert_close("angle of repose", parse(&g.2), parse(&c.2), 2.0);
     }
 }

@@ -226,7 +226,7 @@ impl Study {
             Some(v) => {
                 return Err(err(
                     "backend",
-                    format!("expected \"cpu\" or \"gpu\", got {v}"),
+                    format!("expected {}, got {v}", dem::sim::backend_choices()),
                 ))
             }
         };

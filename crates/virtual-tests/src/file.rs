@@ -78,11 +78,7 @@ impl TestFile {
             Some(v) => {
                 return Err(format!(
                     "{name}: backend: expected {}, got {v}",
-                    BACKEND_NAMES
-                        .iter()
-                        .map(|b| format!("\"{b}\""))
-                        .collect::<Vec<_>>()
-                        .join(" or ")
+                    dem::sim::backend_choices()
                 ))
             }
         };

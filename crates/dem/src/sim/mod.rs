@@ -32,7 +32,9 @@ pub use backend::{Backend, StepInputs};
 pub use cpu::{kick_spin, CpuBackend};
 pub use extension::StepExtension;
 pub use params::{SimError, SimulationParams, StageTimers};
-pub use registry::{make_backend, register_backend, resolve_backend, BackendMaker, BACKEND_NAMES};
+pub use registry::{
+    backend_choices, make_backend, register_backend, resolve_backend, BackendMaker, BACKEND_NAMES,
+};
 
 use crate::clump::Bodies;
 use crate::geometry::{ElementGrid, Geometry, Load};

@@ -13,6 +13,15 @@ pub type BackendMaker = fn() -> Result<Box<dyn Backend>, String>;
 /// this list is a typo (an error); a name in it that cannot be made falls back to the CPU.
 pub const BACKEND_NAMES: &[&str] = &["cpu", "gpu"];
 
+/// The names a file may give, quoted, for messages: "\"cpu\" or \"gpu\"".
+pub fn backend_choices() -> String {
+    BACKEND_NAMES
+        .iter()
+        .map(|b| format!("\"{b}\""))
+        .collect::<Vec<_>>()
+        .join(" or ")
+}
+
 static MAKERS: RwLock<Vec<(&'static str, BackendMaker)>> = RwLock::new(Vec::new());
 
 /// Registers (or replaces) the maker of the back end `name`.

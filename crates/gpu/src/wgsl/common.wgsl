@@ -12,6 +12,11 @@ fn thread_index(gid: vec3<u32>) -> u32 {
     return gid.x + gid.y * counts[4];
 }
 
+// Every kernel binds `state`, positions first.
+fn get3(k: u32) -> vec3<f64> {
+    return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
+}
+
 fn param3(k: u32) -> vec3<f64> {
     return vec3<f64>(params[k], params[k + 1u], params[k + 2u]);
 }

@@ -16,10 +16,6 @@
 @group(0) @binding(7) var<storage, read_write> moved: array<f64>;
 @group(0) @binding(8) var<storage, read_write> outside: array<u32>;
 
-fn get3(k: u32) -> vec3<f64> {
-    return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
-}
-
 fn put3(k: u32, v: vec3<f64>) {
     state[k] = v.x;
     state[k + 1u] = v.y;

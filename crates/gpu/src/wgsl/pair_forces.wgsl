@@ -16,26 +16,6 @@
 @group(0) @binding(7) var<storage, read> params: array<f64>;
 @group(0) @binding(8) var<storage, read> counts: array<u32>;
 
-fn get3(k: u32) -> vec3<f64> {
-    return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
-}
-
-fn hist3(k: u32) -> vec3<f64> {
-    return vec3<f64>(history[k], history[k + 1u], history[k + 2u]);
-}
-
-fn put_hist3(k: u32, v: vec3<f64>) {
-    history[k] = v.x;
-    history[k + 1u] = v.y;
-    history[k + 2u] = v.z;
-}
-
-fn put_out3(k: u32, v: vec3<f64>) {
-    output[k] = v.x;
-    output[k + 1u] = v.y;
-    output[k + 2u] = v.z;
-}
-
 fn clear_output(q: u32) {
     for (var k = 0u; k < 11u; k++) {
         output[11u * q + k] = 0.0lf;

@@ -23,10 +23,6 @@ fn wall3(k: u32) -> vec3<f64> {
     return vec3<f64>(walls[k], walls[k + 1u], walls[k + 2u]);
 }
 
-fn get3(k: u32) -> vec3<f64> {
-    return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
-}
-
 fn put3(k: u32, v: vec3<f64>) {
     state[k] = v.x;
     state[k + 1u] = v.y;

@@ -1,5 +1,5 @@
 // Contacts of each particle with its geometry candidates (sim::walls::wall_contacts with
-// Hertz-Mindlin, non-cohesive): face contacts first, then edge and vertex contacts that do not
+// Hertz-Mindlin, JKR down to its cut-off): face contacts first, then edge and vertex contacts that do not
 // coincide with one already taken on the same geometry. One thread per particle walks its row.
 //
 // elements (16 each): kind (0 plane, 1 rect, 2 disc, 3 cylinder shell, 4 triangle), then
@@ -36,10 +36,6 @@ struct Closest {
     normal: vec3<f64>,
     distance: f64,
     feature: u32,
-}
-
-fn get3(k: u32) -> vec3<f64> {
-    return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
 }
 
 fn el3(k: u32) -> vec3<f64> {
@@ -202,22 +198,6 @@ fn clear(c: u32) {
     for (var k = 0u; k < 10u; k++) {
         output[10u * c + k] = 0.0lf;
     }
-}
-
-fn put_out3(k: u32, v: vec3<f64>) {
-    output[k] = v.x;
-    output[k + 1u] = v.y;
-    output[k + 2u] = v.z;
-}
-
-fn hist3(k: u32) -> vec3<f64> {
-    return vec3<f64>(history[k], history[k + 1u], history[k + 2u]);
-}
-
-fn put_hist3(k: u32, v: vec3<f64>) {
-    history[k] = v.x;
-    history[k + 1u] = v.y;
-    history[k + 2u] = v.z;
 }
 
 @compute @workgroup_size(64)

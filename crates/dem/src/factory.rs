@@ -251,6 +251,19 @@ impl StepExtension for Factory {
         self.done()
     }
 
+    fn idle_steps(&self, time: f64, dt: f64) -> u64 {
+        if self.done() {
+            return u64::MAX;
+        }
+        // Steps until the next batch is due, less one for the round-off in the step times.
+        let steps = ((self.next_batch - 1e-12 - time) / dt).floor();
+        if steps.is_finite() && steps > 1.0 {
+            steps as u64 - 1
+        } else {
+            0
+        }
+    }
+
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }

@@ -35,6 +35,8 @@
 //!   that pairs and walls share). Clumps, bonds, list rebuilds and geometry
 //!   motion stay in the pipeline on the host, as for the CPU back end.
 
+mod resident;
+
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
@@ -43,17 +45,19 @@ use dem::geometry::Element;
 use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
 use dem::sim::walls::WallLists;
-use dem::sim::{Backend, CpuBackend, SimulationParams, StepInputs};
+use dem::sim::{Backend, CpuBackend, Segment, SegmentEnd, SimulationParams, StepInputs};
 use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 const COMMON: &str = include_str!("wgsl/common.wgsl");
+const VECTOR: &str = include_str!("wgsl/vector.wgsl");
 const SPIN: &str = include_str!("wgsl/spin.wgsl");
 const CONTACT: &str = include_str!("wgsl/contact.wgsl");
 const INTEGRATE: &str = include_str!("wgsl/integrate.wgsl");
 const PAIR_FORCES: &str = include_str!("wgsl/pair_forces.wgsl");
 const PARTICLE_SUMS: &str = include_str!("wgsl/particle_sums.wgsl");
 const WALL_FORCES: &str = include_str!("wgsl/wall_forces.wgsl");
+const ELEMENTS: &str = include_str!("wgsl/elements.wgsl");
 
 /// Threads per workgroup, as the kernels declare.
 const WORKGROUP: u32 = 64;
@@ -71,6 +75,7 @@ pub struct GpuContext {
     pair_forces: wgpu::ComputePipeline,
     particle_sums: wgpu::ComputePipeline,
     wall_forces: wgpu::ComputePipeline,
+    resident: resident::ResidentKernels,
 }
 
 impl GpuContext {
@@ -117,8 +122,13 @@ impl GpuContext {
         // A kernel the driver refuses is an error, not a panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         // Each kernel is its file after the shared parts it uses.
-        let pipeline = |name: &str, parts: &[&str]| {
-            let source = [COMMON]
+        let compile = |name: &str, parts: &[&str], with_common: bool| {
+            let common: &[&str] = if with_common {
+                &[VECTOR, COMMON]
+            } else {
+                &[VECTOR]
+            };
+            let source = common
                 .iter()
                 .chain(parts)
                 .copied()
@@ -137,10 +147,12 @@ impl GpuContext {
                 cache: None,
             })
         };
+        let pipeline = |name: &str, parts: &[&str]| compile(name, parts, true);
         let integrate = pipeline("integrate", &[SPIN, INTEGRATE]);
         let pair_forces = pipeline("pair_forces", &[CONTACT, PAIR_FORCES]);
         let particle_sums = pipeline("particle_sums", &[SPIN, PARTICLE_SUMS]);
-        let wall_forces = pipeline("wall_forces", &[CONTACT, WALL_FORCES]);
+        let wall_forces = pipeline("wall_forces", &[CONTACT, ELEMENTS, WALL_FORCES]);
+        let resident = resident::ResidentKernels::new(&compile, ELEMENTS);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!(
                 "the GPU {} refused the kernels: {}",
@@ -158,6 +170,7 @@ impl GpuContext {
             pair_forces,
             particle_sums,
             wall_forces,
+            resident,
         })
     }
 
@@ -174,7 +187,11 @@ impl GpuContext {
 
     /// A storage buffer holding `data` (at least 8 bytes: bindings cannot be empty).
     fn storage<T: bytemuck::Pod>(&self, data: &[T]) -> wgpu::Buffer {
-        let bytes: &[u8] = bytemuck::cast_slice(data);
+        self.storage_with(bytemuck::cast_slice(data), wgpu::BufferUsages::empty())
+    }
+
+    /// A storage buffer holding `bytes`, with `usage` besides.
+    fn storage_with(&self, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
         let padded;
         let contents = if bytes.len() < 8 {
             padded = [bytes, &[0u8; 8][..8 - bytes.len()]].concat();
@@ -186,7 +203,7 @@ impl GpuContext {
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: None,
                 contents,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | usage,
             })
     }
 
@@ -294,6 +311,27 @@ fn ints_of(p: &Particles) -> Vec<u32> {
     let mut ints: Vec<u32> = p.material.iter().map(|&m| m as u32).collect();
     ints.extend(&p.body);
     ints
+}
+
+/// `rows` of the kernels (`particle_sums.wgsl` describes them) from the CSR rows of the lists:
+/// pair, reverse and wall rows as begin and end, then the reverse entries. Without pair lists the
+/// pair and reverse rows are empty.
+fn rows_of(lists: Option<&NeighbourList>, wall_start: &[u32], n: usize) -> Vec<u32> {
+    let mut rows = Vec::with_capacity(6 * n + lists.map_or(0, |l| l.reverse.len()));
+    let mut csr = |start: Option<&[u32]>| match start {
+        Some(s) => {
+            rows.extend(&s[..n]);
+            rows.extend(&s[1..=n]);
+        }
+        None => rows.extend(std::iter::repeat_n(0, 2 * n)),
+    };
+    csr(lists.map(|l| &l.row_start[..]));
+    csr(lists.map(|l| &l.reverse_start[..]));
+    csr(Some(wall_start));
+    if let Some(l) = lists {
+        rows.extend(&l.reverse);
+    }
+    rows
 }
 
 /// Contact histories, 6 numbers each: tangential spring, rolling moment.
@@ -452,6 +490,8 @@ pub struct GpuStages {
     /// Stage calls handed to the CPU back end (a cohesive scene, the Hooke law, arrays too large
     /// for one binding, a particle touching more walls than the wall kernel keeps).
     handed_to_cpu: Arc<AtomicUsize>,
+    /// Segments run on the device, and segments declined (then stepped stage by stage).
+    segments: Arc<(AtomicUsize, AtomicUsize)>,
 }
 
 impl GpuStages {
@@ -464,12 +504,22 @@ impl GpuStages {
         GpuStages {
             ctx,
             handed_to_cpu: Arc::new(AtomicUsize::new(0)),
+            segments: Arc::default(),
         }
     }
 
     /// How many stage calls went to the CPU back end so far.
     pub fn handed_to_cpu(&self) -> usize {
         self.handed_to_cpu.load(Ordering::Relaxed)
+    }
+
+    /// Segments of steps run with the state on the device, and segments declined (a list too
+    /// large for one binding, a particle touching more walls than the wall kernel keeps).
+    pub fn segments(&self) -> (usize, usize) {
+        (
+            self.segments.0.load(Ordering::Relaxed),
+            self.segments.1.load(Ordering::Relaxed),
+        )
     }
 
     fn to_cpu(&self) -> CpuBackend {
@@ -494,10 +544,10 @@ impl Backend for GpuStages {
     }
 
     fn remarks(&self, inputs: &StepInputs) -> Vec<String> {
-        let mut r = vec![format!(
-            "on {}; this first GPU back end copies the particles to the device and back at every stage, so it checks the kernels but is slower than the CPU",
-            self.ctx.adapter
-        )];
+        let mut r = vec![format!("on {}", self.ctx.adapter)];
+        if inputs.clumps {
+            r.push("clumps run stage by stage, with the particles copied to the device and back at every stage (slower than the CPU); only scenes without clumps keep their state on the device".to_string());
+        }
         if !Self::runs_pairs(inputs) {
             r.push(format!(
                 "the {} contact law runs on the CPU (the GPU stages run hertz_mindlin)",
@@ -505,6 +555,21 @@ impl Backend for GpuStages {
             ));
         }
         r
+    }
+
+    fn runs_segments(&self, inputs: &StepInputs) -> bool {
+        Self::runs_pairs(inputs) && !inputs.clumps
+    }
+
+    fn run_segment(&self, segment: &Segment) -> Option<SegmentEnd> {
+        let end = self.segment(segment);
+        let counter = if end.is_some() {
+            &self.segments.0
+        } else {
+            &self.segments.1
+        };
+        counter.fetch_add(1, Ordering::Relaxed);
+        end
     }
 
     fn integrate(
@@ -659,7 +724,7 @@ impl Backend for GpuStages {
             .flat_map(|w| [w.geometry as u32, w.element])
             .collect();
         let cands = c.storage(&cands);
-        let starts = c.storage(walls.start());
+        let rows = c.storage(&rows_of(None, walls.start(), n));
         let history = c.storage(&history_of(walls.candidates().iter().map(|w| &w.history)));
         let output = c.storage(&vec![0.0f64; 10 * count]);
         let table = c.storage(&pair_table(inputs));
@@ -681,7 +746,7 @@ impl Backend for GpuStages {
                 &flat_elements,
                 &geoms,
                 &cands,
-                &starts,
+                &rows,
                 &history,
                 &output,
                 &table,
@@ -724,11 +789,11 @@ impl Backend for GpuStages {
             return;
         }
         let c = &self.ctx;
-        let csr_len = 3 * (n + 1) + lists.reverse.len();
+        let csr_len = 6 * n + lists.reverse.len();
         if !c.fits(
             (72 * n)
                 .max(88 * lists.output.len())
-                .max(56 * walls.output().len())
+                .max(80 * walls.output().len())
                 .max(4 * csr_len),
         ) {
             return self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
@@ -771,17 +836,13 @@ impl Backend for GpuStages {
             n + 1,
             "wall row starts: one per particle and one more"
         );
-        let mut csr: Vec<u32> = lists.row_start.clone();
-        csr.extend(&lists.reverse_start);
-        csr.extend(&lists.reverse);
-        csr.extend(walls.start());
-        let csr = c.storage(&csr);
+        let rows = c.storage(&rows_of(Some(lists), walls.start(), n));
         let wall_out: Vec<f64> = walls
             .output()
             .iter()
             .flat_map(|o| {
-                let (f, t) = (o.force, o.particle_torque);
-                [f.x, f.y, f.z, t.x, t.y, t.z, o.rolling]
+                let (f, g, t) = (o.force, o.torque, o.particle_torque);
+                [f.x, f.y, f.z, g.x, g.y, g.z, t.x, t.y, t.z, o.rolling]
             })
             .collect();
         let wall_out = c.storage(&wall_out);
@@ -802,7 +863,7 @@ impl Backend for GpuStages {
         let out = c.run(
             &c.particle_sums,
             &[
-                &state, &loads, &props, &body, &pair_out, &csr, &wall_out, &par, &counts,
+                &state, &loads, &props, &body, &pair_out, &rows, &wall_out, &par, &counts,
             ],
             threads,
             &[0, 1],

@@ -12,6 +12,7 @@
 //!
 //! [`ContactHistory`]: crate::contact::ContactHistory
 
+use super::segment::{Segment, SegmentEnd};
 use super::walls::WallLists;
 use super::SimulationParams;
 use crate::geometry::Geometry;
@@ -42,6 +43,22 @@ pub trait Backend: Send + Sync {
     fn remarks(&self, inputs: &StepInputs) -> Vec<String> {
         let _ = inputs;
         Vec::new()
+    }
+
+    /// Whether [`Self::run_segment`] can run a simulation with these inputs (no clumps, no
+    /// extension forces: the pipeline checks those). False by default: the pipeline calls the
+    /// stages one by one.
+    fn runs_segments(&self, inputs: &StepInputs) -> bool {
+        let _ = inputs;
+        false
+    }
+
+    /// Runs a whole segment of steps with the state on the back end's device (see
+    /// [`super::segment`]), or None when it cannot (then the pipeline runs the steps stage by
+    /// stage, and nothing has changed).
+    fn run_segment(&self, segment: &Segment) -> Option<SegmentEnd> {
+        let _ = segment;
+        None
     }
 
     /// Half kick (from the forces of the last step) and drift of every sphere that is not a clump

@@ -33,6 +33,14 @@ pub trait StepExtension: Send + Any {
         Ok(())
     }
 
+    /// For how many of the coming steps, from `time` on with steps of `dt`, [`Self::after_step`]
+    /// would do nothing, so that a back end may run them on its device without the host (see
+    /// [`super::segment`]). 0, the default, means every step needs the host.
+    fn idle_steps(&self, time: f64, dt: f64) -> u64 {
+        let _ = (time, dt);
+        0
+    }
+
     /// Whether the extension has done all it was set up to do (a factory that has created
     /// everything); a test waits for this before it judges the particles settled.
     fn finished(&self) -> bool {

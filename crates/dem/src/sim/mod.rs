@@ -26,6 +26,7 @@ mod cpu;
 mod extension;
 mod params;
 mod registry;
+pub mod segment;
 pub mod walls;
 
 pub use backend::{Backend, StepInputs};
@@ -35,6 +36,7 @@ pub use params::{SimError, SimulationParams, StageTimers};
 pub use registry::{
     backend_choices, make_backend, register_backend, resolve_backend, BackendMaker, BACKEND_NAMES,
 };
+pub use segment::{GeometryTrack, Segment, SegmentEnd};
 
 use crate::clump::Bodies;
 use crate::geometry::{ElementGrid, Geometry, Load};
@@ -312,10 +314,18 @@ impl Simulation {
         }
     }
 
-    /// Advances `n` steps.
+    /// Advances `n` steps: as segments on the back end's device where it runs them (see
+    /// [`segment`]), else step by step.
     pub fn run(&mut self, n: u64) -> Result<(), SimError> {
-        for _ in 0..n {
+        let mut left = n;
+        while left > 0 {
+            let steps = self.segment_steps(left);
+            if steps > 1 && self.run_segment(steps)? {
+                left -= steps;
+                continue;
+            }
             self.step()?;
+            left -= 1;
         }
         Ok(())
     }

@@ -113,10 +113,12 @@ pub struct StageTimers {
     pub geometry_loads: Duration,
     /// Per-step extensions (factories, ...).
     pub extensions: Duration,
+    /// Steps run on a back end's own device as whole segments (every stage of them).
+    pub device_segments: Duration,
 }
 
 impl StageTimers {
-    fn stages(&self) -> [(&'static str, Duration); 10] {
+    fn stages(&self) -> [(&'static str, Duration); 11] {
         [
             ("integrate", self.integrate),
             ("bodies", self.bodies),
@@ -128,6 +130,7 @@ impl StageTimers {
             ("extension forces", self.extension_forces),
             ("geometry loads", self.geometry_loads),
             ("extensions", self.extensions),
+            ("device segments", self.device_segments),
         ]
     }
 

@@ -1,4 +1,5 @@
-// Shared by every kernel: the layout of the params buffer and small vector helpers.
+// Shared by the kernels of the stages: the layout of the params and counts buffers, and their
+// accessors (the kernels that include this bind `state`, `params` and `counts`).
 //
 // params (f64): 0 dt, 1..3 gravity, 4 has_domain, 5..7 domain low, 8..10 domain high,
 // 11 clumps, 12 kick, 13 rolling model (0 cdt, 1 epsd), 14 rolling viscous damping,
@@ -19,21 +20,4 @@ fn get3(k: u32) -> vec3<f64> {
 
 fn param3(k: u32) -> vec3<f64> {
     return vec3<f64>(params[k], params[k + 1u], params[k + 2u]);
-}
-
-// Vector helpers written out in glam's order of operations, so that results match the CPU's.
-fn len2(v: vec3<f64>) -> f64 {
-    return v.x * v.x + v.y * v.y + v.z * v.z;
-}
-
-fn dot3(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-
-fn cross3(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
-    return vec3<f64>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
-}
-
-fn zero3() -> vec3<f64> {
-    return vec3<f64>(0.0lf, 0.0lf, 0.0lf);
 }

@@ -30,6 +30,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = counts[0];
     let i = pair_ij[2u * q];
+    if (i == NO_BODY) {
+        // An empty slot of a fixed-capacity row (the resident steps).
+        return;
+    }
     let j = pair_ij[2u * q + 1u];
     let body_i = ints[n + i];
     if (params[11] != 0.0lf && body_i == ints[n + j] && body_i != NO_BODY) {

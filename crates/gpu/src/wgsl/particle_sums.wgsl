@@ -2,15 +2,17 @@
 // into its force, torque and rolling torque limit; with the kick flag, free spheres get the second
 // half kick (CpuBackend::particle_sums).
 //
-// csr (u32): pair row starts N+1 | reverse row starts N+1 | reverse entries R | wall row starts N+1
-// walls (per candidate, 7): force on the geometry xyz, torque on the particle xyz, rolling
+// rows (u32): pair begin N | pair end N | reverse begin N | reverse end N | wall begin N |
+//   wall end N | reverse entries (pair slots); rows may have gaps between them (the resident
+//   steps keep a fixed capacity per particle)
+// walls (per candidate, 10): the wall kernel's output (wall_forces.wgsl)
 
 @group(0) @binding(0) var<storage, read_write> state: array<f64>;
 @group(0) @binding(1) var<storage, read_write> loads: array<f64>;
 @group(0) @binding(2) var<storage, read> props: array<f64>;
 @group(0) @binding(3) var<storage, read> body: array<u32>;
 @group(0) @binding(4) var<storage, read> pairs: array<f64>;
-@group(0) @binding(5) var<storage, read> csr: array<u32>;
+@group(0) @binding(5) var<storage, read> rows: array<u32>;
 @group(0) @binding(6) var<storage, read> walls: array<f64>;
 @group(0) @binding(7) var<storage, read> params: array<f64>;
 @group(0) @binding(8) var<storage, read> counts: array<u32>;
@@ -45,23 +47,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var f = param3(1u) * props[n + i];
     var t = vec3<f64>(0.0lf, 0.0lf, 0.0lf);
     var lim = 0.0lf;
-    for (var q = csr[i]; q < csr[i + 1u]; q++) {
+    for (var q = rows[i]; q < rows[n + i]; q++) {
         f += pair3(11u * q);
         t += pair3(11u * q + 3u);
         lim += pairs[11u * q + 9u];
     }
-    let rev = 2u * (n + 1u);
-    for (var k = csr[n + 1u + i]; k < csr[n + 1u + i + 1u]; k++) {
-        let q = csr[rev + k];
+    for (var k = rows[2u * n + i]; k < rows[3u * n + i]; k++) {
+        let q = rows[6u * n + k];
         f -= pair3(11u * q);
         t += pair3(11u * q + 6u);
         lim += pairs[11u * q + 10u];
     }
-    let ws = rev + counts[2];
-    for (var c = csr[ws + i]; c < csr[ws + i + 1u]; c++) {
-        f -= wall3(7u * c);
-        t += wall3(7u * c + 3u);
-        lim += walls[7u * c + 6u];
+    for (var c = rows[4u * n + i]; c < rows[5u * n + i]; c++) {
+        f -= wall3(10u * c);
+        t += wall3(10u * c + 6u);
+        lim += walls[10u * c + 9u];
     }
     put_load3(3u * i, f);
     put_load3(3u * n + 3u * i, t);

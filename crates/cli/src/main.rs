@@ -136,8 +136,9 @@ enum Command {
     },
     /// Run a peer benchmark and print particle-steps per second.
     Bench {
-        /// settle: 21 160 spheres settling in a box; bonded: the seed-000 stalk specimen crushed.
-        #[arg(value_parser = ["settle", "bonded"])]
+        /// settle: 21 160 spheres settling in a box; settle-wide: the box widened 8 times in x
+        /// and y (1 444 000 spheres, 5 000 steps); bonded: the seed-000 stalk specimen crushed.
+        #[arg(value_parser = ["settle", "settle-wide", "bonded"])]
         name: String,
         #[arg(long)]
         steps: Option<u64>,
@@ -902,7 +903,11 @@ fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<()
 }
 
 fn bench(name: &str, steps: Option<u64>, backend: &str) -> Result<(), String> {
-    let total = steps.unwrap_or(if name == "bonded" { 20_000 } else { 50_000 });
+    let total = steps.unwrap_or(match name {
+        "bonded" => 20_000,
+        "settle-wide" => dem::bench::SETTLE_WIDE_STEPS,
+        _ => 50_000,
+    });
     let bar = progress_bar(total);
     let mut log = LogLine::new();
     let progress = |done| {
@@ -911,10 +916,10 @@ fn bench(name: &str, steps: Option<u64>, backend: &str) -> Result<(), String> {
             eprintln!("{name}: {}", LogLine::steps(done, total, "", elapsed));
         }
     };
-    let r = if name == "bonded" {
-        dem::bench::bonded(steps, backend, progress)?
-    } else {
-        dem::bench::settle(steps, backend, progress)?
+    let r = match name {
+        "bonded" => dem::bench::bonded(steps, backend, progress)?,
+        "settle-wide" => dem::bench::settle_wide(steps, backend, progress)?,
+        _ => dem::bench::settle(steps, backend, progress)?,
     };
     bar.finish_and_clear();
     for w in &r.remarks {

@@ -94,6 +94,41 @@ pub fn settle(
     )
 }
 
+/// The settle scene widened 8 times in x and y: 1 444 000 spheres (the scaled scene of the GPU
+/// benchmarks).
+pub fn settle_wide_scene() -> String {
+    WIDENED
+        .iter()
+        .fold(SETTLE_SCENE.to_string(), |s, (from, to)| {
+            s.replace(from, to)
+        })
+}
+
+/// What widening the settle scene changes: the box, the lattice region and the domain.
+const WIDENED: [(&str, &str); 3] = [
+    ("max = [0.1, 0.1, 0.4]", "max = [0.8, 0.8, 0.4]"),
+    ("max = [0.098, 0.098, 0.17]", "max = [0.798, 0.798, 0.17]"),
+    ("max = [0.11, 0.11, 0.41]", "max = [0.81, 0.81, 0.41]"),
+];
+
+/// Steps of the widened settle scene when not asked (a tenth of the settle scene's).
+pub const SETTLE_WIDE_STEPS: u64 = 5_000;
+
+/// Runs the widened settle scene for `steps` steps (default [`SETTLE_WIDE_STEPS`]).
+pub fn settle_wide(
+    steps: Option<u64>,
+    backend: &str,
+    progress: impl FnMut(u64),
+) -> Result<BenchResult, String> {
+    run(
+        &settle_wide_scene(),
+        "the widened settle scene",
+        Some(steps.unwrap_or(SETTLE_WIDE_STEPS)),
+        backend,
+        progress,
+    )
+}
+
 /// Runs the bonded scene for `steps` steps (default: the scene's 20 000).
 pub fn bonded(
     steps: Option<u64>,
@@ -129,7 +164,12 @@ fn run(
     let mut sim = scene.simulation;
     let remarks = sim.choose_backend(backend);
     let start = Instant::now();
-    let chunk = 1000;
+    // A back end that runs whole segments on its device reads the state back after each chunk.
+    let chunk = if sim.backend_name() == "cpu" {
+        1000
+    } else {
+        5000
+    };
     let mut done = 0;
     while done < steps {
         let n = chunk.min(steps - done);
@@ -163,6 +203,18 @@ fn run(
 mod tests {
     use super::*;
     use glam::DVec3;
+
+    /// The widened scene changes the box, the lattice region and the domain, each once.
+    #[test]
+    fn the_wide_settle_scene_is_the_settle_scene_widened() {
+        for (from, _) in WIDENED {
+            assert_eq!(SETTLE_SCENE.matches(from).count(), 1, "{from}");
+        }
+        let wide = settle_wide_scene();
+        for (from, to) in WIDENED {
+            assert!(!wide.contains(from) && wide.contains(to), "{to}");
+        }
+    }
 
     /// The bed height of a state with a NaN position (a diverged run) is NaN, not a panic.
     #[test]

@@ -4,36 +4,47 @@
 //! Design notes.
 //!
 //! - **Where it plugs in.** [`GpuStages`] implements the engine's stage boundary,
-//!   [`dem::sim::Backend`]: the pipeline in `dem::sim::Simulation::step` decides what runs when,
-//!   and calls integrate, pair forces, wall forces and particle sums. This first slice copies the
-//!   arrays to the device for each stage and back, so it is a check path that proves the kernels
-//!   against the CPU stage by stage, not yet the fast path: a back end that keeps the state on the
-//!   device across steps (binning, neighbour lists and history on the GPU) is the next slice.
+//!   [`dem::sim::Backend`], two ways. Scenes without clumps run as *segments*
+//!   (`Backend::run_segment`, the `resident` module): `dem::sim::Simulation::run` hands over
+//!   whole runs of steps (up to the end of the call or the next step at which an extension such
+//!   as a factory has work), and the particles, pair and wall lists and contact histories stay on
+//!   the device for all of them; lists are rebuilt on the device (hashed cell buckets, fixed-capacity
+//!   sorted rows, histories merged from the old rows); the host reads a few control words every
+//!   64 steps and the state once at the end. Scenes with clumps (whose bodies move on the host),
+//!   and any segment the device declines, run stage by stage: the pipeline in
+//!   `Simulation::step` calls integrate, pair forces, wall forces and particle sums, and each
+//!   stage copies its arrays to the device and back (the check path).
 //! - **What runs on the GPU.** Integration, Hertz-Mindlin pair forces with or without JKR
 //!   cohesion, the tangential spring and both rolling models (cdt, epsd), wall contacts with every
 //!   element kind (planes, rectangles, discs, cylinder shells, triangles; moving geometry through
 //!   its velocity field; faces before edges, as `dem::sim::walls::wall_contacts` does; the JKR
-//!   cut-off), and the particle sums with the second half kick. The Hooke law, a stage whose
-//!   arrays would pass the device's largest binding, and a particle touching more than 32 walls at
-//!   once are handed to the CPU back end inside the stage ([`GpuStages::handed_to_cpu`] counts
-//!   them), so any scene runs.
+//!   cut-off), the particle sums with the second half kick, and (in segments) the neighbour and
+//!   wall-candidate searches and the geometry loads. On the check path the Hooke law, a stage
+//!   whose arrays would pass the device's largest binding, and a particle touching more than 32
+//!   walls at once are handed to the CPU back end inside the stage
+//!   ([`GpuStages::handed_to_cpu`] counts them); a segment whose lists pass the largest binding
+//!   is declined with a warning saying so ([`GpuStages::segments`] counts both), so any scene
+//!   runs.
 //! - **How it is chosen.** [`register`] makes "gpu" one of the engine's named back ends
 //!   (`dem::sim::make_backend`), built on one process-wide context ([`shared_context`]), so scene,
 //!   test and study files and `--backend gpu` can name it.
 //! - **Precision.** Positions, velocities, forces and history are f64 on the device
 //!   (`wgpu::Features::SHADER_F64`; Mesa's lavapipe has it, so the kernels are tested on any
 //!   machine). WGSL's f64 has only the basic operations and `sqrt`, which is all these kernels use.
-//!   Results agree with the CPU to round-off (a GPU compiler may fuse a multiply and an add; on
-//!   lavapipe the cdt scenes of the tests agree bit for bit); they are deterministic for a given
-//!   device, since every thread writes its own slots and every particle sums its slots in the
-//!   CPU's order.
+//!   Results agree with the CPU to round-off (a GPU compiler may fuse a multiply and an add, and a
+//!   segment keeps the particles in the order it got them where the CPU re-sorts them at each
+//!   rebuild, so sums run in another order); they are deterministic for a given device, since
+//!   every thread writes its own slots and every particle sums its slots in a fixed order.
 //! - **Failures.** A context that cannot be made (no Vulkan adapter with f64 shaders, a kernel the
-//!   driver refuses) is an error naming the adapter. A device lost in the middle of a stage (a
-//!   driver reset) panics: the `Backend` stages cannot return errors yet.
-//! - **Kernels** are WGSL files in `src/wgsl/`, each put together with the shared `common.wgsl`
-//!   and the shared parts they use (`spin.wgsl`, the spin kick; `contact.wgsl`, the contact law
-//!   that pairs and walls share). Clumps, bonds, list rebuilds and geometry
-//!   motion stay in the pipeline on the host, as for the CPU back end.
+//!   driver refuses) is an error naming the adapter. A particle that stops being finite or leaves
+//!   the domain in a segment stops it within 64 steps, with the step it happened in. A device
+//!   lost in the middle of a stage (a driver reset) panics: the `Backend` stages cannot return
+//!   errors yet.
+//! - **Kernels** are WGSL files in `src/wgsl/` (the segment kernels in `src/wgsl/resident/`),
+//!   each put together with the shared parts it uses (`vector.wgsl`, vector helpers;
+//!   `common.wgsl`, the params and counts layout; `spin.wgsl`, the spin kick; `contact.wgsl`,
+//!   the contact law that pairs and walls share; `elements.wgsl`, the closest point of a wall
+//!   element). Clumps, bonds and geometry motion stay in the pipeline on the host.
 
 mod resident;
 
@@ -490,8 +501,9 @@ pub struct GpuStages {
     /// Stage calls handed to the CPU back end (a cohesive scene, the Hooke law, arrays too large
     /// for one binding, a particle touching more walls than the wall kernel keeps).
     handed_to_cpu: Arc<AtomicUsize>,
-    /// Segments run on the device, and segments declined (then stepped stage by stage).
-    segments: Arc<(AtomicUsize, AtomicUsize)>,
+    /// Segments run on the device, segments declined (then stepped stage by stage), and tries
+    /// run again with more room after a list overflowed.
+    segments: Arc<[AtomicUsize; 3]>,
 }
 
 impl GpuStages {
@@ -513,12 +525,15 @@ impl GpuStages {
         self.handed_to_cpu.load(Ordering::Relaxed)
     }
 
-    /// Segments of steps run with the state on the device, and segments declined (a list too
-    /// large for one binding, a particle touching more walls than the wall kernel keeps).
-    pub fn segments(&self) -> (usize, usize) {
+    /// Segments of steps run with the state on the device, segments declined (a list too large
+    /// for one binding, a particle touching more walls than the wall kernel keeps), and tries run
+    /// again with more room after a pair row, reverse row, wall row or cell bucket overflowed.
+    pub fn segments(&self) -> (usize, usize, usize) {
+        let [run, declined, retried] = &*self.segments;
         (
-            self.segments.0.load(Ordering::Relaxed),
-            self.segments.1.load(Ordering::Relaxed),
+            run.load(Ordering::Relaxed),
+            declined.load(Ordering::Relaxed),
+            retried.load(Ordering::Relaxed),
         )
     }
 
@@ -564,9 +579,9 @@ impl Backend for GpuStages {
     fn run_segment(&self, segment: &Segment) -> Option<SegmentEnd> {
         let end = self.segment(segment);
         let counter = if end.is_some() {
-            &self.segments.0
+            &self.segments[0]
         } else {
-            &self.segments.1
+            &self.segments[1]
         };
         counter.fetch_add(1, Ordering::Relaxed);
         end

@@ -46,8 +46,9 @@ struct Capacity {
 enum Retry {
     /// A capacity was too small (`ctrl[3]`'s code).
     Overflow(u32),
-    /// The segment cannot run here (too large for a binding, a particle with too many walls).
-    Decline,
+    /// The segment cannot run here (why: too large for a binding, a particle with too many
+    /// walls).
+    Decline(String),
 }
 
 /// The pipelines of the resident kernels.
@@ -206,14 +207,33 @@ impl GpuStages {
             bucket: 16,
         };
         for _ in 0..12 {
-            match self.try_segment(seg, cap) {
+            let tried = self.try_segment(seg, cap);
+            if tried.is_err() {
+                self.segments[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+            match tried {
                 Ok(end) => return Some(end),
                 Err(Retry::Overflow(1)) => cap.bucket *= 2,
                 Err(Retry::Overflow(2 | 3)) => cap.pair *= 2,
                 Err(Retry::Overflow(4)) => cap.wall *= 2,
-                Err(_) => return None,
+                Err(Retry::Overflow(code)) => {
+                    return self.decline(format!("an unknown overflow code {code}"))
+                }
+                Err(Retry::Decline(why)) => return self.decline(why),
             }
         }
+        self.decline(format!(
+            "its lists kept overflowing (pair rows of {}, wall rows of {}, buckets of {})",
+            cap.pair, cap.wall, cap.bucket
+        ))
+    }
+
+    /// Declines a segment: says why once per process (the steps then run stage by stage).
+    fn decline(&self, why: String) -> Option<SegmentEnd> {
+        static SAID: std::sync::Once = std::sync::Once::new();
+        SAID.call_once(|| {
+            eprintln!("warning: the GPU runs this simulation stage by stage, copying the particles at every stage, because {why}");
+        });
         None
     }
 
@@ -239,7 +259,12 @@ impl GpuStages {
         .max()
         .unwrap_or(0);
         if !c.fits(largest) || pairs >= u32::MAX as usize / 11 {
-            return Err(Retry::Decline);
+            return Err(Retry::Decline(format!(
+                "its largest list ({:.2} GB) does not fit one binding of {} ({:.2} GB)",
+                largest as f64 * 1e-9,
+                c.adapter,
+                c.max_binding as f64 * 1e-9
+            )));
         }
 
         // The lists at the segment's start, in rows of fixed capacity.
@@ -680,7 +705,9 @@ fn check_overflow(ctrl: &[u8]) -> Result<(), Retry> {
     let w: Vec<u32> = bytemuck::pod_collect_to_vec(ctrl);
     match w[3] {
         0 => Ok(()),
-        5 => Err(Retry::Decline),
+        5 => Err(Retry::Decline(
+            "a particle touched more walls at once than the wall kernel keeps".to_string(),
+        )),
         code => Err(Retry::Overflow(code)),
     }
 }

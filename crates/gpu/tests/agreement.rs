@@ -206,7 +206,7 @@ fn compare(name: &str, make: impl Fn() -> Simulation, steps: u64, tolerance: f64
     // Every stage of these scenes runs on the GPU, cohesive ones included.
     assert_eq!(stages.handed_to_cpu(), 0, "{name}");
     // Scenes without clumps run as segments with the state on the device.
-    let (segments, declined) = stages.segments();
+    let (segments, declined, _) = stages.segments();
     eprintln!("{name}: {segments} segments on the device, {declined} declined");
     assert_eq!(declined, 0, "{name}");
     assert_eq!(segments > 0, gpu.bodies.is_empty(), "{name}");
@@ -480,4 +480,57 @@ fn clumps() -> Simulation {
 fn tumbling_clumps_match_the_cpu() {
     let loads = compare("clumps, cdt", clumps, 3000, 1e-9);
     assert!(loads.is_empty() || loads[0] > 0.0, "{loads:?}");
+}
+
+/// One large sphere among many small ones, all drawn together: the small ones crowd the large
+/// one's cells and its row, so the buckets and rows of the first try overflow and the segment runs
+/// again with more room, giving the CPU's numbers all the same.
+#[test]
+fn crowded_lists_grow_and_still_match_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let make = || {
+        let mut p = Particles::default();
+        p.push(DVec3::ZERO, DVec3::ZERO, 0.006, 2500.0, 0);
+        let mut k = 0;
+        for a in -4..=4 {
+            for b in -4..=4 {
+                for c in -4..=4 {
+                    let x = DVec3::new(a as f64, b as f64, c as f64) * 0.0016;
+                    if x.length() < 0.0075 {
+                        continue;
+                    }
+                    k += 1;
+                    // Each drawn towards the large sphere.
+                    p.push(x, -x * 40.0, 0.0006 + 1e-6 * (k % 7) as f64, 2500.0, 0);
+                }
+            }
+        }
+        sim(
+            p,
+            vec![],
+            RollingModel::ConstantDirectionalTorque,
+            DVec3::ZERO,
+        )
+    };
+    let mut cpu = make();
+    let stages = GpuStages::with_context(ctx);
+    let mut gpu = make().with_backend(Box::new(stages.clone()));
+    cpu.run(600).unwrap();
+    gpu.run(600).unwrap();
+    let (segments, declined, retried) = stages.segments();
+    eprintln!("crowded: {segments} segment, {declined} declined, {retried} tries again");
+    assert_eq!((segments, declined), (1, 0));
+    assert!(retried > 0, "the first capacities were enough");
+    // Without gravity a force comes from a contact: the small spheres reached the large one.
+    let touching = cpu
+        .particles
+        .force
+        .iter()
+        .filter(|f| f.length() > 0.0)
+        .count();
+    assert!(touching > 50, "{touching} spheres in contact");
+    let dx = largest_difference(&cpu, &gpu, |p| &p.position);
+    let dv = largest_difference(&cpu, &gpu, |p| &p.velocity);
+    eprintln!("crowded: position {dx:.3e} m, velocity {dv:.3e} m/s");
+    assert!(dx < 1e-12 && dv < 1e-9, "{dx:e} m, {dv:e} m/s");
 }

@@ -1,7 +1,6 @@
 // Verification cases V1-V6 and V8 of shared/spec/physics.md, with the tolerances given there,
-// included by `verification.rs` (CPU back end) and, once the GPU back end is fast enough for the
-// default test run, by a GPU test. The including file provides `mod common` and
-// `fn backend() -> &'static str`.
+// included by `verification.rs` (CPU back end) and by `crates/gpu/tests/verification.rs` (GPU
+// back end). The including file provides `mod common` and `fn backend() -> &'static str`.
 
 use common::*;
 use dem::contact::RollingModel;

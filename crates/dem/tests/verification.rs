@@ -1,5 +1,6 @@
 //! Verification cases V1-V6 and V8 of shared/spec/physics.md on the CPU back end; the cases are
-//! `common/verification_cases.rs`, kept apart so that the GPU back end can run the same cases.
+//! `common/verification_cases.rs` (which the GPU back end runs too) and
+//! `common/verification_more.rs`.
 
 mod common;
 
@@ -8,3 +9,4 @@ fn backend() -> &'static str {
 }
 
 include!("common/verification_cases.rs");
+include!("common/verification_more.rs");

@@ -247,8 +247,18 @@ impl GpuStages {
         let buckets = (BUCKETS_PER_PARTICLE * n).next_power_of_two().max(64);
         let geometries = inputs.geometries;
         let elements: usize = geometries.iter().map(|g| g.elements.len()).sum();
+        let steps = seg.steps as usize;
+        let moving_rows: usize = seg
+            .track
+            .moving
+            .iter()
+            .map(|&g| geometries[g].elements.len())
+            .sum();
         let largest = [
             72 * n,
+            4 * (steps + 1),
+            128 * moving_rows * steps,
+            64 * geometries.len() * steps,
             88 * pairs,
             80 * walls,
             4 * (6 * n + pairs),
@@ -346,13 +356,7 @@ impl GpuStages {
                 })
                 .collect()
         };
-        let steps = seg.steps as usize;
         let moving = !track.moving.is_empty();
-        let moving_rows: usize = track
-            .moving
-            .iter()
-            .map(|&g| geometries[g].elements.len())
-            .sum();
         let (element_track, geoms_track) = if moving {
             let mut e = Vec::with_capacity(16 * moving_rows * steps);
             for s in 1..=steps {
@@ -676,13 +680,15 @@ impl GpuStages {
         if failed_at.is_none() && w[2] != EMPTY {
             failed_at = Some(w[2] as u64);
         }
-        Ok(segment_end(
+        let mut end = segment_end(
             n,
             &out,
             w[4].saturating_sub(1) as u64,
             failed_at,
             geometries.len(),
-        ))
+        );
+        end.steps_done = done as u64;
+        Ok(end)
     }
 }
 

@@ -76,6 +76,10 @@ pub struct Simulation {
     index_of: Vec<u32>,
     /// Largest sphere radius the wall grids and cohesive reach were sized for.
     prepared_radius: f64,
+    /// After the back end declined a segment, steps run one by one until this step, and how long
+    /// that wait was (it doubles with each decline in a row).
+    segments_declined_until: u64,
+    segment_backoff: u64,
 }
 
 impl Simulation {
@@ -105,6 +109,8 @@ impl Simulation {
             cohesive_reach: 0.0,
             index_of: Vec::new(),
             prepared_radius: -1.0,
+            segments_declined_until: 0,
+            segment_backoff: 0,
         };
         let max_r = sim.particles.radius.iter().cloned().fold(0.0, f64::max);
         sim.prepare_radius(max_r);

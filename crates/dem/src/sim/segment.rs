@@ -79,10 +79,16 @@ pub struct SegmentEnd {
     pub geometry_loads: Vec<Load>,
     /// List rebuilds during the segment.
     pub rebuilds: u64,
+    /// Steps run: all of the segment's, or fewer when a failure stopped it early.
+    pub steps_done: u64,
     /// The step (0-based within the segment) in which a particle first stopped being finite or
     /// left the domain; the state is then that of the segment's end, for the message only.
     pub failed_at: Option<u64>,
 }
+
+/// Most steps in one segment: segments chain, and this bounds what the host keeps per step and
+/// the per-step buffers a back end binds.
+const MAX_SEGMENT_STEPS: u64 = 20_000;
 
 /// Most elements of moving geometries kept per segment (all steps together): a long segment with
 /// a large moving mesh is cut shorter rather than fill the memory.
@@ -94,6 +100,8 @@ impl super::Simulation {
     /// which an extension has work.
     pub(super) fn segment_steps(&self, left: u64) -> u64 {
         if left < 2
+            || self.particles.is_empty()
+            || self.steps < self.segments_declined_until
             || !self.bodies.is_empty()
             || self.extensions.iter().any(|e| e.adds_forces())
             || !self.backend.runs_segments(&self.inputs(false))
@@ -101,7 +109,7 @@ impl super::Simulation {
             return 0;
         }
         let dt = self.params.time_step;
-        let mut steps = left;
+        let mut steps = left.min(MAX_SEGMENT_STEPS);
         for e in &self.extensions {
             steps = steps.min(e.idle_steps(self.time, dt).saturating_add(1));
         }
@@ -134,8 +142,10 @@ impl super::Simulation {
             elements: vec![elements_now(&self.geometries)],
             ..Default::default()
         };
-        // Where the particles can be, for how far a rotation moves the walls near them.
-        let (lo, hi) = match self.params.domain {
+        // Where contacts can be, for how far a rotation moves the walls there: where the
+        // particles can be, and the moving elements themselves (a contact point lies on one, and
+        // a rotation keeps each point's distance from its axis).
+        let (mut lo, mut hi) = match self.params.domain {
             Some(d) => d,
             None => {
                 let (lo, hi) = self.particles.bounds(true);
@@ -143,6 +153,15 @@ impl super::Simulation {
                 (lo - pad, hi + pad)
             }
         };
+        for &g in &moving {
+            for e in &self.geometries[g].elements {
+                let (a, b) = e.bounds();
+                if a.is_finite() && b.is_finite() {
+                    lo = lo.min(a);
+                    hi = hi.max(b);
+                }
+            }
+        }
         let mut forced_at: Vec<_> = self
             .geometries
             .iter()
@@ -216,10 +235,14 @@ impl super::Simulation {
             if let Some(g) = saved {
                 self.geometries = g;
             }
+            // Stepped stage by stage for a while before the back end is asked again.
+            self.segment_backoff = (2 * self.segment_backoff).clamp(16, 4096);
+            self.segments_declined_until = self.steps + self.segment_backoff;
             return Ok(false);
         };
+        self.segment_backoff = 0;
         let dt = self.params.time_step;
-        let start_steps = self.steps;
+        let (start_steps, start_time) = (self.steps, self.time);
         let p = &mut self.particles;
         p.position = end.position;
         p.velocity = end.velocity;
@@ -227,10 +250,19 @@ impl super::Simulation {
         p.force = end.force;
         p.torque = end.torque;
         p.rolling_torque_limit = end.rolling_torque_limit;
-        self.steps += steps;
+        self.steps += end.steps_done;
         self.time = self.steps as f64 * dt;
         self.timers.device_segments += t0.elapsed();
         if let Some(s) = end.failed_at {
+            // The device stopped after `steps_done` steps: the geometries go back to that pose.
+            if let Some(g) = saved {
+                self.geometries = g;
+                self.steps = start_steps;
+                self.time = start_time;
+                self.geometry_track(end.steps_done);
+                self.steps += end.steps_done;
+                self.time = self.steps as f64 * dt;
+            }
             self.forces_ready = false;
             let time = (start_steps + s + 1) as f64 * dt;
             let i = self.first_failed().unwrap_or(0);

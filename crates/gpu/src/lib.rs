@@ -227,20 +227,7 @@ impl GpuContext {
         threads: u32,
         read: &[usize],
     ) -> Vec<Vec<u8>> {
-        let layout = pipeline.get_bind_group_layout(0);
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(k, b)| wgpu::BindGroupEntry {
-                binding: k as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &layout,
-            entries: &entries,
-        });
+        let group = self.bind(pipeline, buffers);
         let (x, y) = groups(threads);
         let mut encoder = self.device.create_command_encoder(&Default::default());
         {
@@ -249,36 +236,8 @@ impl GpuContext {
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(x, y, 1);
         }
-        let staging: Vec<wgpu::Buffer> = read
-            .iter()
-            .map(|&k| {
-                let size = buffers[k].size();
-                let s = self.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: None,
-                    size,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                encoder.copy_buffer_to_buffer(buffers[k], 0, &s, 0, size);
-                s
-            })
-            .collect();
-        self.queue.submit([encoder.finish()]);
-        for s in &staging {
-            s.slice(..).map_async(wgpu::MapMode::Read, |r| {
-                r.expect("mapping a read-back buffer");
-            });
-        }
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .expect("waiting for the GPU");
-        staging
-            .iter()
-            .map(|s| {
-                let view = s.slice(..).get_mapped_range().expect("a mapped buffer");
-                view.to_vec()
-            })
-            .collect()
+        let read: Vec<&wgpu::Buffer> = read.iter().map(|&k| buffers[k]).collect();
+        self.read_back(encoder, &read)
     }
 }
 

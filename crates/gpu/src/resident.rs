@@ -120,8 +120,13 @@ struct Launch<'a> {
     threads: u32,
 }
 
+/// Launch helpers, shared with the stage-by-stage path in `lib.rs`.
 impl GpuContext {
-    fn bind(&self, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+    pub(crate) fn bind(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .enumerate()
@@ -138,7 +143,7 @@ impl GpuContext {
     }
 
     /// Copies `buffers` back (after what `encoder` holds) and waits for them.
-    fn read_back(
+    pub(crate) fn read_back(
         &self,
         mut encoder: wgpu::CommandEncoder,
         buffers: &[&wgpu::Buffer],
@@ -602,6 +607,13 @@ impl GpuStages {
             ),
         ];
 
+        // One step's launches, in order (the same every step).
+        let step: Vec<&Launch> = [&begin, &integrate, &check]
+            .into_iter()
+            .chain(rebuild.iter())
+            .chain(forces.iter())
+            .collect();
+
         // The lists for the state at the start (their histories from the host's lists).
         let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &rebuild.iter().collect::<Vec<_>>());
@@ -635,10 +647,7 @@ impl GpuStages {
                         8 * row as u64,
                     );
                 }
-                let mut launches: Vec<&Launch> = vec![&begin, &integrate, &check];
-                launches.extend(rebuild.iter());
-                launches.extend(forces.iter());
-                encode(&mut encoder, &launches);
+                encode(&mut encoder, &step);
             }
             done += chunk;
             words = c.read_back(encoder, &[&ctrl]);

@@ -268,12 +268,15 @@ fn state_of(p: &Particles) -> Vec<f64> {
     flat(&[&p.position, &p.velocity, &p.angular_velocity])
 }
 
-/// `props` of the kernels: radius, mass, inverse mass, inverse inertia, N each.
+/// `props` of the kernels: radius, mass, inverse mass, inverse inertia, and the world of a batch
+/// (all 0 here), N each.
 fn props_of(p: &Particles) -> Vec<f64> {
-    [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
+    let mut props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
         .into_iter()
         .flat_map(|v| v.iter().copied())
-        .collect()
+        .collect();
+    props.resize(5 * p.len(), 0.0);
+    props
 }
 
 /// `ints` of the kernels: material, then body, N each.
@@ -398,6 +401,9 @@ fn element_row(e: &Element) -> [f64; 16] {
     row
 }
 
+/// Numbers in a world's block of the params buffer.
+const PARAMS: usize = 24;
+
 /// The params buffer `common.wgsl` describes.
 fn params_of(
     params: &SimulationParams,
@@ -433,6 +439,15 @@ fn params_of(
         viscous,
         materials as f64,
         if cohesive { 1.0 } else { 0.0 },
+        // Stepping; the world's steps and geometries are set where a segment needs them.
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
     ]
 }
 

@@ -1,13 +1,35 @@
 // Shared by the kernels of the stages: the layout of the params and counts buffers, and their
-// accessors (the kernels that include this bind `state`, `params` and `counts`).
+// accessors (the kernels that include this bind `state`, `props`, `params` and `counts`).
 //
-// params (f64): 0 dt, 1..3 gravity, 4 has_domain, 5..7 domain low, 8..10 domain high,
+// A batch runs several simulations ("worlds") in the same launches: every particle carries its
+// world (props block 4), and every world has a block of PARAMS numbers in params:
+// 0 dt, 1..3 gravity, 4 has_domain, 5..7 domain low, 8..10 domain high,
 // 11 clumps, 12 kick, 13 rolling model (0 cdt, 1 epsd), 14 rolling viscous damping,
-// 15 number of materials, 16 cohesive (some material pair has a surface energy).
+// 15 number of materials (of the whole batch: material indices are the batch's),
+// 16 cohesive (some material pair has a surface energy), 17 active (1 stepping, 2 its steps just
+// ended: checked only, 0 done), 18 the world's steps, 19..20 its first and end geometry, 21..22
+// its first and end particle.
 // counts (u32): 0 particles, 1 pairs, 2 reverse entries, 3 wall candidates, 4 row width of a
 // 2-D dispatch (threads).
 
 const NO_BODY: u32 = 0xffffffffu;
+const PARAMS: u32 = 24u;
+
+// The params block of the particle a thread works for (set_world).
+var<private> pbase: u32 = 0u;
+
+fn set_world(i: u32) {
+    pbase = PARAMS * u32(props[4u * counts[0] + i]);
+}
+
+fn param(k: u32) -> f64 {
+    return params[pbase + k];
+}
+
+// Whether the thread's world steps now.
+fn stepping() -> bool {
+    return param(17u) == 1.0lf;
+}
 
 fn thread_index(gid: vec3<u32>) -> u32 {
     return gid.x + gid.y * counts[4];
@@ -19,5 +41,5 @@ fn get3(k: u32) -> vec3<f64> {
 }
 
 fn param3(k: u32) -> vec3<f64> {
-    return vec3<f64>(params[k], params[k + 1u], params[k + 2u]);
+    return vec3<f64>(param(k), param(k + 1u), param(k + 2u));
 }

@@ -106,7 +106,7 @@ fn hertz_mindlin(
     let static_friction = table[t + 4u];
     let rolling_friction = table[t + 5u];
     let gamma = table[t + 6u];
-    let dt = params[0];
+    let dt = param(0u);
 
     // Hertz (or with a surface energy JKR) normal force and the Mindlin tangential stiffness.
     var a = 0.0lf;
@@ -161,7 +161,7 @@ fn hertz_mindlin(
     var rolling_torque = zero3();
     var rolling_resistance = 0.0lf;
     var moment = moment_before;
-    if (params[13] == 0.0lf) {
+    if (param(13u) == 0.0lf) {
         rolling_resistance = rolling_friction * abs(load);
     } else {
         let w = rel_spin - dot3(rel_spin, nrm) * nrm;
@@ -173,7 +173,7 @@ fn hertz_mindlin(
             moment *= lim / sqrt(m2);
             rolling_torque = -moment;
         } else {
-            let damping = params[14] * 2.0lf * sqrt(rolling_inertia * k_r);
+            let damping = param(14u) * 2.0lf * sqrt(rolling_inertia * k_r);
             rolling_torque = -(moment + damping * w);
         }
     }

@@ -4,7 +4,7 @@
 //
 // state: position 3N | velocity 3N | angular velocity 3N
 // loads: force 3N | torque 3N | rolling torque limit N
-// props: radius N | mass N | inverse mass N | inverse inertia N
+// props: radius N | mass N | inverse mass N | inverse inertia N | world N
 
 @group(0) @binding(0) var<storage, read_write> state: array<f64>;
 @group(0) @binding(1) var<storage, read> loads: array<f64>;
@@ -33,10 +33,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= n) {
         return;
     }
-    let dt = params[0];
+    set_world(i);
+    if (!stepping()) {
+        return;
+    }
+    let dt = param(0u);
     let half = 0.5lf * dt;
     var x = get3(3u * i);
-    if (params[11] == 0.0lf || body[i] == NO_BODY) {
+    if (param(11u) == 0.0lf || body[i] == NO_BODY) {
         var v = get3(3u * n + 3u * i);
         let w = get3(6u * n + 3u * i);
         v += load3(3u * i) * (props[2u * n + i] * half);
@@ -49,7 +53,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d = x - vec3<f64>(built[3u * i], built[3u * i + 1u], built[3u * i + 2u]);
     moved[i] = d.x * d.x + d.y * d.y + d.z * d.z;
     var out = 0u;
-    if (params[4] != 0.0lf) {
+    if (param(4u) != 0.0lf) {
         let lo = param3(5u);
         let hi = param3(8u);
         if (any(x < lo) || any(x > hi)) {

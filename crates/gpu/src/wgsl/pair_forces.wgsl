@@ -35,8 +35,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let j = pair_ij[2u * q + 1u];
+    set_world(i);
+    if (!stepping()) {
+        return;
+    }
     let body_i = ints[n + i];
-    if (params[11] != 0.0lf && body_i == ints[n + j] && body_i != NO_BODY) {
+    if (param(11u) != 0.0lf && body_i == ints[n + j] && body_i != NO_BODY) {
         // Members of one clump overlap by design.
         clear_output(q);
         return;
@@ -47,10 +51,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sum = ri + rj;
     let dist2 = len2(delta);
     let r_eff = ri * rj / sum;
-    let t = 7u * (ints[i] * u32(params[15]) + ints[j]);
+    let t = 7u * (ints[i] * u32(param(15u)) + ints[j]);
     // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off.
     var reach = sum;
-    if (params[16] != 0.0lf) {
+    if (param(16u) != 0.0lf) {
         reach = sum - cutoff_of(t, r_eff);
     }
     if (dist2 >= reach * reach) {

@@ -44,6 +44,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= n) {
         return;
     }
+    set_world(i);
+    if (!stepping()) {
+        return;
+    }
     var f = param3(1u) * props[n + i];
     var t = vec3<f64>(0.0lf, 0.0lf, 0.0lf);
     var lim = 0.0lf;
@@ -66,8 +70,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     put_load3(3u * i, f);
     put_load3(3u * n + 3u * i, t);
     loads[6u * n + i] = lim;
-    if (params[12] != 0.0lf && (params[11] == 0.0lf || body[i] == NO_BODY)) {
-        let half = 0.5lf * params[0];
+    if (param(12u) != 0.0lf && (param(11u) == 0.0lf || body[i] == NO_BODY)) {
+        let half = 0.5lf * param(0u);
         let v = get3(3u * n + 3u * i) + f * (props[2u * n + i] * half);
         let w = kick_spin(get3(6u * n + 3u * i), t, lim, props[3u * n + i] * half);
         put3(3u * n + 3u * i, v);

@@ -43,6 +43,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= n) {
         return;
     }
+    set_world(i);
+    if (!stepping()) {
+        return;
+    }
     let w0 = rows[4u * n + i];
     let w1 = rows[5u * n + i];
     status[i] = 0u;
@@ -55,7 +59,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let r = props[i];
     let m = props[n + i];
     let material = ints[i];
-    let mats = u32(params[15]);
+    let mats = u32(param(15u));
     let tol = 1.0e-9lf + 1.0e-6lf * r;
     var taken_cand: array<u32, KEEP>;
     var taken_point: array<vec3<f64>, KEEP>;

@@ -8,6 +8,7 @@
 @group(0) @binding(4) var<storage, read_write> bucket_items: array<u32>;
 @group(0) @binding(5) var<storage, read> dims: array<u32>;
 @group(0) @binding(6) var<storage, read> search: array<f64>;
+@group(0) @binding(7) var<storage, read> props: array<f64>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -19,7 +20,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let x = vec3<f64>(state[3u * i], state[3u * i + 1u], state[3u * i + 2u]);
-    let b = bucket_of(cell_of(x, search[0]), dims[3]);
+    let b = bucket_of(cell_of(x, search[0]), u32(props[4u * dims[0] + i]), dims[3]);
     let slot = atomicAdd(&bucket_count[b], 1u);
     if (slot < dims[4]) {
         bucket_items[b * dims[4] + slot] = i;

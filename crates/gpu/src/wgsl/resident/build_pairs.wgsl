@@ -39,6 +39,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let ri = props[i];
     let reach = search[1];
     let home = cell_of(x, search[0]);
+    let world = props[4u * n + i];
     var seen: array<u32, 27>;
     var buckets_seen = 0u;
     var count = 0u;
@@ -46,7 +47,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var dz = -1; dz <= 1; dz++) {
         for (var dy = -1; dy <= 1; dy++) {
             for (var dx = -1; dx <= 1; dx++) {
-                let b = bucket_of(home + vec3<i32>(dx, dy, dz), dims[3]);
+                let b = bucket_of(home + vec3<i32>(dx, dy, dz), u32(world), dims[3]);
                 // Two cells may share a bucket: visit it once.
                 var again = false;
                 for (var k = 0u; k < buckets_seen; k++) {
@@ -62,7 +63,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 let m = min(bucket_count[b], per_bucket);
                 for (var s = 0u; s < m; s++) {
                     let j = bucket_items[b * per_bucket + s];
-                    if (j <= i) {
+                    if (j <= i || props[4u * n + j] != world) {
                         continue;
                     }
                     let cut = ri + props[j] + reach;

@@ -14,6 +14,9 @@
 @group(0) @binding(10) var<storage, read_write> new_cands: array<u32>;
 @group(0) @binding(11) var<storage, read_write> new_history: array<f64>;
 @group(0) @binding(12) var<storage, read_write> rows: array<u32>;
+@group(0) @binding(13) var<storage, read> params: array<f64>;
+
+const PARAMS: u32 = 24u;
 
 fn position3(k: u32) -> vec3<f64> {
     return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
@@ -35,9 +38,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = position3(3u * i);
     let reach = props[i] + search[2];
     let geometries = dims[5];
+    // Only the geometries of the particle's own world.
+    let world = PARAMS * u32(props[4u * n + i]);
     var count = 0u;
     var overflow = false;
-    for (var g = 0u; g < geometries; g++) {
+    for (var g = u32(params[world + 19u]); g < u32(params[world + 20u]); g++) {
         let first = u32(geoms[8u * g + 1u]);
         var last = dims[6];
         if (g + 1u < geometries) {

@@ -1,6 +1,7 @@
 // After the drift: a rebuild when a particle has moved half the skin since the last one; the
-// first step in which a particle is not finite or has left the domain; a particle that touched
-// more walls than the wall kernel keeps in the step before.
+// first step in which a particle of a world is not finite or has left the domain (ctrl 8 + w); a
+// particle that touched more walls than the wall kernel keeps in the step before. Worlds that are
+// done are skipped; one whose steps just ended is checked once more (its last kick).
 
 @group(0) @binding(0) var<storage, read> state: array<f64>;
 @group(0) @binding(1) var<storage, read> counts: array<u32>;
@@ -9,6 +10,10 @@
 @group(0) @binding(4) var<storage, read> status: array<u32>;
 @group(0) @binding(5) var<storage, read_write> ctrl: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read> search: array<f64>;
+@group(0) @binding(7) var<storage, read> props: array<f64>;
+@group(0) @binding(8) var<storage, read> params: array<f64>;
+
+const PARAMS: u32 = 24u;
 
 fn finite(v: vec3<f64>) -> bool {
     let s = v.x + v.y + v.z;
@@ -26,11 +31,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= n) {
         return;
     }
+    let w = u32(props[4u * n + i]);
+    let flag = params[PARAMS * w + 17u];
+    if (flag == 0.0lf) {
+        return;
+    }
     if (moved[i] > search[3]) {
         atomicOr(&ctrl[1], 1u);
     }
     if (outside[i] != 0u || !finite(position3(3u * i)) || !finite(position3(3u * n + 3u * i))) {
-        atomicMin(&ctrl[2], atomicLoad(&ctrl[0]) - 1u);
+        let last = u32(params[PARAMS * w + 18u]) - 1u;
+        atomicMin(&ctrl[8u + w], min(atomicLoad(&ctrl[0]) - 1u, last));
     }
     if (status[i] != 0u) {
         atomicMax(&ctrl[3], 5u);

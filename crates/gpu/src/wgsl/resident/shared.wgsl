@@ -1,5 +1,6 @@
 // Shared by the device-resident kernels (crate::resident): the list layout and the cell hash.
 //
+// props: as the stage kernels' (block 4: each particle's world).
 // dims (u32): 0 particles N, 1 pair row capacity, 2 wall row capacity, 3 hash buckets M (a power
 //   of two), 4 bucket capacity, 5 geometries, 6 elements
 // search (f64): 0 inverse cell size, 1 pair reach beyond touching, 2 wall reach beyond touching,
@@ -32,8 +33,10 @@ fn cell_of(x: vec3<f64>, inv_cell: f64) -> vec3<i32> {
     return vec3<i32>(cell_coord(x.x, inv_cell), cell_coord(x.y, inv_cell), cell_coord(x.z, inv_cell));
 }
 
-// A cell's bucket: spatial hashing (Teschner et al. 2003), so the grid needs no bounds.
-fn bucket_of(c: vec3<i32>, buckets: u32) -> u32 {
-    let h = (u32(c.x) * 73856093u) ^ (u32(c.y) * 19349663u) ^ (u32(c.z) * 83492791u);
+// A cell's bucket: spatial hashing (Teschner et al. 2003), so the grid needs no bounds; the
+// world of a batch is hashed in, so that worlds in the same place fill different buckets.
+fn bucket_of(c: vec3<i32>, world: u32, buckets: u32) -> u32 {
+    let h = (u32(c.x) * 73856093u) ^ (u32(c.y) * 19349663u) ^ (u32(c.z) * 83492791u)
+        ^ (world * 2654435761u);
     return h & (buckets - 1u);
 }

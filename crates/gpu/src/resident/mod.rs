@@ -1,0 +1,283 @@
+//! Device-resident steps: a whole segment of steps ([`dem::sim::segment`]) with the particles,
+//! lists and histories kept on the GPU.
+//!
+//! Each step is one run of kernels with no host round trip: `begin` (the host's forced-rebuild
+//! flag for the step), `integrate`, `check` (half-skin displacement, failures), the rebuild
+//! kernels (`clear`, `bin`, `build_pairs`, `build_walls`, `sort_reverse`, `commit`; each returns
+//! at once when no rebuild is due), then `pair_forces`, `wall_forces` and `particle_sums` with the
+//! second half kick. The kernels of the check path are reused as they are; the lists they read
+//! have a fixed capacity per particle, so a rebuild needs no prefix sums and no host: a particle's
+//! pair row holds its j > i sorted by j (its history found by a merge with the old row), its
+//! reverse row the sorted slots where it is j, so every particle sums its contacts in a fixed
+//! order and results are deterministic on a given device. Cells are hashed into a power-of-two
+//! table of fixed-capacity buckets (no grid bounds to know). A row or bucket that overflows is
+//! reported through `ctrl`; the segment is then run again from its start (the host still holds
+//! it) with twice the capacity.
+//!
+//! The host reads a few control words every [`CHUNK`] steps (to stop a failed run early), and
+//! the state once at the end of the segment.
+
+use dem::contact::ContactHistory;
+use dem::sim::{Segment, SegmentEnd};
+
+use crate::{groups, vec3_at, GpuContext, GpuStages};
+
+mod run;
+pub(crate) mod world;
+use world::World;
+
+/// Steps between reads of the control words.
+const CHUNK: u64 = 64;
+/// Buckets per particle in the cell hash (rounded up to a power of two).
+const BUCKETS_PER_PARTICLE: usize = 2;
+pub(crate) const EMPTY: u32 = u32::MAX;
+
+/// Capacities of the fixed-size rows.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Capacity {
+    pub pair: usize,
+    pub wall: usize,
+    pub bucket: usize,
+}
+
+/// Why a try stopped short.
+enum Retry {
+    /// A capacity was too small (`ctrl[3]`'s code).
+    Overflow(u32),
+    /// The segment cannot run here (why: too large for a binding, a particle with too many
+    /// walls).
+    Decline(String),
+}
+
+/// The pipelines of the resident kernels.
+pub(crate) struct ResidentKernels {
+    begin: wgpu::ComputePipeline,
+    check: wgpu::ComputePipeline,
+    clear: wgpu::ComputePipeline,
+    bin: wgpu::ComputePipeline,
+    build_pairs: wgpu::ComputePipeline,
+    build_walls: wgpu::ComputePipeline,
+    sort_reverse: wgpu::ComputePipeline,
+    commit: wgpu::ComputePipeline,
+    geometry_loads: wgpu::ComputePipeline,
+}
+
+impl ResidentKernels {
+    /// `pipeline(name, parts, with_common)` compiles a kernel from its parts.
+    pub(crate) fn new(
+        pipeline: &dyn Fn(&str, &[&str], bool) -> wgpu::ComputePipeline,
+        elements: &str,
+    ) -> ResidentKernels {
+        const SHARED: &str = include_str!("../wgsl/resident/shared.wgsl");
+        ResidentKernels {
+            begin: pipeline(
+                "begin",
+                &[include_str!("../wgsl/resident/begin.wgsl")],
+                false,
+            ),
+            check: pipeline(
+                "check",
+                &[include_str!("../wgsl/resident/check.wgsl")],
+                false,
+            ),
+            clear: pipeline(
+                "clear",
+                &[include_str!("../wgsl/resident/clear.wgsl")],
+                false,
+            ),
+            bin: pipeline(
+                "bin",
+                &[SHARED, include_str!("../wgsl/resident/bin.wgsl")],
+                false,
+            ),
+            build_pairs: pipeline(
+                "build_pairs",
+                &[SHARED, include_str!("../wgsl/resident/build_pairs.wgsl")],
+                false,
+            ),
+            build_walls: pipeline(
+                "build_walls",
+                &[
+                    SHARED,
+                    elements,
+                    include_str!("../wgsl/resident/build_walls.wgsl"),
+                ],
+                false,
+            ),
+            sort_reverse: pipeline(
+                "sort_reverse",
+                &[include_str!("../wgsl/resident/sort_reverse.wgsl")],
+                false,
+            ),
+            commit: pipeline(
+                "commit",
+                &[include_str!("../wgsl/resident/commit.wgsl")],
+                false,
+            ),
+            geometry_loads: pipeline(
+                "geometry_loads",
+                &[include_str!("../wgsl/resident/geometry_loads.wgsl")],
+                false,
+            ),
+        }
+    }
+}
+
+/// One kernel launch of a step: pipeline, bind group, threads.
+struct Launch<'a> {
+    pipeline: &'a wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    threads: u32,
+}
+
+/// Launch helpers, shared with the stage-by-stage path in `lib.rs`.
+impl GpuContext {
+    pub(crate) fn bind(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        })
+    }
+
+    /// Copies `buffers` back (after what `encoder` holds) and waits for them.
+    pub(crate) fn read_back(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        buffers: &[&wgpu::Buffer],
+    ) -> Vec<Vec<u8>> {
+        let staging: Vec<wgpu::Buffer> = buffers
+            .iter()
+            .map(|b| {
+                let s = self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: None,
+                    size: b.size(),
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                encoder.copy_buffer_to_buffer(b, 0, &s, 0, b.size());
+                s
+            })
+            .collect();
+        self.queue.submit([encoder.finish()]);
+        for s in &staging {
+            s.slice(..).map_async(wgpu::MapMode::Read, |r| {
+                r.expect("mapping a read-back buffer");
+            });
+        }
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("waiting for the GPU");
+        staging
+            .iter()
+            .map(|s| {
+                s.slice(..)
+                    .get_mapped_range()
+                    .expect("a mapped buffer")
+                    .to_vec()
+            })
+            .collect()
+    }
+}
+
+impl GpuStages {
+    /// Runs a segment on the device (see the module notes); None when it cannot.
+    pub(crate) fn segment(&self, seg: &Segment) -> Option<SegmentEnd> {
+        if seg.particles.is_empty() || !Self::runs_pairs(&seg.inputs) {
+            return None;
+        }
+        let world = World::pack(seg)?;
+        self.run_worlds(&[world])?.pop()
+    }
+
+    /// Runs worlds side by side in the same launches, each for its own steps (see
+    /// [`world`]); None when they cannot run here.
+    pub(crate) fn run_worlds(&self, worlds: &[World]) -> Option<Vec<SegmentEnd>> {
+        let longest_row = worlds.iter().map(|w| w.longest_row).max().unwrap_or(0);
+        let longest_wall = worlds.iter().map(|w| w.longest_wall).max().unwrap_or(0);
+        let mut cap = Capacity {
+            pair: longest_row + longest_row / 4 + 4,
+            wall: longest_wall + 4,
+            bucket: 16,
+        };
+        for _ in 0..12 {
+            let tried = self.try_run(worlds, cap);
+            if tried.is_err() {
+                self.segments[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+            match tried {
+                Ok(ends) => return Some(ends),
+                Err(Retry::Overflow(1)) => cap.bucket *= 2,
+                Err(Retry::Overflow(2 | 3)) => cap.pair *= 2,
+                Err(Retry::Overflow(4)) => cap.wall *= 2,
+                Err(Retry::Overflow(code)) => {
+                    return self.decline(format!("an unknown overflow code {code}"))
+                }
+                Err(Retry::Decline(why)) => return self.decline(why),
+            }
+        }
+        self.decline(format!(
+            "its lists kept overflowing (pair rows of {}, wall rows of {}, buckets of {})",
+            cap.pair, cap.wall, cap.bucket
+        ))
+    }
+
+    /// Declines a segment: says why once per process (the steps then run stage by stage).
+    fn decline<T>(&self, why: String) -> Option<T> {
+        static SAID: std::sync::Once = std::sync::Once::new();
+        SAID.call_once(|| {
+            eprintln!("warning: the GPU runs this simulation stage by stage, copying the particles at every stage, because {why}");
+        });
+        None
+    }
+}
+
+fn encode(encoder: &mut wgpu::CommandEncoder, launches: &[&Launch]) {
+    let mut pass = encoder.begin_compute_pass(&Default::default());
+    for l in launches {
+        let (x, y) = if l.threads == 0 {
+            (1, 1)
+        } else {
+            groups(l.threads)
+        };
+        pass.set_pipeline(l.pipeline);
+        pass.set_bind_group(0, &l.group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+/// The overflow word of `ctrl`: a capacity to raise, or a particle the wall kernel cannot take.
+fn check_overflow(ctrl: &[u8]) -> Result<(), Retry> {
+    let w: Vec<u32> = bytemuck::pod_collect_to_vec(ctrl);
+    match w[3] {
+        0 => Ok(()),
+        5 => Err(Retry::Decline(
+            "a particle touched more walls at once than the wall kernel keeps".to_string(),
+        )),
+        code => Err(Retry::Overflow(code)),
+    }
+}
+
+pub(crate) fn put_history(out: &mut [f64], q: usize, h: &ContactHistory) {
+    let (t, r) = (h.tangential, h.rolling);
+    out[6 * q..6 * q + 6].copy_from_slice(&[t.x, t.y, t.z, r.x, r.y, r.z]);
+}
+
+pub(crate) fn history_at(h: &[f64], q: usize) -> ContactHistory {
+    ContactHistory {
+        tangential: vec3_at(h, 6 * q),
+        rolling: vec3_at(h, 6 * q + 3),
+    }
+}

@@ -46,6 +46,7 @@
 //!   the contact law that pairs and walls share; `elements.wgsl`, the closest point of a wall
 //!   element). Clumps, bonds and geometry motion stay in the pipeline on the host.
 
+pub mod batch;
 mod resident;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -421,7 +422,7 @@ fn params_of(
         RollingModel::Epsd { viscous_damping } => (1.0, viscous_damping),
     };
     let g = params.gravity;
-    vec![
+    let block = vec![
         params.time_step,
         g.x,
         g.y,
@@ -439,7 +440,8 @@ fn params_of(
         viscous,
         materials as f64,
         if cohesive { 1.0 } else { 0.0 },
-        // Stepping; the world's steps and geometries are set where a segment needs them.
+        // Stepping; the world's steps, geometries and particles are set where a segment needs
+        // them.
         1.0,
         0.0,
         0.0,
@@ -447,8 +449,9 @@ fn params_of(
         0.0,
         0.0,
         0.0,
-        0.0,
-    ]
+    ];
+    debug_assert_eq!(block.len(), PARAMS);
+    block
 }
 
 /// The process's GPU context, made on first use: compiling the kernels takes a moment, and every
@@ -464,7 +467,11 @@ pub fn shared_context() -> Result<Arc<GpuContext>, String> {
 /// test files, studies and `--backend gpu` can choose it. Call once at start-up.
 pub fn register() {
     dem::sim::register_backend("gpu", || {
-        Ok(Box::new(GpuStages::with_context(shared_context()?)))
+        let stages = GpuStages::with_context(shared_context()?);
+        Ok(Box::new(match dem::sim::batch_group() {
+            Some(group) => stages.in_batch_group(group),
+            None => stages,
+        }))
     });
 }
 
@@ -478,6 +485,8 @@ pub struct GpuStages {
     /// Segments run on the device, segments declined (then stepped stage by stage), and tries
     /// run again with more room after a list overflowed.
     segments: Arc<[AtomicUsize; 3]>,
+    /// The batch group these stages joined, if any (see [`batch`]).
+    member: Option<Arc<batch::Member>>,
 }
 
 impl GpuStages {
@@ -491,7 +500,15 @@ impl GpuStages {
             ctx,
             handed_to_cpu: Arc::new(AtomicUsize::new(0)),
             segments: Arc::default(),
+            member: None,
         }
+    }
+
+    /// These stages, joined to batch `group`: their segments run in the same launches as those of
+    /// the group's other members that run at the same time (see [`batch`]).
+    pub fn in_batch_group(mut self, group: u64) -> GpuStages {
+        self.member = Some(Arc::new(batch::join(group)));
+        self
     }
 
     /// How many stage calls went to the CPU back end so far.

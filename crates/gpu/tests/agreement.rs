@@ -3,42 +3,16 @@
 //! Mesa's lavapipe (`apt-get install mesa-vulkan-drivers`); with no adapter at all they say so and
 //! pass, unless `DEMCAL_REQUIRE_GPU=1` (as CI sets) makes that a failure.
 
-use std::sync::{Arc, OnceLock};
-
 use dem::contact::RollingModel;
 use dem::geometry::{Element, Geometry};
-use dem::material::{Interaction, Material, MaterialTable};
+use dem::material::{Interaction, MaterialTable};
 use dem::particles::Particles;
 use dem::sim::{Simulation, SimulationParams};
-use dem_gpu::{GpuContext, GpuStages};
+use dem_gpu::GpuStages;
 use glam::DVec3;
 
-/// One context per test binary: compiling the kernels on lavapipe takes a moment.
-fn gpu() -> Option<Arc<GpuContext>> {
-    static CTX: OnceLock<Result<Arc<GpuContext>, String>> = OnceLock::new();
-    match CTX.get_or_init(|| GpuContext::new().map(Arc::new)) {
-        Ok(c) => {
-            eprintln!("GPU: {}", c.adapter());
-            Some(c.clone())
-        }
-        Err(e) if std::env::var_os("DEMCAL_REQUIRE_GPU").is_some() => {
-            panic!("DEMCAL_REQUIRE_GPU is set and there is no GPU: {e}")
-        }
-        Err(e) => {
-            eprintln!("skipped: {e}");
-            None
-        }
-    }
-}
-
-fn material(name: &str, youngs: f64, density: f64) -> Material {
-    Material {
-        name: name.into(),
-        density,
-        poisson_ratio: 0.3,
-        shear_modulus: youngs / 2.6,
-    }
-}
+mod common;
+use common::{gpu, material};
 
 fn table(restitution: f64, friction: f64, rolling: f64, surface_energy: f64) -> MaterialTable {
     let mut t = MaterialTable::new();
@@ -539,66 +513,7 @@ fn crowded_lists_grow_and_still_match_the_cpu() {
 /// different laws between the spheres and against the steel (so each material pair reads its own
 /// row of the table).
 fn lifted_cylinder() -> Simulation {
-    use dem::geometry::Motion;
-    let mut t = MaterialTable::new();
-    let a = t.add_material(material("bead", 5e6 * 2.6, 1500.0));
-    let b = t.add_material(material("steel", 7e10 * 2.6, 7850.0));
-    let law = |restitution, friction, rolling| Interaction {
-        restitution,
-        static_friction: friction,
-        rolling_friction: rolling,
-        surface_energy: 0.0,
-    };
-    t.set_interaction(a, a, law(0.4, 0.6, 0.15));
-    t.set_interaction(a, b, law(0.5, 0.3, 0.05));
-    t.set_interaction(b, b, law(0.5, 0.3, 0.05));
-    let mut seed: u64 = 99;
-    let mut rnd = move || {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let mut p = Particles::default();
-    for k in 0..120 {
-        let (ang, rad) = (rnd() * std::f64::consts::TAU, rnd().sqrt() * 0.006);
-        let x = DVec3::new(rad * ang.cos(), rad * ang.sin(), 0.0012 + 0.0011 * k as f64);
-        p.push(x, DVec3::new(0.0, 0.0, -0.3), 0.001, 1500.0, 0);
-    }
-    let plate = Geometry::new(
-        "plate",
-        1,
-        vec![Element::Plane {
-            point: DVec3::ZERO,
-            normal: DVec3::Z,
-        }],
-    );
-    let cylinder = Geometry::new(
-        "cylinder",
-        1,
-        vec![Element::CylinderShell {
-            base: DVec3::ZERO,
-            axis: DVec3::Z,
-            radius: 0.0075,
-            length: 0.2,
-        }],
-    )
-    .with_motion(vec![Motion::Translation {
-        velocity: DVec3::new(0.0, 0.0, 0.1),
-        start: 0.02,
-        end: 1.0,
-    }]);
-    Simulation::new(
-        p,
-        t,
-        vec![plate, cylinder],
-        SimulationParams {
-            time_step: 1e-5,
-            gravity: DVec3::new(0.0, 0.0, -9.81),
-            skin: 0.0002,
-            ..Default::default()
-        },
-    )
+    common::heap(&common::Heap::default())
 }
 
 #[test]

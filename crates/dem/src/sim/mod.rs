@@ -34,7 +34,8 @@ pub use cpu::{kick_spin, CpuBackend};
 pub use extension::StepExtension;
 pub use params::{SimError, SimulationParams, StageTimers};
 pub use registry::{
-    backend_choices, make_backend, register_backend, resolve_backend, BackendMaker, BACKEND_NAMES,
+    backend_choices, batch_group, in_batch_group, make_backend, new_batch_group, register_backend,
+    resolve_backend, BackendMaker, BACKEND_NAMES,
 };
 pub use segment::{GeometryTrack, Segment, SegmentEnd};
 

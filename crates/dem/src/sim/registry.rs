@@ -4,7 +4,39 @@
 
 use super::backend::Backend;
 use super::cpu::CpuBackend;
+use std::cell::Cell;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::RwLock;
+
+thread_local! {
+    static BATCH_GROUP: Cell<Option<u64>> = const { Cell::new(None) };
+}
+
+/// A new batch group (see [`in_batch_group`]).
+pub fn new_batch_group() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
+}
+
+/// Runs `f` with the back ends it makes on this thread joined to batch `group`: a back end that
+/// batches (the GPU) advances the simulations of one group that run at the same time in the same
+/// kernel launches; the CPU ignores it. A study's runner puts the runs of a stage in one group.
+pub fn in_batch_group<R>(group: u64, f: impl FnOnce() -> R) -> R {
+    let before = BATCH_GROUP.with(|g| g.replace(Some(group)));
+    struct Restore(Option<u64>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            BATCH_GROUP.with(|g| g.set(self.0));
+        }
+    }
+    let _restore = Restore(before);
+    f()
+}
+
+/// The batch group of back ends made on this thread now, if any.
+pub fn batch_group() -> Option<u64> {
+    BATCH_GROUP.with(|g| g.get())
+}
 
 /// Makes a back end, or says why it cannot (no GPU, no f64 shaders, ...).
 pub type BackendMaker = fn() -> Result<Box<dyn Backend>, String>;

@@ -199,7 +199,10 @@ impl GpuStages {
             return None;
         }
         let world = World::pack(seg)?;
-        self.run_worlds(&[world])?.pop()
+        match &self.member {
+            Some(member) => self.run_in_batch(member, world),
+            None => self.run_worlds(&[world])?.pop(),
+        }
     }
 
     /// Runs worlds side by side in the same launches, each for its own steps (see

@@ -16,7 +16,7 @@ const NO_BODY: u32 = 0xffffffffu;
 const PARAMS: u32 = 24u;
 
 // The params block of the particle a thread works for (set_world).
-var<private> pbase: u32 = 0u;
+var<private> pbase: u32;
 
 fn set_world(i: u32) {
     pbase = PARAMS * u32(props[4u * counts[0] + i]);

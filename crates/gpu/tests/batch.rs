@@ -1,0 +1,209 @@
+//! Batches: simulations that run at the same time in one batch group share kernel launches, and
+//! each ends exactly as it would alone, whatever its neighbours (their parameters, time steps,
+//! particle counts, moving walls, numbers of steps, or a failure among them).
+
+use std::sync::Arc;
+
+use dem::contact::RollingModel;
+use dem::sim::Simulation;
+use dem_gpu::batch::batch_stats;
+use dem_gpu::{GpuContext, GpuStages};
+use glam::DVec3;
+
+mod common;
+use common::{gpu, heap, Heap};
+
+/// A scene and the steps it runs, in calls to `run`.
+struct Case {
+    name: &'static str,
+    make: fn() -> Simulation,
+    runs: &'static [u64],
+}
+
+fn heap_a() -> Simulation {
+    heap(&Heap::default())
+}
+
+fn heap_b() -> Simulation {
+    heap(&Heap {
+        seed: 7,
+        spheres: 80,
+        time_step: 8e-6,
+        friction: 0.3,
+    })
+}
+
+fn heap_c() -> Simulation {
+    let mut s = heap(&Heap {
+        seed: 3,
+        spheres: 150,
+        time_step: 1.2e-5,
+        friction: 0.9,
+    });
+    s.params.rolling_model = RollingModel::Epsd {
+        viscous_damping: 0.3,
+    };
+    s.params.gravity = DVec3::new(0.5, 0.0, -9.81);
+    s
+}
+
+/// A heap with one sphere thrown sideways at 100 m/s: it bounces off the cylinder and leaves the
+/// domain within a few hundred steps.
+fn escaping() -> Simulation {
+    let mut s = heap(&Heap {
+        seed: 11,
+        spheres: 40,
+        ..Heap::default()
+    });
+    s.params.domain = Some((DVec3::splat(-0.05), DVec3::splat(0.3)));
+    s.particles.velocity[0] = DVec3::new(100.0, 0.0, 0.0);
+    s
+}
+
+const CASES: &[Case] = &[
+    Case {
+        name: "heap a",
+        make: heap_a,
+        runs: &[1500, 1500],
+    },
+    Case {
+        name: "heap b (80 spheres, dt 8e-6)",
+        make: heap_b,
+        runs: &[700, 2100],
+    },
+    Case {
+        name: "heap c (150 spheres, epsd, tilted gravity)",
+        make: heap_c,
+        runs: &[2500],
+    },
+    Case {
+        name: "escaping sphere",
+        make: escaping,
+        runs: &[1000],
+    },
+];
+
+/// What a case ended with: the state, the geometry loads, and the error of a failed run.
+#[derive(Debug, PartialEq)]
+struct End {
+    position: Vec<DVec3>,
+    velocity: Vec<DVec3>,
+    angular_velocity: Vec<DVec3>,
+    force: Vec<DVec3>,
+    loads: Vec<DVec3>,
+    steps: u64,
+    error: Option<String>,
+}
+
+fn run(case: &Case, stages: GpuStages) -> End {
+    let mut sim = (case.make)().with_backend(Box::new(stages.clone()));
+    let mut error = None;
+    for &steps in case.runs {
+        if let Err(e) = sim.run(steps) {
+            error = Some(e.to_string());
+            break;
+        }
+    }
+    let (segments, declined, retried) = stages.segments();
+    eprintln!(
+        "{}: {segments} segments, {declined} declined, {retried} retried",
+        case.name
+    );
+    assert!(
+        segments > 0 && declined == 0,
+        "{}: {segments} segments, {declined} declined",
+        case.name
+    );
+    let p = &sim.particles;
+    End {
+        position: p.position.clone(),
+        velocity: p.velocity.clone(),
+        angular_velocity: p.angular_velocity.clone(),
+        force: p.force.clone(),
+        loads: sim.geometries.iter().map(|g| g.load.force).collect(),
+        steps: sim.steps,
+        error,
+    }
+}
+
+fn together(ctx: &Arc<GpuContext>) -> Vec<End> {
+    let group = dem::sim::new_batch_group();
+    std::thread::scope(|scope| {
+        let threads: Vec<_> = CASES
+            .iter()
+            .map(|case| {
+                let stages = GpuStages::with_context(ctx.clone()).in_batch_group(group);
+                scope.spawn(move || run(case, stages))
+            })
+            .collect();
+        threads.into_iter().map(|t| t.join().unwrap()).collect()
+    })
+}
+
+#[test]
+fn a_batch_gives_each_simulation_the_bits_it_gets_alone() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let t = std::time::Instant::now();
+    let alone: Vec<End> = CASES
+        .iter()
+        .map(|case| run(case, GpuStages::with_context(ctx.clone())))
+        .collect();
+    let alone_s = t.elapsed().as_secs_f64();
+    let before = batch_stats();
+    let t = std::time::Instant::now();
+    let batched = together(&ctx);
+    let together_s = t.elapsed().as_secs_f64();
+    let after = batch_stats();
+    eprintln!(
+        "alone one after another {alone_s:.1} s, batched {together_s:.1} s; {} batches of {} worlds (largest {})",
+        after.batches - before.batches,
+        after.worlds - before.worlds,
+        after.largest
+    );
+    assert!(
+        after.batches > before.batches && after.largest >= 3,
+        "the simulations never shared launches: {before:?} -> {after:?}"
+    );
+    for ((case, a), b) in CASES.iter().zip(&alone).zip(&batched) {
+        let differs = |x: &[DVec3], y: &[DVec3]| {
+            x.iter()
+                .zip(y)
+                .map(|(p, q)| (*p - *q).abs().max_element())
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            a == b,
+            "{}: batched differs from alone: steps {} vs {}, errors {:?} vs {:?}, largest differences: position {:e}, velocity {:e}, force {:e}, loads {:?} vs {:?}",
+            case.name,
+            a.steps,
+            b.steps,
+            a.error,
+            b.error,
+            differs(&a.position, &b.position),
+            differs(&a.velocity, &b.velocity),
+            differs(&a.force, &b.force),
+            a.loads, b.loads
+        );
+    }
+    // The escaping sphere fails in the batch as alone, and the others run to their ends.
+    let failed = alone[3].error.as_deref().unwrap_or("");
+    assert!(failed.contains("domain"), "{failed}");
+    assert!(
+        alone[3].steps < 1000,
+        "failed after {} steps",
+        alone[3].steps
+    );
+    for (case, a) in CASES.iter().zip(&alone).take(3) {
+        assert_eq!(a.error, None, "{}", case.name);
+        assert_eq!(a.steps, case.runs.iter().sum::<u64>(), "{}", case.name);
+    }
+    // The recorded loads compared above are not all zero (spheres touch a wall in the last step).
+    assert!(
+        alone[..3]
+            .iter()
+            .any(|a| a.loads.iter().any(|l| l.length() > 1e-4)),
+        "no geometry load in any heap"
+    );
+}

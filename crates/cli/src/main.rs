@@ -13,7 +13,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use progress::{check_count, LogLine};
+use progress::{check_count, check_jobs, LogLine};
 
 #[derive(Parser)]
 #[command(
@@ -91,7 +91,8 @@ enum Command {
     /// <study>.db next to it, then the report in report/ next to it.
     Run {
         study: PathBuf,
-        /// Simulations at once; each gets its share of the cores.
+        /// Simulations at once; each gets its share of the cores. With the GPU back end, the runs
+        /// per batch: simulations that run at once share the GPU's kernel launches.
         #[arg(long, default_value_t = 1)]
         jobs: usize,
         /// Move the stored results aside (kept as <study>.db.old-<time>) and start over.
@@ -134,11 +135,13 @@ enum Command {
         #[command(subcommand)]
         action: SurrogateCommand,
     },
-    /// Run a peer benchmark and print particle-steps per second.
+    /// Run a peer benchmark and print particle-steps per second (batch: simulations per hour).
     Bench {
         /// settle: 21 160 spheres settling in a box; settle-wide: the box widened 8 times in x
-        /// and y (1 444 000 spheres, 5 000 steps); bonded: the seed-000 stalk specimen crushed.
-        #[arg(value_parser = ["settle", "settle-wide", "bonded"])]
+        /// and y (1 444 000 spheres, 5 000 steps); bonded: the seed-000 stalk specimen crushed;
+        /// batch: 32 quickstart repose tests (seeds 1-32) made as a study stage makes them, on
+        /// the back end chosen, then on the CPU runner.
+        #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch"])]
         name: String,
         #[arg(long)]
         steps: Option<u64>,
@@ -147,6 +150,18 @@ enum Command {
         /// Run the stages on the CPU or the GPU.
         #[arg(long, value_parser = ["cpu", "gpu"], default_value = "cpu")]
         backend: String,
+        /// batch: how many runs (seeds 1..N).
+        #[arg(long, default_value_t = 32)]
+        runs: usize,
+        /// batch: runs at once on the chosen back end (on the GPU, runs per batch; default: all).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// batch: runs at once on the CPU runner it is compared with (default: the cores).
+        #[arg(long)]
+        cpu_jobs: Option<usize>,
+        /// batch: the test file to run instead of the quickstart repose test.
+        #[arg(long)]
+        test: Option<PathBuf>,
     },
 }
 
@@ -658,7 +673,14 @@ fn main() -> ExitCode {
                 steps,
                 threads,
                 backend,
-            } => set_threads(threads).and_then(|_| bench(&name, steps, &backend)),
+                runs,
+                jobs,
+                cpu_jobs,
+                test,
+            } => set_threads(threads).and_then(|_| match name.as_str() {
+                "batch" => bench_batch(test.as_deref(), runs, jobs, cpu_jobs, &backend),
+                _ => bench(&name, steps, &backend),
+            }),
         };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -676,7 +698,12 @@ fn run_study(
     retry_failed: bool,
     backend: Option<String>,
 ) -> Result<(), String> {
-    check_count("--jobs", jobs)?;
+    // On the GPU, jobs are the runs per batch.
+    let gpu = match &backend {
+        Some(b) => b == "gpu",
+        None => study::Study::load(path).is_ok_and(|s| s.backend == "gpu"),
+    };
+    check_jobs("--jobs", jobs, gpu)?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
     // The first Ctrl-C stops the running simulations and keeps every finished one; the store is
@@ -694,7 +721,17 @@ fn run_study(
         retry_failed,
         backend,
     };
-    print!("{}", study::run(path, &opts, interrupted)?);
+    let result = study::run(path, &opts, interrupted);
+    let batches = dem_gpu::batch::batch_stats();
+    if batches.batches > 0 {
+        eprintln!(
+            "GPU batches: {} runs of launches shared by {:.1} simulations on average (largest {})",
+            batches.batches,
+            batches.worlds as f64 / batches.batches as f64,
+            batches.largest
+        );
+    }
+    print!("{}", result?);
     Ok(())
 }
 
@@ -899,6 +936,77 @@ fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<()
         snapshots,
         dir.display()
     );
+    Ok(())
+}
+
+/// The quickstart's repose test, the batch benchmark's default.
+const QUICKSTART_REPOSE: &str = include_str!("../../../examples/quickstart/repose.toml");
+
+/// `demcal bench batch`: the runs on the chosen back end, then (when that is the GPU) on the
+/// CPU runner, as simulations per hour.
+fn bench_batch(
+    test: Option<&Path>,
+    runs: usize,
+    jobs: Option<usize>,
+    cpu_jobs: Option<usize>,
+    backend: &str,
+) -> Result<(), String> {
+    use virtual_tests::batch_bench::run_batch;
+    if runs == 0 || runs > 100_000 {
+        return Err(format!("--runs {runs}: expected 1 to 100000"));
+    }
+    let file = match test {
+        Some(path) => virtual_tests::TestFile::load(path)?,
+        None => virtual_tests::TestFile::parse("quickstart repose.toml", QUICKSTART_REPOSE)?,
+    };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let backend = chosen_backend(backend)?;
+    let mut sides = vec![(
+        backend,
+        jobs.unwrap_or(if backend == "cpu" { cores } else { runs }),
+    )];
+    if backend != "cpu" {
+        sides.push(("cpu", cpu_jobs.unwrap_or(cores)));
+    }
+    let mut per_hour = Vec::new();
+    for (backend, jobs) in sides {
+        check_jobs("--jobs", jobs, backend != "cpu")?;
+        let bar = progress_bar(runs as u64);
+        let before = dem_gpu::batch::batch_stats();
+        let r = run_batch(&file, runs, jobs, backend, &|_| bar.inc(1))?;
+        bar.finish_and_clear();
+        let after = dem_gpu::batch::batch_stats();
+        let (mean, sd) = r.mean_sd();
+        let batches = if backend == "cpu" {
+            String::new()
+        } else {
+            format!(
+                ", {} batches of {:.1} simulations on average (largest {})",
+                after.batches - before.batches,
+                (after.worlds - before.worlds) as f64
+                    / (after.batches - before.batches).max(1) as f64,
+                after.largest
+            )
+        };
+        println!(
+            "batch {backend}: {runs} runs of {} ({}), {jobs} at a time: {:.1} s, {:.1} simulations per hour; first response {mean:.3} +- {sd:.3} (sd over {} runs){batches}",
+            file.test,
+            file.name,
+            r.wall_s,
+            r.per_hour(),
+            r.responses.len()
+        );
+        for (seed, why) in &r.failures {
+            println!("  seed {seed} failed: {why}");
+        }
+        per_hour.push(r.per_hour());
+    }
+    if let [gpu, cpu] = per_hour[..] {
+        println!(
+            "batch: the {backend} makes {:.2}x the simulations per hour of the CPU runner",
+            gpu / cpu
+        );
+    }
     Ok(())
 }
 

@@ -53,6 +53,24 @@ impl LogLine {
 /// compute-bound); a hundred thousand would only spend minutes starting threads.
 pub const THREADS_PER_CORE: usize = 4;
 
+/// Most runs in one GPU batch: each is a thread that mostly waits for the batch, and its
+/// particles share the device's memory with the others.
+pub const MOST_PER_BATCH: usize = 1024;
+
+/// Checks a job count: on the GPU jobs are the runs per batch, up to [`MOST_PER_BATCH`]; on the
+/// CPU as [`check_count`].
+pub fn check_jobs(flag: &str, n: usize, gpu: bool) -> Result<(), String> {
+    if !gpu {
+        return check_count(flag, n);
+    }
+    if n == 0 || n > MOST_PER_BATCH {
+        return Err(format!(
+            "{flag} {n}: expected 1 to {MOST_PER_BATCH} runs per GPU batch"
+        ));
+    }
+    Ok(())
+}
+
 /// Checks a thread or job count given with `flag` against this machine's cores.
 pub fn check_count(flag: &str, n: usize) -> Result<(), String> {
     if n == 0 {

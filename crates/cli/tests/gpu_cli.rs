@@ -267,4 +267,64 @@ fn a_gpu_study_killed_mid_way_resumes_and_matches_the_cpu() {
         // still catches a lost law (a heap without friction lies below 5°).
         assert_close("angle of repose", parse(&g.2), parse(&c.2), 5.0);
     }
+
+    // The same study with both runs in one batch (`--jobs 2`): the same numbers as one at a
+    // time, since a simulation's result does not depend on its neighbours in a batch.
+    let batched_dir = temp_dir("study-gpu-batch");
+    let batched = study(&batched_dir, "gpu");
+    let out = demcal()
+        .args(["run".as_ref(), batched.as_os_str()])
+        .args(["--jobs", "2"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    ok(out);
+    check_gpu(&err);
+    if !err.contains("running on the CPU") {
+        assert!(
+            err.contains("(largest 2)"),
+            "the runs were not batched: {err}"
+        );
+    }
+    assert_eq!(responses(&batched_dir), after);
+}
+
+/// `demcal bench batch` on the CPU runner (its GPU side is the study above, batched): the line it
+/// prints, and counts it refuses.
+#[test]
+fn bench_batch_prints_simulations_per_hour() {
+    let dir = temp_dir("bench-batch");
+    let test = dir.join("repose.toml");
+    std::fs::write(&test, REPOSE).unwrap();
+    let out = ok(demcal()
+        .args(["bench", "batch", "--runs", "3", "--jobs", "2", "--test"])
+        .arg(&test)
+        .output()
+        .unwrap());
+    let line = out.lines().next().unwrap();
+    assert!(
+        line.starts_with("batch cpu: 3 runs of angle_of_repose (")
+            && line.contains(" 2 at a time: "),
+        "{line}"
+    );
+    let per_hour: f64 = line
+        .split(" simulations per hour")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(per_hour > 0.0, "{line}");
+    assert!(line.contains("(sd over 3 runs)"), "{line}");
+    for bad in [["--runs", "0"], ["--jobs", "0"]] {
+        let out = demcal()
+            .args(["bench", "batch", "--test"])
+            .arg(&test)
+            .args(bad)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(&format!("{} 0", bad[0])), "{err}");
+    }
 }

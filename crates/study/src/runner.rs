@@ -1,5 +1,6 @@
 //! Running simulations on this machine: `jobs` runs at once, each in its own rayon pool holding
-//! its share of the cores, with a progress bar per stage (and a line per job) on a terminal and
+//! its share of the cores (with `backend = "gpu"`, the runs that run at the same time advance in
+//! the same kernel launches: `jobs` is then the runs per batch), with a progress bar per stage (and a line per job) on a terminal and
 //! otherwise plain log lines: one per finished run, and one per running job every
 //! [`log_interval`]. Finished runs go to the store one transaction each, from this thread only,
 //! so the store never sees two writers.
@@ -96,6 +97,8 @@ impl Execute for LocalExecutor<'_> {
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| format!("cannot start {jobs} job(s) of {threads} thread(s): {e}"))?;
         let every = log_interval();
+        // On the GPU the jobs of a stage form one batch (see dem_gpu::batch); the CPU ignores it.
+        let batch = dem::sim::new_batch_group();
         let queue = Mutex::new(runs.iter().cloned().collect::<VecDeque<_>>());
         let (tx, rx) = mpsc::channel::<(RunSpec, Option<RunRecord>)>();
         let mut finished = Vec::new();
@@ -144,7 +147,10 @@ impl Execute for LocalExecutor<'_> {
                             }
                         };
                         let job = Job::new(study, &spec);
-                        let rec = pool.install(|| job.execute(interrupted, &report));
+                        // The stage's runs that run at the same time share the GPU's launches.
+                        let rec = pool.install(|| {
+                            dem::sim::in_batch_group(batch, || job.execute(interrupted, &report))
+                        });
                         if tx.send((spec, rec)).is_err() {
                             break;
                         }

@@ -11,6 +11,7 @@
 //! and a formula for testing studies ([`function`]). [`registry`] lists them.
 
 pub mod angle_of_repose;
+pub mod batch_bench;
 pub mod file;
 pub mod function;
 pub mod harness;

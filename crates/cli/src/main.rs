@@ -91,10 +91,11 @@ enum Command {
     /// <study>.db next to it, then the report in report/ next to it.
     Run {
         study: PathBuf,
-        /// Simulations at once; each gets its share of the cores. With the GPU back end, the runs
-        /// per batch: simulations that run at once share the GPU's kernel launches.
-        #[arg(long, default_value_t = 1)]
-        jobs: usize,
+        /// Simulations at once; each gets its share of the cores (default 1). With the GPU back
+        /// end, the runs per batch: simulations that run at once share the GPU's kernel launches
+        /// (default: a stage's missing runs in one batch, up to 1024).
+        #[arg(long)]
+        jobs: Option<usize>,
         /// Move the stored results aside (kept as <study>.db.old-<time>) and start over.
         #[arg(long)]
         restart: bool,
@@ -693,16 +694,17 @@ fn main() -> ExitCode {
 
 fn run_study(
     path: &Path,
-    jobs: usize,
+    jobs: Option<usize>,
     restart: bool,
     retry_failed: bool,
     backend: Option<String>,
 ) -> Result<(), String> {
-    // On the GPU, jobs are the runs per batch.
+    // On the GPU, jobs are the runs per batch: by default all of a stage's missing runs.
     let gpu = match &backend {
         Some(b) => b == "gpu",
         None => study::Study::load(path).is_ok_and(|s| s.backend == "gpu"),
-    };
+    } && dem::sim::resolve_backend("gpu").is_ok_and(|(chosen, _)| chosen == "gpu");
+    let jobs = jobs.unwrap_or(if gpu { progress::MOST_PER_BATCH } else { 1 });
     check_jobs("--jobs", jobs, gpu)?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();

@@ -270,20 +270,25 @@ impl GpuStages {
                 ],
                 n,
             ),
-            launch(
-                &k.geometry_loads,
-                &[
-                    &dims,
-                    &rows,
-                    &cands,
-                    &wall_output,
-                    &geometry_loads,
-                    &ctrl,
-                    &par,
-                ],
-                geometries.max(1),
-            ),
         ];
+        // Launched only in the steps where some world takes its last step.
+        let loads_launch = launch(
+            &k.geometry_loads,
+            &[
+                &dims,
+                &rows,
+                &cands,
+                &wall_output,
+                &geometry_loads,
+                &ctrl,
+                &par,
+            ],
+            geometries.max(1),
+        );
+        let last_steps: std::collections::BTreeSet<usize> = worlds
+            .iter()
+            .map(|w| (w.steps as usize).saturating_sub(1))
+            .collect();
 
         // One step's launches, in order (the same every step).
         let step: Vec<&Launch> = [&begin, &integrate, &check]
@@ -332,6 +337,9 @@ impl GpuStages {
                     );
                 }
                 encode(&mut encoder, &step);
+                if last_steps.contains(&s) {
+                    encode(&mut encoder, &[&loads_launch]);
+                }
             }
             done += chunk;
             out = c.read_back(encoder, &[&ctrl]);

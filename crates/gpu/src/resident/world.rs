@@ -371,7 +371,7 @@ impl Merged {
             for s in 0..steps {
                 for w in worlds.iter().filter(|w| !w.moving.is_empty()) {
                     let rows = w.moving_elements();
-                    let at = s.min(w.steps as usize - 1);
+                    let at = s.min((w.steps as usize).saturating_sub(1));
                     m.element_track
                         .extend(&w.element_track[16 * rows * at..16 * rows * (at + 1)]);
                 }
@@ -382,7 +382,7 @@ impl Merged {
                         let v = if w.moving.is_empty() {
                             w.geometry_velocity[g]
                         } else {
-                            let at = s.min(w.steps as usize - 1);
+                            let at = s.min((w.steps as usize).saturating_sub(1));
                             w.velocity_track[at * w.geometry_first.len() + g]
                         };
                         m.geoms_track.extend(v);

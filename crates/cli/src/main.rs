@@ -1,6 +1,7 @@
 //! `demcal`: the command-line front end. Each subcommand parses its arguments and hands the work to
 //! a library crate; nothing here knows physics.
 
+mod bench;
 mod progress;
 
 use clap::{Parser, Subcommand};
@@ -93,7 +94,7 @@ enum Command {
         study: PathBuf,
         /// Simulations at once; each gets its share of the cores (default 1). With the GPU back
         /// end, the runs per batch: simulations that run at once share the GPU's kernel launches
-        /// (default: a stage's missing runs in one batch, up to 1024).
+        /// (default: a stage's missing runs in one batch, up to 128; at most 1024).
         #[arg(long)]
         jobs: Option<usize>,
         /// Move the stored results aside (kept as <study>.db.old-<time>) and start over.
@@ -513,7 +514,7 @@ fn run_test(
 }
 
 /// The back end `name` when this machine has it, else the CPU, said once on standard error.
-fn chosen_backend(name: &str) -> Result<&'static str, String> {
+pub(crate) fn chosen_backend(name: &str) -> Result<&'static str, String> {
     let (chosen, why) = dem::sim::resolve_backend(name)?;
     if let Some(why) = why {
         eprintln!("warning: backend \"{name}\": {why}");
@@ -679,8 +680,11 @@ fn main() -> ExitCode {
                 cpu_jobs,
                 test,
             } => set_threads(threads).and_then(|_| match name.as_str() {
-                "batch" => bench_batch(test.as_deref(), runs, jobs, cpu_jobs, &backend),
-                _ => bench(&name, steps, &backend),
+                "batch" if steps.is_some() => Err(
+                    "--steps: bench batch runs whole tests (use --test for a shorter one)".into(),
+                ),
+                "batch" => bench::batch(test.as_deref(), runs, jobs, cpu_jobs, &backend),
+                _ => bench::steps(&name, steps, &backend),
             }),
         };
     match result {
@@ -704,7 +708,7 @@ fn run_study(
         Some(b) => b == "gpu",
         None => study::Study::load(path).is_ok_and(|s| s.backend == "gpu"),
     } && dem::sim::resolve_backend("gpu").is_ok_and(|(chosen, _)| chosen == "gpu");
-    let jobs = jobs.unwrap_or(if gpu { progress::MOST_PER_BATCH } else { 1 });
+    let jobs = jobs.unwrap_or(if gpu { progress::DEFAULT_PER_BATCH } else { 1 });
     check_jobs("--jobs", jobs, gpu)?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
@@ -785,7 +789,7 @@ fn run_job(path: &Path, record: Option<&Path>) -> Result<(), String> {
     Ok(())
 }
 
-fn progress_bar(len: u64) -> ProgressBar {
+pub(crate) fn progress_bar(len: u64) -> ProgressBar {
     let bar = ProgressBar::new(len);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {msg}  eta {eta}")
@@ -938,109 +942,5 @@ fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<()
         snapshots,
         dir.display()
     );
-    Ok(())
-}
-
-/// The quickstart's repose test, the batch benchmark's default.
-const QUICKSTART_REPOSE: &str = include_str!("../../../examples/quickstart/repose.toml");
-
-/// `demcal bench batch`: the runs on the chosen back end, then (when that is the GPU) on the
-/// CPU runner, as simulations per hour.
-fn bench_batch(
-    test: Option<&Path>,
-    runs: usize,
-    jobs: Option<usize>,
-    cpu_jobs: Option<usize>,
-    backend: &str,
-) -> Result<(), String> {
-    use virtual_tests::batch_bench::run_batch;
-    if runs == 0 || runs > 100_000 {
-        return Err(format!("--runs {runs}: expected 1 to 100000"));
-    }
-    let file = match test {
-        Some(path) => virtual_tests::TestFile::load(path)?,
-        None => virtual_tests::TestFile::parse("quickstart repose.toml", QUICKSTART_REPOSE)?,
-    };
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let backend = chosen_backend(backend)?;
-    let mut sides = vec![(
-        backend,
-        jobs.unwrap_or(if backend == "cpu" { cores } else { runs }),
-    )];
-    if backend != "cpu" {
-        sides.push(("cpu", cpu_jobs.unwrap_or(cores)));
-    }
-    let mut per_hour = Vec::new();
-    for (backend, jobs) in sides {
-        check_jobs("--jobs", jobs, backend != "cpu")?;
-        let bar = progress_bar(runs as u64);
-        let before = dem_gpu::batch::batch_stats();
-        let r = run_batch(&file, runs, jobs, backend, &|_| bar.inc(1))?;
-        bar.finish_and_clear();
-        let after = dem_gpu::batch::batch_stats();
-        let (mean, sd) = r.mean_sd();
-        let batches = if backend == "cpu" {
-            String::new()
-        } else {
-            format!(
-                ", {} batches of {:.1} simulations on average (largest {})",
-                after.batches - before.batches,
-                (after.worlds - before.worlds) as f64
-                    / (after.batches - before.batches).max(1) as f64,
-                after.largest
-            )
-        };
-        println!(
-            "batch {backend}: {runs} runs of {} ({}), {jobs} at a time: {:.1} s, {:.1} simulations per hour; first response {mean:.3} +- {sd:.3} (sd over {} runs){batches}",
-            file.test,
-            file.name,
-            r.wall_s,
-            r.per_hour(),
-            r.responses.len()
-        );
-        for (seed, why) in &r.failures {
-            println!("  seed {seed} failed: {why}");
-        }
-        per_hour.push(r.per_hour());
-    }
-    if let [gpu, cpu] = per_hour[..] {
-        println!(
-            "batch: the {backend} makes {:.2}x the simulations per hour of the CPU runner",
-            gpu / cpu
-        );
-    }
-    Ok(())
-}
-
-fn bench(name: &str, steps: Option<u64>, backend: &str) -> Result<(), String> {
-    let total = steps.unwrap_or(match name {
-        "bonded" => 20_000,
-        "settle-wide" => dem::bench::SETTLE_WIDE_STEPS,
-        _ => 50_000,
-    });
-    let bar = progress_bar(total);
-    let mut log = LogLine::new();
-    let progress = |done| {
-        bar.set_position(done);
-        if let Some(elapsed) = log.due() {
-            eprintln!("{name}: {}", LogLine::steps(done, total, "", elapsed));
-        }
-    };
-    let r = match name {
-        "bonded" => dem::bench::bonded(steps, backend, progress)?,
-        "settle-wide" => dem::bench::settle_wide(steps, backend, progress)?,
-        _ => dem::bench::settle(steps, backend, progress)?,
-    };
-    bar.finish_and_clear();
-    for w in &r.remarks {
-        eprintln!("warning: {w}");
-    }
-    println!("stages: {}", r.stages);
-    println!(
-        "neighbour rebuilds: {}, threads: {}",
-        r.neighbour_rebuilds,
-        rayon::current_num_threads()
-    );
-    println!("{}", r.line(name));
     Ok(())
 }

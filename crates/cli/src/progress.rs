@@ -57,6 +57,10 @@ pub const THREADS_PER_CORE: usize = 4;
 /// particles share the device's memory with the others.
 pub const MOST_PER_BATCH: usize = 1024;
 
+/// Runs per GPU batch when `--jobs` is not given: a stage's missing runs, up to this many (each
+/// run also holds its scene and a thread on the host).
+pub const DEFAULT_PER_BATCH: usize = 128;
+
 /// Checks a job count: on the GPU jobs are the runs per batch, up to [`MOST_PER_BATCH`]; on the
 /// CPU as [`check_count`].
 pub fn check_jobs(flag: &str, n: usize, gpu: bool) -> Result<(), String> {

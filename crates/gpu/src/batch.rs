@@ -5,7 +5,7 @@
 //! each with its own [`crate::GpuStages`] joined to the stage's group
 //! (`dem::sim::in_batch_group`). When a simulation hands a segment to the device, its thread packs
 //! it (a [`World`]) and waits here; once every member of the group is waiting (or a member's
-//! thread is itself waiting for another member, or [`STRAGGLER_WAIT`] has passed since the first
+//! thread is itself waiting for another member, or a straggler wait has passed since the first
 //! arrival), the thread that completes the set runs all the waiting worlds side by side in one run
 //! of launches, each for its own number of steps, and hands each thread its own end. Members that
 //! arrive while a batch runs wait for the next. A world's result does not depend on its
@@ -22,9 +22,12 @@ use dem::sim::SegmentEnd;
 use crate::resident::world::World;
 use crate::GpuStages;
 
-/// How long the first arrival waits for members that do not come (a member busy with long host
-/// work); the batch then runs without them.
+/// Longest wait of the first arrival for members that do not come (a member busy with host work:
+/// building its scene, stepping on its own after a declined segment, measuring); the batch then
+/// runs without them. The wait is a quarter of the group's last batch, within these bounds, so
+/// that stragglers cost at most about a quarter of the device's time.
 pub const STRAGGLER_WAIT: Duration = Duration::from_millis(500);
+const SHORTEST_WAIT: Duration = Duration::from_millis(5);
 
 /// A back end's place in a batch group; leaving the group when dropped.
 #[derive(Debug)]
@@ -40,12 +43,14 @@ impl Drop for Member {
 }
 
 /// Batches run so far in this process: runs of launches shared by more than one world, the
-/// worlds in them, and the most worlds in one.
+/// worlds in them, the most worlds in one, and sets of worlds that could not run together (then
+/// halved until they could, or run alone).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BatchStats {
     pub batches: usize,
     pub worlds: usize,
     pub largest: usize,
+    pub split: usize,
 }
 
 /// This process's batch counts.
@@ -55,30 +60,55 @@ pub fn batch_stats() -> BatchStats {
         batches: c.batches.load(Ordering::Relaxed),
         worlds: c.worlds.load(Ordering::Relaxed),
         largest: c.largest.load(Ordering::Relaxed),
+        split: c.split.load(Ordering::Relaxed),
     }
+}
+
+/// A world handed in: its ticket (one per hand-in, so that clones of one back end sharing a
+/// member cannot take each other's ends), its member, the world.
+struct Waiting {
+    ticket: u64,
+    member: u64,
+    world: World,
 }
 
 #[derive(Default)]
 struct Group {
     /// Members alive, with the thread that last ran each.
     members: HashMap<u64, ThreadId>,
-    waiting: Vec<(u64, World)>,
+    waiting: Vec<Waiting>,
     finished: HashMap<u64, Option<SegmentEnd>>,
     running: bool,
     /// When the first of the waiting worlds arrived.
     since: Option<Instant>,
+    /// How long the group's last batch ran.
+    last_run: Option<Duration>,
 }
 
 impl Group {
+    /// How long a first arrival waits for the others.
+    fn straggler_wait(&self) -> Duration {
+        self.last_run.map_or(STRAGGLER_WAIT, |t| {
+            (t / 4).clamp(SHORTEST_WAIT, STRAGGLER_WAIT)
+        })
+    }
+
     fn ready(&self) -> bool {
         if self.running || self.waiting.is_empty() {
             return false;
         }
-        if self.since.is_some_and(|s| s.elapsed() >= STRAGGLER_WAIT) {
+        if self
+            .since
+            .is_some_and(|s| s.elapsed() >= self.straggler_wait())
+        {
             return true;
         }
-        let ids: HashSet<u64> = self.waiting.iter().map(|(id, _)| *id).collect();
-        let threads: HashSet<ThreadId> = ids.iter().map(|id| self.members[id]).collect();
+        let ids: HashSet<u64> = self.waiting.iter().map(|w| w.member).collect();
+        let threads: HashSet<ThreadId> = ids
+            .iter()
+            .filter_map(|id| self.members.get(id))
+            .copied()
+            .collect();
         // A member whose thread waits for another member cannot come: it is not waited for.
         self.members
             .iter()
@@ -93,6 +123,7 @@ struct Coordinator {
     batches: AtomicUsize,
     worlds: AtomicUsize,
     largest: AtomicUsize,
+    split: AtomicUsize,
 }
 
 fn coordinator() -> &'static Coordinator {
@@ -104,6 +135,7 @@ fn coordinator() -> &'static Coordinator {
         batches: AtomicUsize::new(0),
         worlds: AtomicUsize::new(0),
         largest: AtomicUsize::new(0),
+        split: AtomicUsize::new(0),
     })
 }
 
@@ -117,8 +149,7 @@ impl Coordinator {
         let mut groups = self.lock();
         if let Some(g) = groups.get_mut(&group) {
             g.members.remove(&id);
-            g.finished.remove(&id);
-            g.waiting.retain(|(w, _)| *w != id);
+            g.waiting.retain(|w| w.member != id);
             if g.members.is_empty() && !g.running {
                 groups.remove(&group);
             }
@@ -139,12 +170,13 @@ pub(crate) fn join(group: u64) -> Member {
     Member { group, id }
 }
 
-/// Gives the worlds' ends to their members, or None each if the batch did not finish (a panic in
+/// Gives the worlds' ends to their tickets, or None each if the batch did not finish (a panic in
 /// the run), so no member waits for ever.
 struct Deliver<'a> {
     group: u64,
-    ids: Vec<u64>,
+    tickets: Vec<u64>,
     ends: Option<Vec<Option<SegmentEnd>>>,
+    started: Instant,
     coordinator: &'a Coordinator,
 }
 
@@ -154,13 +186,11 @@ impl Drop for Deliver<'_> {
         let mut groups = c.lock();
         if let Some(g) = groups.get_mut(&self.group) {
             g.running = false;
+            g.last_run = Some(self.started.elapsed());
             let ends = self.ends.take().unwrap_or_default();
             let mut ends = ends.into_iter();
-            for id in &self.ids {
-                let end = ends.next().flatten();
-                if g.members.contains_key(id) {
-                    g.finished.insert(*id, end);
-                }
+            for ticket in &self.tickets {
+                g.finished.insert(*ticket, ends.next().flatten());
             }
             if !g.waiting.is_empty() {
                 g.since = Some(Instant::now());
@@ -178,29 +208,37 @@ impl GpuStages {
     pub(crate) fn run_in_batch(&self, member: &Member, world: World) -> Option<SegmentEnd> {
         let c = coordinator();
         let (group, id) = (member.group, member.id);
+        let ticket = c.next_member.fetch_add(1, Ordering::Relaxed);
         let mut groups = c.lock();
         {
             let g = groups.entry(group).or_default();
             g.members.insert(id, std::thread::current().id());
-            g.waiting.push((id, world));
+            g.waiting.push(Waiting {
+                ticket,
+                member: id,
+                world,
+            });
             g.since.get_or_insert_with(Instant::now);
         }
         c.changed.notify_all();
         loop {
             let g = groups.entry(group).or_default();
-            if let Some(end) = g.finished.remove(&id) {
+            if let Some(end) = g.finished.remove(&ticket) {
                 return end;
             }
             if g.ready() {
-                let (ids, worlds): (Vec<u64>, Vec<World>) =
-                    std::mem::take(&mut g.waiting).into_iter().unzip();
+                let (tickets, worlds): (Vec<u64>, Vec<World>) = std::mem::take(&mut g.waiting)
+                    .into_iter()
+                    .map(|w| (w.ticket, w.world))
+                    .unzip();
                 g.since = None;
                 g.running = true;
                 drop(groups);
                 let mut deliver = Deliver {
                     group,
-                    ids,
+                    tickets,
                     ends: None,
+                    started: Instant::now(),
                     coordinator: c,
                 };
                 deliver.ends = Some(self.run_batch(&worlds));
@@ -209,7 +247,7 @@ impl GpuStages {
                 continue;
             }
             let wait = match g.since {
-                Some(s) if !g.running => STRAGGLER_WAIT.saturating_sub(s.elapsed()),
+                Some(s) if !g.running => g.straggler_wait().saturating_sub(s.elapsed()),
                 _ => STRAGGLER_WAIT,
             };
             groups = c
@@ -220,24 +258,28 @@ impl GpuStages {
         }
     }
 
-    /// Runs worlds together; when they cannot run together (too large for one binding), each on
-    /// its own.
+    /// Runs worlds together; a set that cannot run together (too large for one binding) is
+    /// halved until it can, and a world that cannot run even alone is declined (it then steps
+    /// stage by stage).
     fn run_batch(&self, worlds: &[World]) -> Vec<Option<SegmentEnd>> {
-        if worlds.len() > 1 {
-            let c = coordinator();
-            c.batches.fetch_add(1, Ordering::Relaxed);
-            c.worlds.fetch_add(worlds.len(), Ordering::Relaxed);
-            c.largest.fetch_max(worlds.len(), Ordering::Relaxed);
-            if let Some(ends) = self.run_worlds(worlds) {
-                return ends.into_iter().map(Some).collect();
+        let c = coordinator();
+        match self.run_worlds(worlds) {
+            Ok(ends) => {
+                if worlds.len() > 1 {
+                    c.batches.fetch_add(1, Ordering::Relaxed);
+                    c.worlds.fetch_add(worlds.len(), Ordering::Relaxed);
+                    c.largest.fetch_max(worlds.len(), Ordering::Relaxed);
+                }
+                ends.into_iter().map(Some).collect()
+            }
+            Err(why) if worlds.len() == 1 => vec![self.decline(why)],
+            Err(_) => {
+                c.split.fetch_add(1, Ordering::Relaxed);
+                let (a, b) = worlds.split_at(worlds.len() / 2);
+                let mut ends = self.run_batch(a);
+                ends.extend(self.run_batch(b));
+                ends
             }
         }
-        worlds
-            .iter()
-            .map(|w| {
-                self.run_worlds(std::slice::from_ref(w))
-                    .and_then(|mut e| e.pop())
-            })
-            .collect()
     }
 }

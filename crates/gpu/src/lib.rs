@@ -62,6 +62,7 @@ use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 const COMMON: &str = include_str!("wgsl/common.wgsl");
+const WORLD: &str = include_str!("wgsl/world.wgsl");
 const VECTOR: &str = include_str!("wgsl/vector.wgsl");
 const SPIN: &str = include_str!("wgsl/spin.wgsl");
 const CONTACT: &str = include_str!("wgsl/contact.wgsl");
@@ -136,9 +137,9 @@ impl GpuContext {
         // Each kernel is its file after the shared parts it uses.
         let compile = |name: &str, parts: &[&str], with_common: bool| {
             let common: &[&str] = if with_common {
-                &[VECTOR, COMMON]
+                &[VECTOR, WORLD, COMMON]
             } else {
-                &[VECTOR]
+                &[VECTOR, WORLD]
             };
             let source = common
                 .iter()
@@ -402,8 +403,19 @@ fn element_row(e: &Element) -> [f64; 16] {
     row
 }
 
-/// Numbers in a world's block of the params buffer.
+/// Numbers in a world's block of the params buffer (`wgsl/world.wgsl` names the same places).
 const PARAMS: usize = 24;
+
+/// Places in a world's params block that a batch sets (`params_of` fills the rest).
+mod block {
+    pub const STEPPING: usize = 17;
+    pub const STEPS: usize = 18;
+    pub const FIRST_GEOMETRY: usize = 19;
+    pub const END_GEOMETRY: usize = 20;
+    pub const FIRST_PARTICLE: usize = 21;
+    pub const END_PARTICLE: usize = 22;
+    pub const TABLE: usize = 23;
+}
 
 /// The params buffer `common.wgsl` describes.
 fn params_of(
@@ -451,6 +463,7 @@ fn params_of(
         0.0,
     ];
     debug_assert_eq!(block.len(), PARAMS);
+    debug_assert_eq!(block[block::STEPPING], 1.0);
     block
 }
 

@@ -27,8 +27,11 @@ impl BatchBench {
         self.runs as f64 / self.wall_s * 3600.0
     }
 
-    /// Mean and standard deviation of the responses.
-    pub fn mean_sd(&self) -> (f64, f64) {
+    /// Mean and standard deviation of the responses (None without any).
+    pub fn mean_sd(&self) -> Option<(f64, f64)> {
+        if self.responses.is_empty() {
+            return None;
+        }
         let n = self.responses.len() as f64;
         let mean = self.responses.iter().map(|r| r.1).sum::<f64>() / n;
         let var = self
@@ -37,7 +40,7 @@ impl BatchBench {
             .map(|r| (r.1 - mean).powi(2))
             .sum::<f64>()
             / (n - 1.0).max(1.0);
-        (mean, var.sqrt())
+        Some((mean, var.sqrt()))
     }
 }
 

@@ -201,13 +201,16 @@ impl GpuStages {
         let world = World::pack(seg)?;
         match &self.member {
             Some(member) => self.run_in_batch(member, world),
-            None => self.run_worlds(&[world])?.pop(),
+            None => match self.run_worlds(std::slice::from_ref(&world)) {
+                Ok(mut ends) => ends.pop(),
+                Err(why) => self.decline(why),
+            },
         }
     }
 
     /// Runs worlds side by side in the same launches, each for its own steps (see
-    /// [`world`]); None when they cannot run here.
-    pub(crate) fn run_worlds(&self, worlds: &[World]) -> Option<Vec<SegmentEnd>> {
+    /// [`world`]); Err says why they cannot run here together.
+    pub(crate) fn run_worlds(&self, worlds: &[World]) -> Result<Vec<SegmentEnd>, String> {
         let longest_row = worlds.iter().map(|w| w.longest_row).max().unwrap_or(0);
         let longest_wall = worlds.iter().map(|w| w.longest_wall).max().unwrap_or(0);
         let mut cap = Capacity {
@@ -221,24 +224,24 @@ impl GpuStages {
                 self.segments[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             }
             match tried {
-                Ok(ends) => return Some(ends),
+                Ok(ends) => return Ok(ends),
                 Err(Retry::Overflow(1)) => cap.bucket *= 2,
                 Err(Retry::Overflow(2 | 3)) => cap.pair *= 2,
                 Err(Retry::Overflow(4)) => cap.wall *= 2,
                 Err(Retry::Overflow(code)) => {
-                    return self.decline(format!("an unknown overflow code {code}"))
+                    return Err(format!("an unknown overflow code {code}"))
                 }
-                Err(Retry::Decline(why)) => return self.decline(why),
+                Err(Retry::Decline(why)) => return Err(why),
             }
         }
-        self.decline(format!(
+        Err(format!(
             "its lists kept overflowing (pair rows of {}, wall rows of {}, buckets of {})",
             cap.pair, cap.wall, cap.bucket
         ))
     }
 
     /// Declines a segment: says why once per process (the steps then run stage by stage).
-    fn decline<T>(&self, why: String) -> Option<T> {
+    pub(crate) fn decline<T>(&self, why: String) -> Option<T> {
         static SAID: std::sync::Once = std::sync::Once::new();
         SAID.call_once(|| {
             eprintln!("warning: the GPU runs this simulation stage by stage, copying the particles at every stage, because {why}");

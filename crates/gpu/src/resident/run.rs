@@ -21,16 +21,14 @@ impl GpuStages {
         let steps = worlds.iter().map(|w| w.steps).max().unwrap_or(0) as usize;
         let geometries: usize = worlds.iter().map(|w| w.geometry_first.len()).sum();
         let elements: usize = worlds.iter().map(|w| w.elements.len() / 16).sum();
-        let moving_rows: usize = worlds
-            .iter()
-            .map(|w| w.element_track.len() / 16)
-            .sum::<usize>()
-            / steps.max(1);
+        let m = Merged::new(worlds, cap).map_err(Retry::Overflow)?;
+        // Every buffer of the run, in bytes, against one binding.
         let largest = [
             72 * n,
             4 * (steps + 1),
-            128 * moving_rows * steps,
-            64 * geometries * steps,
+            8 * m.element_track.len(),
+            8 * m.geoms_track.len(),
+            8 * m.table.len(),
             88 * pairs,
             80 * walls,
             4 * (6 * n + pairs),
@@ -48,7 +46,6 @@ impl GpuStages {
                 c.max_binding as f64 * 1e-9
             )));
         }
-        let m = Merged::new(worlds, cap).map_err(Retry::Overflow)?;
         let moving = !m.moving.is_empty();
         let moving_rows = m.moving_rows();
 
@@ -96,7 +93,7 @@ impl GpuStages {
             (c.storage(&[0.0f64]), c.storage(&[0.0f64]))
         };
         let forced = c.storage(&m.forced);
-        let mut words = vec![0u32, 1, EMPTY, 0, 0, worlds.len() as u32, 0, 0];
+        let mut words = vec![0u32, 1, 0, 0, 0, worlds.len() as u32, 0, 0];
         words.extend(std::iter::repeat_n(EMPTY, worlds.len()));
         let ctrl = c.storage(&words);
         let dims = c.storage(&[
@@ -138,6 +135,7 @@ impl GpuStages {
                     &dims,
                     &search,
                     &props,
+                    &par,
                 ],
                 n,
             ),
@@ -159,6 +157,7 @@ impl GpuStages {
                     &rows,
                     &reverse_count,
                     &built,
+                    &par,
                 ],
                 n,
             ),
@@ -201,6 +200,8 @@ impl GpuStages {
                     &wall_history,
                     &new_cands,
                     &new_wall_history,
+                    &props,
+                    &par,
                 ],
                 n,
             ),
@@ -271,24 +272,12 @@ impl GpuStages {
                 n,
             ),
         ];
-        // Launched only in the steps where some world takes its last step.
+        // Once at the end: a world that stopped earlier kept its rows and wall output.
         let loads_launch = launch(
             &k.geometry_loads,
-            &[
-                &dims,
-                &rows,
-                &cands,
-                &wall_output,
-                &geometry_loads,
-                &ctrl,
-                &par,
-            ],
+            &[&dims, &rows, &cands, &wall_output, &geometry_loads, &par],
             geometries.max(1),
         );
-        let last_steps: std::collections::BTreeSet<usize> = worlds
-            .iter()
-            .map(|w| (w.steps as usize).saturating_sub(1))
-            .collect();
 
         // One step's launches, in order (the same every step).
         let step: Vec<&Launch> = [&begin, &integrate, &check]
@@ -337,9 +326,6 @@ impl GpuStages {
                     );
                 }
                 encode(&mut encoder, &step);
-                if last_steps.contains(&s) {
-                    encode(&mut encoder, &[&loads_launch]);
-                }
             }
             done += chunk;
             out = c.read_back(encoder, &[&ctrl]);
@@ -352,7 +338,7 @@ impl GpuStages {
         // The last step's kick, checked as every step's are: the worlds whose steps ran to the
         // end are still stepping, so `begin` marks them for the check alone.
         let mut encoder = c.device.create_command_encoder(&Default::default());
-        encode(&mut encoder, &[&begin, &check]);
+        encode(&mut encoder, &[&begin, &check, &loads_launch]);
         let out = c.read_back(
             encoder,
             &[

@@ -3,11 +3,11 @@
 //!
 //! A [`World`] owns what a segment's kernels read, packed from the [`Segment`] on the thread that
 //! runs the simulation; [`Merged`] lays several worlds side by side with their indices shifted
-//! (particles, materials, geometries, elements), so that the same launches step them all: a
-//! particle carries its world, every world has its own parameter block (time step, gravity,
-//! domain, rolling model, its own number of steps and its geometries), the cell hash mixes in
-//! the world and the list builds skip other worlds, and the material pair table is block
-//! diagonal. A world's result does not depend on its neighbours in the batch: its lists hold the
+//! (particles, geometries, elements), so that the same launches step them all: a particle
+//! carries its world, every world has its own parameter block (time step, gravity, domain,
+//! rolling model, its own number of steps, its geometries and particles, where its material pair
+//! table starts), the cell hash mixes in the world, the list builds skip other worlds, and a
+//! world that has stopped is left out of them. A world's result does not depend on its neighbours in the batch: its lists hold the
 //! same contacts (a larger reach or an extra rebuild only adds pairs apart, which add exact
 //! zeros), and every particle sums its own contacts in the order of its own indices.
 
@@ -18,7 +18,7 @@ use dem::sim::walls::WallCandidate;
 use dem::sim::{Segment, SegmentEnd};
 
 use super::{history_at, put_history, Capacity, EMPTY};
-use crate::{element_row, flat, pair_table, params_of, vec3_at, PARAMS};
+use crate::{block, element_row, flat, pair_table, params_of, vec3_at, PARAMS};
 
 /// One simulation's segment, packed for the device.
 pub(crate) struct World {
@@ -37,8 +37,7 @@ pub(crate) struct World {
     /// Wall rows (CSR): geometry, element, history.
     pub wall_start: Vec<u32>,
     pub walls: Vec<(u32, u32, ContactHistory)>,
-    /// Materials and their pair table (7 numbers a pair).
-    pub materials: usize,
+    /// The material pair table (7 numbers a pair).
     pub table: Vec<f64>,
     /// Per geometry: its material, its first element, its velocity field at the start.
     pub geometry_material: Vec<u32>,
@@ -53,7 +52,8 @@ pub(crate) struct World {
     pub velocity_track: Vec<[f64; 6]>,
     /// Whether geometry motion forces a rebuild at each step.
     pub forced: Vec<bool>,
-    /// The parameter block (PARAMS numbers; the batch sets the material count and geometries).
+    /// The parameter block (PARAMS numbers; a batch sets where its geometries, particles and
+    /// table are).
     pub params: Vec<f64>,
     pub steps: u64,
     pub max_radius: f64,
@@ -135,8 +135,9 @@ impl World {
             (e, v)
         };
         let params = inputs.params;
-        let mut block = params_of(params, false, true, inputs.materials.len(), inputs.cohesive);
-        block[18] = seg.steps as f64;
+        let mut params_block =
+            params_of(params, false, true, inputs.materials.len(), inputs.cohesive);
+        params_block[block::STEPS] = seg.steps as f64;
         Some(World {
             n,
             state: flat(&[&p.position, &p.velocity, &p.angular_velocity]),
@@ -159,7 +160,6 @@ impl World {
                 .iter()
                 .map(|w| (w.geometry as u32, w.element, w.history))
                 .collect(),
-            materials: inputs.materials.len(),
             table: pair_table(inputs),
             geometry_material: geometries.iter().map(|g| g.material as u32).collect(),
             geometry_first,
@@ -169,7 +169,7 @@ impl World {
             element_track,
             velocity_track,
             forced: track.rebuild.clone(),
-            params: block,
+            params: params_block,
             steps: seg.steps,
             max_radius: p.radius.iter().cloned().fold(0.0, f64::max),
             pair_reach: seg.pair_reach,
@@ -194,11 +194,11 @@ impl World {
     }
 }
 
-/// Where each world's items start in the merged arrays.
+/// Where each world's items start in the merged arrays (materials stay the world's own: each
+/// world's pair table has its own place in `table`).
 #[derive(Clone, Copy, Default)]
 pub(crate) struct Offsets {
     pub particle: usize,
-    pub material: usize,
     pub geometry: usize,
 }
 
@@ -230,7 +230,7 @@ pub(crate) struct Merged {
     pub search: [f64; 4],
 }
 
-/// Shifts a merged index list by a world's offset, and back.
+/// An index shifted by a world's offset.
 fn shift(v: usize, by: usize) -> u32 {
     (v + by) as u32
 }
@@ -247,11 +247,10 @@ impl Merged {
         for w in worlds {
             offsets.push(o);
             o.particle += w.n;
-            o.material += w.materials;
             o.geometry += w.geometry_first.len();
             elements_count += w.elements.len() / 16;
         }
-        let (materials, geometries) = (o.material, o.geometry);
+        let geometries = o.geometry;
         let pairs = n * cap.pair;
         let walls = n * cap.wall;
         let mut m = Merged {
@@ -266,7 +265,7 @@ impl Merged {
             cands: vec![EMPTY; 2 * walls],
             wall_history: vec![0.0; 6 * walls],
             rows: vec![0; 6 * n + pairs],
-            table: vec![0.0; 7 * materials * materials],
+            table: Vec::with_capacity(worlds.iter().map(|w| w.table.len()).sum()),
             params: Vec::with_capacity(PARAMS * worlds.len()),
             elements: Vec::with_capacity(16 * elements_count),
             geoms: Vec::with_capacity(8 * geometries),
@@ -295,7 +294,7 @@ impl Merged {
             }
             m.props[4 * n + p0..4 * n + p0 + nw].fill(k as f64);
             for i in 0..nw {
-                m.ints[p0 + i] = w.material[i] + off.material as u32;
+                m.ints[p0 + i] = w.material[i];
                 m.ints[n + p0 + i] = w.body[i];
             }
             // Pair and wall rows at their capacity.
@@ -326,27 +325,19 @@ impl Merged {
                 m.rows[4 * n + g] = (g * cap.wall) as u32;
                 m.rows[5 * n + g] = (g * cap.wall + b - a) as u32;
             }
-            // The material pair table: this world's block on the diagonal.
-            let (mw, m0) = (w.materials, off.material);
-            for a in 0..mw {
-                for b in 0..mw {
-                    let to = 7 * ((m0 + a) * materials + m0 + b);
-                    let from = 7 * (a * mw + b);
-                    m.table[to..to + 7].copy_from_slice(&w.table[from..from + 7]);
-                }
-            }
-            let mut block = w.params.clone();
-            block[15] = materials as f64;
-            block[19] = off.geometry as f64;
-            block[20] = (off.geometry + w.geometry_first.len()) as f64;
-            block[21] = p0 as f64;
-            block[22] = (p0 + nw) as f64;
-            m.params.extend(block);
+            let mut params = w.params.clone();
+            params[block::FIRST_GEOMETRY] = off.geometry as f64;
+            params[block::END_GEOMETRY] = (off.geometry + w.geometry_first.len()) as f64;
+            params[block::FIRST_PARTICLE] = p0 as f64;
+            params[block::END_PARTICLE] = (p0 + nw) as f64;
+            params[block::TABLE] = m.table.len() as f64;
+            m.params.extend(params);
+            m.table.extend(&w.table);
             let first_element = m.elements.len() / 16;
             m.elements.extend(&w.elements);
             for g in 0..w.geometry_first.len() {
                 m.geoms.extend([
-                    (w.geometry_material[g] as usize + off.material) as f64,
+                    w.geometry_material[g] as f64,
                     (first_element + w.geometry_first[g]) as f64,
                 ]);
                 m.geoms.extend(w.geometry_velocity[g]);

@@ -51,7 +51,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sum = ri + rj;
     let dist2 = len2(delta);
     let r_eff = ri * rj / sum;
-    let t = 7u * (ints[i] * u32(param(15u)) + ints[j]);
+    let t = u32(param(P_TABLE)) + 7u * (ints[i] * u32(param(15u)) + ints[j]);
     // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off.
     var reach = sum;
     if (param(16u) != 0.0lf) {

@@ -69,7 +69,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var c = w0; c < w1; c++) {
             let g = cands[2u * c];
             let el = u32(geoms[8u * g + 1u]) + cands[2u * c + 1u];
-            let t = 7u * (material * mats + u32(geoms[8u * g]));
+            let t = u32(param(P_TABLE)) + 7u * (material * mats + u32(geoms[8u * g]));
             // A cohesive contact reaches down to the law's cut-off (0 without a surface energy).
             let cutoff = cutoff_of(t, r);
             let cl = closest(el, x, r - cutoff);

@@ -8,7 +8,6 @@
 @group(0) @binding(1) var<storage, read> forced: array<u32>;
 @group(0) @binding(2) var<storage, read_write> params: array<f64>;
 
-const PARAMS: u32 = 24u;
 
 @compute @workgroup_size(1)
 fn main() {
@@ -17,7 +16,7 @@ fn main() {
     atomicStore(&ctrl[0], s + 1u);
     let worlds = atomicLoad(&ctrl[5]);
     for (var w = 0u; w < worlds; w++) {
-        let steps = u32(params[PARAMS * w + 18u]);
+        let steps = u32(params[PARAMS * w + P_STEPS]);
         var flag = 0.0lf;
         if (atomicLoad(&ctrl[8u + w]) == 0xffffffffu) {
             if (s < steps) {
@@ -26,6 +25,6 @@ fn main() {
                 flag = 2.0lf;
             }
         }
-        params[PARAMS * w + 17u] = flag;
+        params[PARAMS * w + P_STEPPING] = flag;
     }
 }

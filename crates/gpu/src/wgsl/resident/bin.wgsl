@@ -9,6 +9,7 @@
 @group(0) @binding(5) var<storage, read> dims: array<u32>;
 @group(0) @binding(6) var<storage, read> search: array<f64>;
 @group(0) @binding(7) var<storage, read> props: array<f64>;
+@group(0) @binding(8) var<storage, read> params: array<f64>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -17,6 +18,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = gid.x + gid.y * counts[4];
     if (i >= dims[0]) {
+        return;
+    }
+    // A world that does not step keeps its rows (its last step's loads are read from them).
+    if (params[PARAMS * u32(props[4u * dims[0] + i]) + P_STEPPING] != 1.0lf) {
         return;
     }
     let x = vec3<f64>(state[3u * i], state[3u * i + 1u], state[3u * i + 2u]);

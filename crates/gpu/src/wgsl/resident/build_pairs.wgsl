@@ -17,6 +17,7 @@
 @group(0) @binding(12) var<storage, read_write> rows: array<u32>;
 @group(0) @binding(13) var<storage, read_write> reverse_count: array<atomic<u32>>;
 @group(0) @binding(14) var<storage, read_write> built: array<f64>;
+@group(0) @binding(15) var<storage, read> params: array<f64>;
 
 fn position(i: u32) -> vec3<f64> {
     return vec3<f64>(state[3u * i], state[3u * i + 1u], state[3u * i + 2u]);
@@ -30,6 +31,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x + gid.y * counts[4];
     let n = dims[0];
     if (i >= n) {
+        return;
+    }
+    // A world that does not step keeps its rows (its last step's loads are read from them).
+    if (params[PARAMS * u32(props[4u * n + i]) + P_STEPPING] != 1.0lf) {
         return;
     }
     let cap = dims[1];

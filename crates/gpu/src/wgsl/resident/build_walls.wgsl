@@ -16,7 +16,6 @@
 @group(0) @binding(12) var<storage, read_write> rows: array<u32>;
 @group(0) @binding(13) var<storage, read> params: array<f64>;
 
-const PARAMS: u32 = 24u;
 
 fn position3(k: u32) -> vec3<f64> {
     return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
@@ -32,6 +31,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= n) {
         return;
     }
+    // A world that does not step keeps its rows (its last step's loads are read from them).
+    if (params[PARAMS * u32(props[4u * n + i]) + P_STEPPING] != 1.0lf) {
+        return;
+    }
     let cap = dims[2];
     let base = i * cap;
     let old_end = rows[5u * n + i];
@@ -42,7 +45,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let world = PARAMS * u32(props[4u * n + i]);
     var count = 0u;
     var overflow = false;
-    for (var g = u32(params[world + 19u]); g < u32(params[world + 20u]); g++) {
+    for (var g = u32(params[world + P_FIRST_GEOMETRY]); g < u32(params[world + P_END_GEOMETRY]); g++) {
         let first = u32(geoms[8u * g + 1u]);
         var last = dims[6];
         if (g + 1u < geometries) {

@@ -13,7 +13,6 @@
 @group(0) @binding(7) var<storage, read> props: array<f64>;
 @group(0) @binding(8) var<storage, read> params: array<f64>;
 
-const PARAMS: u32 = 24u;
 
 fn finite(v: vec3<f64>) -> bool {
     let s = v.x + v.y + v.z;
@@ -32,7 +31,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let w = u32(props[4u * n + i]);
-    let flag = params[PARAMS * w + 17u];
+    let flag = params[PARAMS * w + P_STEPPING];
     if (flag == 0.0lf) {
         return;
     }
@@ -40,7 +39,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         atomicOr(&ctrl[1], 1u);
     }
     if (outside[i] != 0u || !finite(position3(3u * i)) || !finite(position3(3u * n + 3u * i))) {
-        let last = u32(params[PARAMS * w + 18u]) - 1u;
+        let last = u32(params[PARAMS * w + P_STEPS]) - 1u;
         atomicMin(&ctrl[8u + w], min(atomicLoad(&ctrl[0]) - 1u, last));
     }
     if (status[i] != 0u) {

@@ -11,6 +11,8 @@
 @group(0) @binding(8) var<storage, read_write> wall_history: array<f64>;
 @group(0) @binding(9) var<storage, read> new_cands: array<u32>;
 @group(0) @binding(10) var<storage, read> new_wall_history: array<f64>;
+@group(0) @binding(11) var<storage, read> props: array<f64>;
+@group(0) @binding(12) var<storage, read> params: array<f64>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -23,6 +25,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if (i == 0u) {
         atomicAdd(&ctrl[4], 1u);
+    }
+    // A world that does not step keeps its rows (its last step's loads are read from them).
+    if (params[PARAMS * u32(props[4u * dims[0] + i]) + P_STEPPING] != 1.0lf) {
+        return;
     }
     let cap = dims[1];
     for (var q = i * cap; q < (i + 1u) * cap; q++) {

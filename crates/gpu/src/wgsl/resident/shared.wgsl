@@ -5,9 +5,11 @@
 //   of two), 4 bucket capacity, 5 geometries, 6 elements
 // search (f64): 0 inverse cell size, 1 pair reach beyond touching, 2 wall reach beyond touching,
 //   3 (half the skin) squared
-// ctrl (atomic u32): 0 steps begun, 1 rebuild in this step, 2 first failed step (0xffffffff:
-//   none), 3 overflow (0 none, 1 a bucket, 2 a pair row, 3 a reverse row, 4 a wall row, 5 more
-//   wall contacts than the wall kernel keeps), 4 rebuilds
+// ctrl (atomic u32): 0 steps begun, 1 rebuild in this step, 2 unused, 3 overflow (0 none, 1 a
+//   bucket, 2 a pair row, 3 a reverse row, 4 a wall row, 5 more wall contacts than the wall
+//   kernel keeps), 4 rebuilds, 5 worlds W, 8 + w world w's first failed step (0xffffffff: none)
+// params: a block of PARAMS numbers per world (common.wgsl, world.wgsl); a world that does not
+//   step is left out of rebuilds.
 // Pair rows have a fixed capacity: particle i's pairs (i < j, sorted by j) sit in slots
 // i * capacity.., empty slots hold EMPTY; wall rows likewise.
 

@@ -28,6 +28,10 @@
 //! - **How it is chosen.** [`register`] makes "gpu" one of the engine's named back ends
 //!   (`dem::sim::make_backend`), built on one process-wide context ([`shared_context`]), so scene,
 //!   test and study files and `--backend gpu` can name it.
+//! - **Batches.** A segment runs as a *world*; several worlds (simulations of one batch group,
+//!   `dem::sim::in_batch_group`, such as a study stage's jobs) run side by side in the same
+//!   launches, each with its own parameters and number of steps ([`batch`], `resident::world`),
+//!   and each ends with the bits it gets alone.
 //! - **Precision.** Positions, velocities, forces and history are f64 on the device
 //!   (`wgpu::Features::SHADER_F64`; Mesa's lavapipe has it, so the kernels are tested on any
 //!   machine). WGSL's f64 has only the basic operations and `sqrt`, which is all these kernels use.
@@ -44,7 +48,7 @@
 //!   each put together with the shared parts it uses (`vector.wgsl`, vector helpers;
 //!   `common.wgsl`, the params and counts layout; `spin.wgsl`, the spin kick; `contact.wgsl`,
 //!   the contact law that pairs and walls share; `elements.wgsl`, the closest point of a wall
-//!   element). Clumps, bonds and geometry motion stay in the pipeline on the host.
+//!   element; `world.wgsl`, the places in a world's params block). Clumps, bonds and geometry motion stay in the pipeline on the host.
 
 pub mod batch;
 mod resident;

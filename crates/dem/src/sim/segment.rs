@@ -77,7 +77,7 @@ pub struct SegmentEnd {
     pub wall_candidates: Vec<WallCandidate>,
     /// Each geometry's load in the last step: force, and torque about the world origin.
     pub geometry_loads: Vec<Load>,
-    /// List rebuilds during the segment.
+    /// List rebuilds during the segment (on a GPU batch, those of the whole batch).
     pub rebuilds: u64,
     /// Steps run: all of the segment's, or fewer when a failure stopped it early.
     pub steps_done: u64,

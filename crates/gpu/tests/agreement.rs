@@ -12,7 +12,7 @@ use dem_gpu::GpuStages;
 use glam::DVec3;
 
 mod common;
-use common::{gpu, material};
+use common::{gpu, material, uniform};
 
 fn table(restitution: f64, friction: f64, rolling: f64, surface_energy: f64) -> MaterialTable {
     let mut t = MaterialTable::new();
@@ -91,13 +91,8 @@ fn cloud(rolling: RollingModel) -> Simulation {
 }
 
 fn cloud_with(rolling: RollingModel, surface_energy: f64) -> Simulation {
-    let mut seed: u64 = 12345;
-    let mut rnd = move || {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut uniform_12345 = uniform(12345);
+    let mut rnd = move || uniform_12345() * 2.0 - 1.0;
     let mut p = Particles::default();
     for a in 0..7 {
         for b in 0..7 {
@@ -269,13 +264,7 @@ fn bucket(rolling: RollingModel) -> Simulation {
 
 fn bucket_with(rolling: RollingModel, surface_energy: f64) -> Simulation {
     use dem::geometry::Motion;
-    let mut seed: u64 = 777;
-    let mut rnd = move || {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rnd = uniform(777);
     let mut p = Particles::default();
     for k in 0..150 {
         let (a, b) = (rnd() * std::f64::consts::TAU, rnd().sqrt() * 0.006);

@@ -38,6 +38,16 @@ pub fn material(name: &str, youngs: f64, density: f64) -> Material {
     }
 }
 
+/// Uniform numbers in [0, 1) from a 64-bit LCG: the scenes' jitter, the same on every machine.
+pub fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// A heap poured into a cylinder standing on a plate, which is lifted after 0.02 s.
 pub struct Heap {
     pub seed: u64,
@@ -72,13 +82,7 @@ pub fn heap(h: &Heap) -> Simulation {
     t.set_interaction(a, a, law(0.4, h.friction, 0.15));
     t.set_interaction(a, b, law(0.5, 0.3, 0.05));
     t.set_interaction(b, b, law(0.5, 0.3, 0.05));
-    let mut seed: u64 = h.seed;
-    let mut rnd = move || {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rnd = uniform(h.seed);
     let mut p = Particles::default();
     for k in 0..h.spheres {
         let (ang, rad) = (rnd() * std::f64::consts::TAU, rnd().sqrt() * 0.006);

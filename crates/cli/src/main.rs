@@ -94,9 +94,15 @@ enum Command {
         study: PathBuf,
         /// Simulations at once; each gets its share of the cores (default 1). With the GPU back
         /// end, the runs per batch: simulations that run at once share the GPU's kernel launches
-        /// (default: a stage's missing runs in one batch, up to 128; at most 1024).
+        /// (default: a stage's missing runs in one batch, up to 128; at most 1024). With
+        /// --executor slurm, the most tasks of a stage's array running at once (the %N throttle).
         #[arg(long)]
         jobs: Option<usize>,
+        /// Where the simulations run: local (this machine's cores or GPU) or slurm (one job
+        /// array per stage on a Slurm cluster, with the study's [executor] settings). Default:
+        /// the study's [executor], or local.
+        #[arg(long, value_parser = ["local", "slurm"])]
+        executor: Option<String>,
         /// Move the stored results aside (kept as <study>.db.old-<time>) and start over.
         #[arg(long)]
         restart: bool,
@@ -640,10 +646,11 @@ fn main() -> ExitCode {
             Command::Run {
                 study,
                 jobs,
+                executor,
                 restart,
                 retry_failed,
                 backend,
-            } => run_study(&study, jobs, restart, retry_failed, backend),
+            } => run_study(&study, jobs, executor, restart, retry_failed, backend),
             Command::RunOne {
                 job,
                 record,
@@ -699,16 +706,37 @@ fn main() -> ExitCode {
 fn run_study(
     path: &Path,
     jobs: Option<usize>,
+    executor: Option<String>,
     restart: bool,
     retry_failed: bool,
     backend: Option<String>,
 ) -> Result<(), String> {
+    let slurm = match &executor {
+        Some(e) => e == "slurm",
+        None => study::Study::load(path).is_ok_and(|s| s.executor.kind() == "slurm"),
+    };
+    // On Slurm, --jobs is the array's throttle: the cluster's cores, not this machine's.
+    let max_running = match jobs {
+        Some(n) if slurm && !(1..=100_000).contains(&n) => {
+            return Err(format!(
+                "--jobs {n}: with --executor slurm, expected 1 to 100000 tasks at once"
+            ))
+        }
+        Some(n) if slurm => Some(n),
+        _ => None,
+    };
     // On the GPU, jobs are the runs per batch: by default all of a stage's missing runs.
-    let gpu = match &backend {
-        Some(b) => b == "gpu",
-        None => study::Study::load(path).is_ok_and(|s| s.backend == "gpu"),
-    } && dem::sim::resolve_backend("gpu").is_ok_and(|(chosen, _)| chosen == "gpu");
-    let jobs = jobs.unwrap_or(if gpu { progress::DEFAULT_PER_BATCH } else { 1 });
+    let gpu = !slurm
+        && match &backend {
+            Some(b) => b == "gpu",
+            None => study::Study::load(path).is_ok_and(|s| s.backend == "gpu"),
+        }
+        && dem::sim::resolve_backend("gpu").is_ok_and(|(chosen, _)| chosen == "gpu");
+    let jobs = if slurm {
+        1
+    } else {
+        jobs.unwrap_or(if gpu { progress::DEFAULT_PER_BATCH } else { 1 })
+    };
     check_jobs("--jobs", jobs, gpu)?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
@@ -726,6 +754,8 @@ fn run_study(
         restart,
         retry_failed,
         backend,
+        executor,
+        max_running,
     };
     let result = study::run(path, &opts, interrupted);
     let batches = dem_gpu::batch::batch_stats();

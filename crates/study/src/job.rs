@@ -254,23 +254,35 @@ impl Job {
             },
             Err(e) => (Status::Failed, None, serde_json::Value::Null, Some(e)),
         };
-        Some(RunRecord {
+        let mut rec = self.record(error, start.elapsed().as_secs_f64());
+        rec.status = status;
+        rec.response = response;
+        rec.outputs = outputs;
+        Some(rec)
+    }
+
+    /// The run's record, failed with `error` (or, without one, to be filled in), made on this
+    /// machine by the local executor; a cluster executor overwrites `executor`.
+    pub fn record(&self, error: Option<RunError>, wall_s: f64) -> RunRecord {
+        RunRecord {
             stage: self.stage,
             stage_kind: self.stage_kind.clone(),
             index: self.index,
             inputs: self.inputs.clone(),
             seed: self.seed,
-            status,
-            response,
-            outputs,
+            status: Status::Failed,
+            response: None,
+            outputs: serde_json::Value::Null,
             error_kind: error.as_ref().map(|e| e.kind),
             error: error.map(|e| e.message),
-            wall_s: start.elapsed().as_secs_f64(),
+            wall_s,
             finished_at: now_utc(),
             version: env!("CARGO_PKG_VERSION").to_string(),
             out_dir: self.out_dir.display().to_string(),
             fingerprint: self.fingerprint.clone(),
-        })
+            host: hostname(),
+            executor: "local".into(),
+        }
     }
 
     /// Makes every test and, with several targets, scores the run.
@@ -479,6 +491,22 @@ fn with_curve(
         }
         Ok(json)
     }
+}
+
+/// This machine's name: Slurm's name for the node inside a job, else the kernel's.
+pub fn hostname() -> String {
+    std::env::var("SLURMD_NODENAME")
+        .ok()
+        .filter(|h| !h.is_empty())
+        .or_else(|| {
+            std::fs::read_to_string("/proc/sys/kernel/hostname")
+                .ok()
+                .map(|h| h.trim().to_string())
+        })
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .or_else(|| std::env::var("COMPUTERNAME").ok())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "unknown".into())
 }
 
 fn absolute(p: &Path) -> PathBuf {

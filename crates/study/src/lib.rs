@@ -21,6 +21,7 @@ pub mod report;
 mod report_data;
 pub mod run_error;
 pub mod runner;
+pub mod slurm;
 pub mod spec;
 pub mod stages;
 pub mod store;
@@ -50,18 +51,52 @@ pub struct RunOptions {
     pub retry_failed: bool,
     /// The back end in place of the study's `backend` ("cpu" or "gpu").
     pub backend: Option<String>,
+    /// The executor in place of the study's `[executor]` ("local" or "slurm").
+    pub executor: Option<String>,
+    /// Slurm: the array throttle in place of `max_running` (`demcal run --jobs`).
+    pub max_running: Option<usize>,
+}
+
+impl RunOptions {
+    /// The executor a study runs with: `--executor` over the study's `[executor]`; `--jobs` is
+    /// the Slurm array's throttle.
+    pub fn executor_for(&self, study: &Study) -> Result<slurm::ExecutorSpec, String> {
+        let mut spec = match (self.executor.as_deref(), &study.executor) {
+            (None, e) => e.clone(),
+            (Some("local"), _) => slurm::ExecutorSpec::Local,
+            (Some("slurm"), slurm::ExecutorSpec::Slurm(s)) => slurm::ExecutorSpec::Slurm(s.clone()),
+            (Some("slurm"), slurm::ExecutorSpec::Local) => {
+                slurm::ExecutorSpec::Slurm(Box::default())
+            }
+            (Some(other), _) => {
+                return Err(format!(
+                    "--executor: expected local or slurm, got \"{other}\""
+                ))
+            }
+        };
+        if let (slurm::ExecutorSpec::Slurm(s), Some(n)) = (&mut spec, self.max_running) {
+            s.max_running = n;
+        }
+        Ok(spec)
+    }
 }
 
 /// Runs (or resumes) a study, then writes its report. Returns what to print.
 pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
     let mut study = Study::load(path)?;
-    // A back end this machine lacks falls back to the CPU, said once here.
+    let executor = opts.executor_for(&study)?;
     let wanted = opts.backend.clone().unwrap_or(study.backend.clone());
-    let (chosen, why) = dem::sim::resolve_backend(&wanted)?;
-    if let Some(why) = why {
-        eprintln!("warning: backend \"{wanted}\": {why}");
+    if executor == slurm::ExecutorSpec::Local {
+        // A back end this machine lacks falls back to the CPU, said once here.
+        let (chosen, why) = dem::sim::resolve_backend(&wanted)?;
+        if let Some(why) = why {
+            eprintln!("warning: backend \"{wanted}\": {why}");
+        }
+        study.backend = chosen.to_string();
+    } else {
+        // The nodes have the GPUs, not necessarily the machine that submits.
+        study.backend = wanted;
     }
-    study.backend = chosen.to_string();
     let db = study.store_path();
     // One `demcal run` per study at a time, held until the report is written.
     let _lock = store::StoreLock::acquire(&db)?;
@@ -91,10 +126,26 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     }
     let stored = store.runs()?;
     let started = std::time::Instant::now();
-    let outcome = {
-        let mut exec = runner::LocalExecutor::new(opts.jobs, &mut store, interrupted);
-        replay(&study, &stored, Some(&mut exec))
+    let mut cluster = None;
+    let outcome = match &executor {
+        slurm::ExecutorSpec::Local => {
+            let mut exec = runner::LocalExecutor::new(opts.jobs, &mut store, interrupted);
+            replay(&study, &stored, Some(&mut exec))
+        }
+        slurm::ExecutorSpec::Slurm(settings) => {
+            let mut exec =
+                slurm::SlurmExecutor::new((**settings).clone(), &mut store, interrupted, &study)?;
+            let r = replay(&study, &stored, Some(&mut exec));
+            cluster = Some(exec.stats.clone());
+            r
+        }
     };
+    if let Some(c) = &cluster {
+        eprintln!(
+            "Slurm: {} run(s) stored from tasks; {} array(s) of {} task(s) submitted, {} submitted again, {} task(s) re-attached",
+            c.stored, c.arrays, c.tasks, c.retried, c.reattached
+        );
+    }
     let replay = outcome?;
     store.set_meta("last_study_text", &study.text)?;
     let dir = report::write(&study, &replay, &store.runs()?, None)?;
@@ -142,7 +193,8 @@ pub fn status(path: &Path) -> Result<String, String> {
         return Ok(s);
     }
     let (study, r, _) = load_replay(path)?;
-    Ok(status_text(&study, &r))
+    let store = Store::open(&study.store_path(), false)?;
+    Ok(status_text(&study, &r) + &slurm::status_lines(&study, &store)?)
 }
 
 /// `demcal report`: writes the report; returns its folder.

@@ -129,6 +129,12 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         env!("CARGO_PKG_VERSION")
     )
     .unwrap();
+    write!(
+        h,
+        "<p class=\"sub\">Runs made: {}.</p>",
+        esc(&report_data::where_ran(stored))
+    )
+    .unwrap();
 
     // Summary.
     h.push_str("<h2>Summary</h2>");

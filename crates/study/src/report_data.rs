@@ -20,6 +20,8 @@ pub(crate) fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String,
         "finished_at".into(),
         "error_kind".into(),
         "error".into(),
+        "host".into(),
+        "executor".into(),
     ]);
     head.extend(targets_report::csv_head(study));
     w.write_record(&head).map_err(|e| e.to_string())?;
@@ -55,10 +57,61 @@ pub(crate) fn results_csv(study: &Study, stored: &[RunRecord]) -> Result<String,
                 .unwrap_or_default(),
         );
         row.push(r.error.clone().unwrap_or_default());
+        row.push(r.host.clone());
+        row.push(r.executor.clone());
         row.extend(targets_report::csv_row(study, r));
         w.write_record(&row).map_err(|e| e.to_string())?;
     }
     String::from_utf8(w.into_inner().map_err(|e| e.to_string())?).map_err(|e| e.to_string())
+}
+
+/// Where the stored runs were made, for the report: how many by Slurm tasks (with their jobs
+/// and nodes) and how many on a local machine (with its name).
+pub(crate) fn where_ran(stored: &[RunRecord]) -> String {
+    use std::collections::BTreeSet;
+    let list = |set: BTreeSet<&str>| set.into_iter().collect::<Vec<_>>().join(", ");
+    let mut parts = Vec::new();
+    let slurm: Vec<&RunRecord> = stored
+        .iter()
+        .filter(|r| r.executor.starts_with("slurm job "))
+        .collect();
+    if !slurm.is_empty() {
+        let jobs: BTreeSet<&str> = slurm
+            .iter()
+            .filter_map(|r| r.executor["slurm job ".len()..].split('_').next())
+            .collect();
+        let nodes: BTreeSet<&str> = slurm
+            .iter()
+            .map(|r| r.host.as_str())
+            .filter(|h| !h.is_empty())
+            .collect();
+        parts.push(format!(
+            "{} as tasks of Slurm job arrays (job{} {}; node{} {})",
+            slurm.len(),
+            if jobs.len() == 1 { "" } else { "s" },
+            crate::slurm::job_list(jobs.into_iter()),
+            if nodes.len() == 1 { "" } else { "s" },
+            list(nodes)
+        ));
+    }
+    let local: Vec<&RunRecord> = stored.iter().filter(|r| r.executor == "local").collect();
+    if !local.is_empty() {
+        let hosts: BTreeSet<&str> = local.iter().map(|r| r.host.as_str()).collect();
+        parts.push(format!(
+            "{} by the local executor on {}",
+            local.len(),
+            list(hosts)
+        ));
+    }
+    let unknown = stored.len() - slurm.len() - local.len();
+    if unknown > 0 {
+        parts.push(format!("{unknown} by a demcal that did not record where"));
+    }
+    if parts.is_empty() {
+        "no runs stored yet".into()
+    } else {
+        parts.join("; ")
+    }
 }
 
 pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_json::Value {
@@ -109,6 +162,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         "validation_runs": validation.as_ref().map(|v| v.runs),
         "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
         "objective": targets_report::summary(study, validation.as_ref()),
+        "runs_made": where_ran(stored),
         "imports": study.imports.iter().map(|i| json!({
             "study": i.study,
             "parameter": i.parameter,

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 pub enum RunErrorKind {
     /// Stopped by Ctrl-C (never stored: the run is made again next time).
     Interrupted,
-    /// Ran longer than the study's `run_time_limit_s`.
+    /// Ran longer than the study's `run_time_limit_s`, or than its Slurm time limit.
     TimeLimit,
     /// The simulation blew up (non-finite positions or velocities).
     Diverged,
@@ -21,6 +21,10 @@ pub enum RunErrorKind {
     MeasurementFailed,
     /// The code panicked (a bug: the message says where).
     Panic,
+    /// The cluster's scheduler ended the run's task without a result: memory limit, cancelled,
+    /// node failure or pre-emption after its retries, an error starting it. (Its time limit is
+    /// `TimeLimit`.)
+    Cluster,
     /// Stored by a demcal version that did not record kinds.
     Unknown,
 }
@@ -35,6 +39,7 @@ impl RunErrorKind {
             RunErrorKind::BadSettings => "bad_settings",
             RunErrorKind::MeasurementFailed => "measurement_failed",
             RunErrorKind::Panic => "panic",
+            RunErrorKind::Cluster => "cluster",
             RunErrorKind::Unknown => "unknown",
         }
     }
@@ -49,6 +54,7 @@ impl RunErrorKind {
             RunErrorKind::BadSettings,
             RunErrorKind::MeasurementFailed,
             RunErrorKind::Panic,
+            RunErrorKind::Cluster,
         ]
         .into_iter()
         .find(|k| k.as_str() == s)

@@ -119,6 +119,9 @@ pub struct Study {
     /// "gpu". Results do not depend on it beyond round-off, so it is not part of a run's
     /// fingerprint: a study can move between machines and keep its runs.
     pub backend: String,
+    /// Where the runs are made (`[executor]`, or `demcal run --executor`): this machine or a
+    /// Slurm cluster. Not part of a run's fingerprint either.
+    pub executor: crate::slurm::ExecutorSpec,
     /// The study file's text, stored with the runs.
     pub text: String,
 }
@@ -187,6 +190,7 @@ impl Study {
             "import",
             "objective",
             "backend",
+            "executor",
         ];
         for k in doc.keys() {
             if !KEYS.contains(&k.as_str()) {
@@ -419,6 +423,7 @@ impl Study {
         };
 
         let plan = parse_plan(&doc, &err, parameters.len())?;
+        let executor = crate::slurm::settings::parse_executor(&doc, dir, &err)?;
 
         let study = Study {
             path: path.to_path_buf(),
@@ -433,6 +438,7 @@ impl Study {
             plan,
             run_time_limit_s,
             backend,
+            executor,
             text: text.to_string(),
         };
         // The test must read with every parameter set (middle values), and its settings and

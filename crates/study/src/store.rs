@@ -50,10 +50,16 @@ pub struct RunRecord {
     /// The exact test the run simulated (TOML, parameters set) and its seed; a stored run is
     /// reused only while the study would still give the same.
     pub fingerprint: String,
+    /// The machine that simulated the run (empty in stores from before it was recorded).
+    #[serde(default)]
+    pub host: String,
+    /// What ran it: `local`, or `slurm job 14_3`.
+    #[serde(default)]
+    pub executor: String,
 }
 
 pub struct Store {
-    conn: Connection,
+    pub(crate) conn: Connection,
     pub path: PathBuf,
 }
 
@@ -75,6 +81,8 @@ CREATE TABLE IF NOT EXISTS runs (
     version TEXT NOT NULL,
     out_dir TEXT NOT NULL,
     fingerprint TEXT NOT NULL,
+    host TEXT,
+    executor TEXT,
     PRIMARY KEY (stage, idx)
 );
 ";
@@ -100,16 +108,25 @@ impl Store {
         conn.busy_timeout(std::time::Duration::from_secs(10))
             .map_err(db_err(path))?;
         conn.execute_batch(SCHEMA).map_err(db_err(path))?;
-        // Stores written before run errors had kinds get the column (their failures read as
-        // kind "unknown"). Another process may add it at the same moment: that is fine too.
-        let has_kind = conn.prepare("SELECT error_kind FROM runs LIMIT 0").is_ok();
-        if !has_kind {
-            if let Err(e) = conn.execute_batch("ALTER TABLE runs ADD COLUMN error_kind TEXT") {
-                if !e.to_string().contains("duplicate column") {
-                    return Err(db_err(path)(e));
+        // Stores written before run errors had kinds (their failures read as kind "unknown"),
+        // or before hosts and executors were recorded, get the columns. Another process may add
+        // one at the same moment: that is fine too.
+        for column in ["error_kind", "host", "executor"] {
+            let has = conn
+                .prepare(&format!("SELECT {column} FROM runs LIMIT 0"))
+                .is_ok();
+            if !has {
+                if let Err(e) =
+                    conn.execute_batch(&format!("ALTER TABLE runs ADD COLUMN {column} TEXT"))
+                {
+                    if !e.to_string().contains("duplicate column") {
+                        return Err(db_err(path)(e));
+                    }
                 }
             }
         }
+        conn.execute_batch(crate::slurm::ledger::SCHEMA)
+            .map_err(db_err(path))?;
         Ok(Store {
             conn,
             path: path.to_path_buf(),
@@ -138,29 +155,7 @@ impl Store {
     pub fn insert(&mut self, r: &RunRecord) -> Result<(), String> {
         let path = self.path.clone();
         let tx = self.conn.transaction().map_err(db_err(&path))?;
-        tx.execute(
-            "INSERT OR REPLACE INTO runs (stage, stage_kind, idx, inputs, seed, status, response,
-                 outputs, error, wall_s, finished_at, version, out_dir, fingerprint, error_kind)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
-            params![
-                r.stage as i64,
-                r.stage_kind,
-                r.index as i64,
-                r.inputs.to_string(),
-                r.seed as i64,
-                r.status.as_str(),
-                r.response,
-                r.outputs.to_string(),
-                r.error,
-                r.wall_s,
-                r.finished_at,
-                r.version,
-                r.out_dir,
-                r.fingerprint,
-                r.error_kind.map(|k| k.as_str()),
-            ],
-        )
-        .map_err(db_err(&path))?;
+        insert_in(&tx, r).map_err(db_err(&path))?;
         tx.commit().map_err(db_err(&path))
     }
 
@@ -176,7 +171,8 @@ impl Store {
             .conn
             .prepare(
                 "SELECT stage, stage_kind, idx, inputs, seed, status, response, outputs, error,
-                        wall_s, finished_at, version, out_dir, fingerprint, error_kind
+                        wall_s, finished_at, version, out_dir, fingerprint, error_kind,
+                        host, executor
                  FROM runs ORDER BY stage, idx",
             )
             .map_err(db_err(&self.path))?;
@@ -212,12 +208,44 @@ impl Store {
                     version: r.get(11)?,
                     out_dir: r.get(12)?,
                     fingerprint: r.get(13)?,
+                    host: r.get::<_, Option<String>>(15)?.unwrap_or_default(),
+                    executor: r.get::<_, Option<String>>(16)?.unwrap_or_default(),
                 })
             })
             .map_err(db_err(&self.path))?;
         rows.collect::<Result<Vec<_>, _>>()
             .map_err(db_err(&self.path))
     }
+}
+
+/// Writes a finished run inside the caller's transaction (replacing an earlier record of it).
+pub(crate) fn insert_in(tx: &rusqlite::Transaction, r: &RunRecord) -> rusqlite::Result<()> {
+    tx.execute(
+        "INSERT OR REPLACE INTO runs (stage, stage_kind, idx, inputs, seed, status, response,
+             outputs, error, wall_s, finished_at, version, out_dir, fingerprint, error_kind,
+             host, executor)
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
+        params![
+            r.stage as i64,
+            r.stage_kind,
+            r.index as i64,
+            r.inputs.to_string(),
+            r.seed as i64,
+            r.status.as_str(),
+            r.response,
+            r.outputs.to_string(),
+            r.error,
+            r.wall_s,
+            r.finished_at,
+            r.version,
+            r.out_dir,
+            r.fingerprint,
+            r.error_kind.map(|k| k.as_str()),
+            r.host,
+            r.executor,
+        ],
+    )
+    .map(|_| ())
 }
 
 /// The right to run a study: `<store>.lock` next to the store, holding the process id of the
@@ -371,7 +399,9 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("old.db");
         let _ = std::fs::remove_file(&path);
-        let old = SCHEMA.replace("    error_kind TEXT,\n", "");
+        let old = SCHEMA
+            .replace("    error_kind TEXT,\n", "")
+            .replace("    host TEXT,\n    executor TEXT,\n", "");
         assert_ne!(old, SCHEMA);
         let conn = Connection::open(&path).unwrap();
         conn.execute_batch(&old).unwrap();
@@ -422,6 +452,8 @@ mod tests {
             version: "0.1.0".into(),
             out_dir: "d".into(),
             fingerprint: "f".into(),
+            host: "node7".into(),
+            executor: "slurm job 14_3".into(),
         };
         s.insert(&r).unwrap();
         r.index = 4;
@@ -436,6 +468,10 @@ mod tests {
         assert_eq!(runs.len(), 2);
         assert_eq!(runs[0].response, Some(31.5));
         assert_eq!(runs[0].inputs["x"], 0.5);
+        assert_eq!(
+            (runs[0].host.as_str(), runs[0].executor.as_str()),
+            ("node7", "slurm job 14_3")
+        );
         assert_eq!(runs[1].status, Status::Failed);
         assert_eq!(runs[1].error.as_deref(), Some("diverged"));
         assert_eq!(runs[1].error_kind, Some(RunErrorKind::Diverged));

@@ -523,6 +523,8 @@ impl study::stages::Execute for WrongRuns {
             version: String::new(),
             out_dir: String::new(),
             fingerprint: spec.fingerprint(study),
+            host: String::new(),
+            executor: String::new(),
         }])
     }
 }
@@ -581,6 +583,8 @@ fn done_runs_without_a_response_do_not_count() {
             version: String::new(),
             out_dir: String::new(),
             fingerprint: spec.fingerprint(&study),
+            host: String::new(),
+            executor: String::new(),
         })
         .collect();
     let r = study::replay(&study, &stored, None).unwrap();

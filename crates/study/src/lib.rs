@@ -96,6 +96,8 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     } else {
         // The nodes have the GPUs, not necessarily the machine that submits.
         study.backend = wanted;
+        // Before anything is written: a machine without Slurm gets nothing but the error.
+        slurm::queue::check_available()?;
     }
     let db = study.store_path();
     // One `demcal run` per study at a time, held until the report is written.

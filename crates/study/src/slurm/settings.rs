@@ -414,6 +414,18 @@ job_name = "maize"
     }
 
     #[test]
+    fn the_readme_example_reads() {
+        let readme = include_str!("../../../../README.md");
+        let start = readme.find("[executor]\nkind = \"slurm\"").expect("the README's example");
+        let end = start + readme[start..].find("```").unwrap();
+        let ExecutorSpec::Slurm(s) = parse(&readme[start..end]).unwrap() else {
+            panic!("not slurm")
+        };
+        assert_eq!(s.partition.as_deref(), Some("compute"));
+        assert_eq!((s.cpus_per_run, s.max_running), (4, 50));
+    }
+
+    #[test]
     fn wrong_values_name_the_key() {
         for (text, key, what) in [
             ("kind = \"pbs\"", "executor.kind", "\"local\" or \"slurm\""),

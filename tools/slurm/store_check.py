@@ -5,6 +5,10 @@
   store_check.py tasks DB STATE           Slurm tasks in STATE (open, stored, cancelled, ...)
   store_check.py jobs DB STATE            their array job ids, joined by commas
   store_check.py ledger DB                runs, arrays and tasks; fails if a run went out twice
+  store_check.py forget-job-ids DB        as if the coordinator died between writing its open tasks
+                                          and recording sbatch's answer (the one write made here)
+  store_check.py arrays DB                job arrays submitted
+  store_check.py done DB                  fails unless every run is done
   store_check.py equal DB_A DB_B          fails unless both hold the same runs with the same results
                                           (outcomes compared whole, but for their wall times)
   store_check.py timelimit DB PARAM MIN   fails unless the runs with PARAM >= MIN failed at
@@ -59,6 +63,19 @@ def main(argv):
         if not_slurm:
             fail(f"{db}: {not_slurm} runs were not made by Slurm tasks")
         print(f"{runs} {arrays} {tasks}")
+    elif what == "forget-job-ids":
+        con = sqlite3.connect(db, timeout=30)
+        with con:
+            n = con.execute("UPDATE cluster_tasks SET job_id = NULL WHERE state = 'open'").rowcount
+        con.close()
+        print(n)
+    elif what == "arrays":
+        print(rows(db, "SELECT COUNT(DISTINCT job_id) FROM cluster_tasks")[0][0])
+    elif what == "done":
+        bad = rows(db, "SELECT idx, status, error FROM runs WHERE status != 'done'")
+        if bad:
+            fail(f"{db}: runs not done: {bad}")
+        print(rows(db, "SELECT COUNT(*) FROM runs")[0][0])
     elif what == "equal":
         q = "SELECT stage, idx, status, response, outputs, error_kind, fingerprint, seed FROM runs ORDER BY stage, idx"
         a, b = rows(db, q), rows(argv[3], q)

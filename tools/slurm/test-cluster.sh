@@ -227,12 +227,15 @@ say "killed the coordinator with $stored_at_kill runs stored and $queued_at_kill
 status="$("$DEMCAL" status "$work/bowl/study.toml")"
 echo "$status" | grep -Eq '^  1\. screening +job [0-9]+: [0-9]+ queued, [0-9]+ running, [0-9]+ finished' ||
   die "demcal status does not show the array's tasks: $status"
+# As if it had been killed between writing its tasks and recording sbatch's answer: the resumed
+# coordinator must find the array by its job name.
+forgot=$($check forget-job-ids "$db")
 "$DEMCAL" run "$work/bowl/study.toml" >"$work/bowl-2.log" 2>&1 ||
   die "the resumed study failed: $(tail -n 5 "$work/bowl-2.log")"
 grep -q "re-attached to" "$work/bowl-2.log" || die "the resumed coordinator did not re-attach: $(head -n 5 "$work/bowl-2.log")"
 grep -q "state: complete" "$work/bowl-2.log" || die "the resumed study did not complete"
 read -r bowl_runs bowl_jobs bowl_tasks < <($check ledger "$db")
-say "bowl: $bowl_runs runs from $bowl_tasks tasks in $bowl_jobs arrays (none submitted twice)"
+say "bowl: $bowl_runs runs from $bowl_tasks tasks in $bowl_jobs arrays (none submitted twice; $forgot job ids found again by name)"
 "$DEMCAL" run "$work/bowl-local/study.toml" --jobs 2 >"$work/bowl-local.log" 2>&1 ||
   die "the local run failed: $(tail -n 5 "$work/bowl-local.log")"
 $check equal "$db" "$work/bowl-local/study.db" >/dev/null || die "the Slurm and local bowl results differ"
@@ -274,6 +277,35 @@ limit_runs=$($check count "$work/limit/study.db")
 say "time limit: $long of $limit_runs runs stopped by Slurm and stored as failed; the others done"
 grep -q "Slurm stopped the task at its time limit" "$work/limit.log" || die "the time-limit failures were not reported"
 
-runs=$((bowl_runs + heap_runs + limit_runs))
-jobs=$((bowl_jobs + heap_jobs + $($check ledger "$work/limit/study.db" | cut -d' ' -f2)))
+# ---- 4: a node failure: the runs it killed are submitted again ------------------------------
+mkdir -p "$work/node"
+sed -e 's/^name = "time limit"/name = "node failure"/' -e 's/^min = 0.5$/min = 4.0/' -e 's/^max = 150.0$/max = 6.0/' \
+  -e 's/^time_limit = "1"$/sbatch_lines = ["--no-requeue"]/' "$work/limit/study.toml" >"$work/node/study.toml"
+"$DEMCAL" run "$work/node/study.toml" >"$work/node.log" 2>&1 &
+node_pid=$!
+pids+=("$node_pid")
+for i in $(seq 300); do
+  [ -f "$work/node/study.db" ] && jid=$($check jobs "$work/node/study.db" open 2>/dev/null) && [ -n "$jid" ] &&
+    squeue --noheader --array "--jobs=$jid" --states=RUNNING | grep -q . && break
+  [ "$i" = 300 ] && die "the node-failure study's tasks never ran: $(tail -n 5 "$work/node.log")"
+  sleep 0.1
+done
+scontrol update "NodeName=$host" State=DOWN Reason=demcal-test
+sleep 1
+# With ReturnToService=2 the node may come back by itself (then RESUME is refused).
+scontrol update "NodeName=$host" State=RESUME 2>/dev/null || true
+for i in $(seq 60); do
+  sinfo --noheader --format=%t | grep -Eq '^(idle|mix|alloc)' && break
+  [ "$i" = 60 ] && die "the node did not come back after the simulated failure"
+  sleep 0.5
+done
+wait "$node_pid" || true
+grep -q "will be submitted again: its node failed" "$work/node.log" ||
+  die "no run was submitted again after the node failed: $(tail -n 5 "$work/node.log")"
+node_runs=$($check done "$work/node/study.db") || die "node-failure study: $(tail -n 5 "$work/node.log")"
+retried=$($check tasks "$work/node/study.db" retried)
+say "node failure: $retried task(s) submitted again, all $node_runs runs done"
+
+runs=$((bowl_runs + heap_runs + limit_runs + node_runs))
+jobs=$((bowl_jobs + heap_jobs + $($check arrays "$work/limit/study.db") + $($check arrays "$work/node/study.db")))
 echo "slurm: runs=$runs jobs=$jobs resumed=yes equal_to_local=yes wall_s=$(($(date +%s) - t0))"

@@ -240,7 +240,7 @@ impl<'a> SlurmExecutor<'a> {
                 part.len() - 1,
                 self.settings.max_running,
                 if part.iter().any(|p| p.2 > 1) {
-                    " (again, after their tasks were ended by Slurm)"
+                    ", submitted again after Slurm ended their tasks"
                 } else {
                     ""
                 }

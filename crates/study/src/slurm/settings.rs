@@ -416,7 +416,9 @@ job_name = "maize"
     #[test]
     fn the_readme_example_reads() {
         let readme = include_str!("../../../../README.md");
-        let start = readme.find("[executor]\nkind = \"slurm\"").expect("the README's example");
+        let start = readme
+            .find("[executor]\nkind = \"slurm\"")
+            .expect("the README's example");
         let end = start + readme[start..].find("```").unwrap();
         let ExecutorSpec::Slurm(s) = parse(&readme[start..end]).unwrap() else {
             panic!("not slurm")

@@ -13,7 +13,7 @@
 # KEEP=1 keeps the temporary folder for a look afterwards.
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/../.." && pwd)"
-check="python3 $repo/tools/slurm/store_check.py"
+check() { python3 "$repo/tools/slurm/store_check.py" "$@"; }
 t0=$(date +%s)
 say() { echo "slurm-test: $*" >&2; }
 die() { say "FAILED: $*"; exit 1; }
@@ -21,7 +21,7 @@ die() { say "FAILED: $*"; exit 1; }
 if [ -z "${DEMCAL:-}" ]; then
   # The test profile's binary: already built (and optimised) by `cargo test`.
   (cd "$repo" && cargo build --profile test -p demcal-cli --quiet)
-  DEMCAL="$repo/target/debug/demcal"
+  DEMCAL="${CARGO_TARGET_DIR:-$repo/target}/debug/demcal"
 fi
 [ -x "$DEMCAL" ] || die "no demcal binary at $DEMCAL"
 if ! command -v slurmctld >/dev/null || ! command -v slurmd >/dev/null || ! command -v sbatch >/dev/null; then
@@ -32,24 +32,29 @@ fi
 command -v python3 >/dev/null || die "python3 is needed to read the results stores"
 
 work="$(mktemp -d /tmp/demcal-slurm.XXXXXX)"
-pids=()
+pids=()        # coordinators started in the background
+ctld_pid=""    # the daemons, started in the foreground mode (-D) so that $! is theirs
+slurmd_pid=""
+stop() { # pid: TERM, then KILL after 5 s
+  [ -n "$1" ] || return 0
+  kill "$1" 2>/dev/null || return 0
+  for _ in $(seq 50); do kill -0 "$1" 2>/dev/null || return 0; sleep 0.1; done
+  kill -9 "$1" 2>/dev/null
+}
 cleanup() {
   local rc=$?
   set +e
   for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  if [ -f "$work/slurm/slurmctld.pid" ]; then
+  if [ -n "$ctld_pid" ]; then
     scancel --quiet --full "--user=$(id -un)" 2>/dev/null
-    # Give the node a moment to end the tasks before its daemon goes.
-    for _ in 1 2 3 4 5; do [ -z "$(squeue --noheader 2>/dev/null)" ] && break; sleep 1; done
+    for _ in $(seq 10); do [ -z "$(squeue --noheader 2>/dev/null)" ] && break; sleep 0.5; done
   fi
-  for d in slurmd slurmctld; do
-    if [ -f "$work/slurm/$d.pid" ]; then
-      pid="$(cat "$work/slurm/$d.pid")"
-      kill "$pid" 2>/dev/null
-      for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-      kill -9 "$pid" 2>/dev/null
-    fi
-  done
+  # The tasks' processes outlive slurmd: ended by their pids first.
+  if [ -n "$slurmd_pid" ]; then
+    scontrol listpids 2>/dev/null | awk 'NR > 1 && $1 ~ /^[0-9]+$/ { print $1 }' | xargs -r kill -9 2>/dev/null
+  fi
+  stop "$slurmd_pid"
+  stop "$ctld_pid"
   if [ "$rc" != 0 ]; then
     say "logs of the failed run:"
     tail -n 20 "$work"/slurm/log/*.log "$work"/*.log 2>/dev/null >&2
@@ -57,7 +62,15 @@ cleanup() {
   if [ -n "${KEEP:-}" ]; then say "kept $work"; else rm -rf "$work"; fi
   exit "$rc"
 }
-trap cleanup EXIT INT TERM
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+# A coordinator in the background, waited for at most $2 seconds.
+wait_for() {
+  for _ in $(seq $(($2 * 10))); do kill -0 "$1" 2>/dev/null || break; sleep 0.1; done
+  if kill -0 "$1" 2>/dev/null; then kill -9 "$1"; die "a coordinator ran longer than $2 s"; fi
+  wait "$1"
+}
 
 # ---- a one-node cluster -------------------------------------------------------------------
 host="$(hostname -s)"
@@ -99,8 +112,10 @@ NodeName=$host NodeAddr=127.0.0.1 CPUs=4 State=UNKNOWN
 PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP
 EOF
 export SLURM_CONF="$work/slurm/slurm.conf"
-slurmctld -i
-slurmd -N "$host"
+slurmctld -D -i >"$work/slurm/log/slurmctld.out" 2>&1 &
+ctld_pid=$!
+slurmd -D -N "$host" >"$work/slurm/log/slurmd.out" 2>&1 &
+slurmd_pid=$!
 for i in $(seq 60); do
   sinfo --noheader --format=%t 2>/dev/null | grep -Eq '^(idle|mix|alloc)' && break
   [ "$i" = 60 ] && die "the node did not come up (see $work/slurm/log)"
@@ -212,7 +227,7 @@ bowl_pid=$!
 pids+=("$bowl_pid")
 db="$work/bowl/study.db"
 for i in $(seq 600); do
-  n=$([ -f "$db" ] && $check count "$db" 2>/dev/null || echo 0)
+  n=$([ -f "$db" ] && check count "$db" 2>/dev/null || echo 0)
   [ "$n" -ge 3 ] && break
   kill -0 "$bowl_pid" 2>/dev/null || die "the coordinator ended before it was to be killed: $(tail -n 5 "$work/bowl-1.log")"
   [ "$i" = 600 ] && die "no run finished in 60 s: $(tail -n 5 "$work/bowl-1.log")"
@@ -220,25 +235,27 @@ for i in $(seq 600); do
 done
 kill -9 "$bowl_pid"
 wait "$bowl_pid" 2>/dev/null || true
-stored_at_kill=$($check count "$db")
-queued_at_kill=$(squeue --noheader --array "--jobs=$($check jobs "$db" open)" | wc -l)
+stored_at_kill=$(check count "$db")
+open_jobs=$(check jobs "$db" open)
+[ -n "$open_jobs" ] || die "no task was open when the coordinator was killed"
+queued_at_kill=$(squeue --noheader --array "--jobs=$open_jobs" | wc -l)
 [ "$queued_at_kill" -gt 0 ] || die "none of the array's tasks was queued or running when the coordinator was killed"
 say "killed the coordinator with $stored_at_kill runs stored and $queued_at_kill of its tasks queued or running"
 status="$("$DEMCAL" status "$work/bowl/study.toml")"
-echo "$status" | grep -Eq '^  1\. screening +job [0-9]+: [0-9]+ queued, [0-9]+ running, [0-9]+ finished' ||
+echo "$status" | grep -Eq '^  1\. screening +job [0-9]+: [0-9]+ queued( \([^)]*\))?, [0-9]+ running, [0-9]+ finished' ||
   die "demcal status does not show the array's tasks: $status"
 # As if it had been killed between writing its tasks and recording sbatch's answer: the resumed
 # coordinator must find the array by its job name.
-forgot=$($check forget-job-ids "$db")
-"$DEMCAL" run "$work/bowl/study.toml" >"$work/bowl-2.log" 2>&1 ||
+forgot=$(check forget-job-ids "$db")
+timeout 300 "$DEMCAL" run "$work/bowl/study.toml" >"$work/bowl-2.log" 2>&1 ||
   die "the resumed study failed: $(tail -n 5 "$work/bowl-2.log")"
 grep -q "re-attached to" "$work/bowl-2.log" || die "the resumed coordinator did not re-attach: $(head -n 5 "$work/bowl-2.log")"
 grep -q "state: complete" "$work/bowl-2.log" || die "the resumed study did not complete"
-read -r bowl_runs bowl_jobs bowl_tasks < <($check ledger "$db")
+read -r bowl_runs bowl_jobs bowl_tasks < <(check ledger "$db")
 say "bowl: $bowl_runs runs from $bowl_tasks tasks in $bowl_jobs arrays (none submitted twice; $forgot job ids found again by name)"
-"$DEMCAL" run "$work/bowl-local/study.toml" --jobs 2 >"$work/bowl-local.log" 2>&1 ||
+timeout 300 "$DEMCAL" run "$work/bowl-local/study.toml" --jobs 2 >"$work/bowl-local.log" 2>&1 ||
   die "the local run failed: $(tail -n 5 "$work/bowl-local.log")"
-$check equal "$db" "$work/bowl-local/study.db" >/dev/null || die "the Slurm and local bowl results differ"
+check equal "$db" "$work/bowl-local/study.db" >/dev/null || die "the Slurm and local bowl results differ"
 
 # ---- Ctrl-C with on_interrupt = "cancel": the stage's tasks are withdrawn -------------------
 mkdir -p "$work/cancel"
@@ -247,33 +264,64 @@ mkdir -p "$work/cancel"
 cancel_pid=$!
 pids+=("$cancel_pid")
 for i in $(seq 600); do
-  [ -f "$work/cancel/study.db" ] && [ "$($check count "$work/cancel/study.db" 2>/dev/null || echo 0)" -ge 1 ] && break
+  [ -f "$work/cancel/study.db" ] && [ "$(check count "$work/cancel/study.db" 2>/dev/null || echo 0)" -ge 1 ] && break
   [ "$i" = 600 ] && die "no run finished in 60 s: $(tail -n 5 "$work/cancel.log")"
   sleep 0.1
 done
 kill -INT "$cancel_pid"
-wait "$cancel_pid" 2>/dev/null && die "an interrupted study exited 0"
+wait_for "$cancel_pid" 60 2>/dev/null && die "an interrupted study exited 0"
 grep -Eq "cancelled [0-9]+ queued or running task" "$work/cancel.log" || die "Ctrl-C did not cancel: $(tail -n 3 "$work/cancel.log")"
-cancel_jobs=$($check jobs "$work/cancel/study.db" cancelled)
-[ "$($check tasks "$work/cancel/study.db" open)" = 0 ] && [ -n "$cancel_jobs" ] || die "the cancelled tasks are not closed in the store"
-[ "$(squeue --noheader --array "--jobs=$cancel_jobs" | wc -l)" = 0 ] || die "cancelled tasks are still queued"
-say "Ctrl-C cancelled $($check tasks "$work/cancel/study.db" cancelled) queued or running tasks"
+cancel_jobs=$(check jobs "$work/cancel/study.db" cancelled)
+[ "$(check tasks "$work/cancel/study.db" open)" = 0 ] && [ -n "$cancel_jobs" ] || die "the cancelled tasks are not closed in the store"
+for i in $(seq 30); do # a cancelled task may be completing for a moment
+  [ "$(squeue --noheader --array "--jobs=$cancel_jobs" | wc -l)" = 0 ] && break
+  [ "$i" = 30 ] && die "cancelled tasks are still queued"
+  sleep 0.5
+done
+say "Ctrl-C cancelled $(check tasks "$work/cancel/study.db" cancelled) queued or running tasks"
+# --restart withdraws the old results' tasks still out before it moves the store aside.
+"$DEMCAL" run "$work/cancel/study.toml" >"$work/cancel-2.log" 2>&1 &
+cancel_pid=$!
+pids+=("$cancel_pid")
+for i in $(seq 300); do
+  old_jobs=$(check jobs "$work/cancel/study.db" open 2>/dev/null) && [ -n "$old_jobs" ] && break
+  [ "$i" = 300 ] && die "the resumed study submitted nothing: $(tail -n 3 "$work/cancel-2.log")"
+  sleep 0.1
+done
+kill -9 "$cancel_pid"
+timeout 120 "$DEMCAL" run "$work/cancel/study.toml" --restart >"$work/cancel-3.log" 2>&1 &
+cancel_pid=$!
+pids+=("$cancel_pid")
+for i in $(seq 300); do
+  grep -q "submitted job" "$work/cancel-3.log" && break
+  [ "$i" = 300 ] && die "the restarted study submitted nothing: $(tail -n 3 "$work/cancel-3.log")"
+  sleep 0.1
+done
+kill -INT "$cancel_pid"
+wait_for "$cancel_pid" 60 || true
+grep -Eq "^cancelled [0-9]+ Slurm task\(s\) of the old results" "$work/cancel-3.log" ||
+  die "--restart did not cancel the old tasks: $(head -n 3 "$work/cancel-3.log")"
+for i in $(seq 30); do
+  [ "$(squeue --noheader --array "--jobs=$old_jobs" | wc -l)" = 0 ] && break
+  [ "$i" = 30 ] && die "the old results' tasks are still queued after --restart"
+  sleep 0.5
+done
 
 # ---- 2: a tiny repose study ---------------------------------------------------------------
-"$DEMCAL" run "$work/heap/study.toml" >"$work/heap.log" 2>&1 ||
+timeout 300 "$DEMCAL" run "$work/heap/study.toml" >"$work/heap.log" 2>&1 ||
   grep -q "^state: " "$work/heap.log" || die "the repose study failed: $(tail -n 5 "$work/heap.log")"
-read -r heap_runs heap_jobs _ < <($check ledger "$work/heap/study.db")
-"$DEMCAL" run "$work/heap-local/study.toml" >"$work/heap-local.log" 2>&1 ||
+read -r heap_runs heap_jobs _ < <(check ledger "$work/heap/study.db")
+timeout 300 "$DEMCAL" run "$work/heap-local/study.toml" >"$work/heap-local.log" 2>&1 ||
   grep -q "^state: " "$work/heap-local.log" || die "the local repose study failed"
-$check equal "$work/heap/study.db" "$work/heap-local/study.db" >/dev/null ||
+check equal "$work/heap/study.db" "$work/heap-local/study.db" >/dev/null ||
   die "the Slurm and local repose results differ"
 say "repose: $heap_runs runs in $heap_jobs array(s), equal to the local executor's"
 
 # ---- 3: the time limit --------------------------------------------------------------------
-wait "$limit_pid" || true
-long=$($check timelimit "$work/limit/study.db" duration 100) ||
+wait_for "$limit_pid" 300 || true
+long=$(check timelimit "$work/limit/study.db" duration 100) ||
   die "time-limit study: $(tail -n 8 "$work/limit.log")"
-limit_runs=$($check count "$work/limit/study.db")
+limit_runs=$(check count "$work/limit/study.db")
 say "time limit: $long of $limit_runs runs stopped by Slurm and stored as failed; the others done"
 grep -q "Slurm stopped the task at its time limit" "$work/limit.log" || die "the time-limit failures were not reported"
 
@@ -285,7 +333,7 @@ sed -e 's/^name = "time limit"/name = "node failure"/' -e 's/^min = 0.5$/min = 4
 node_pid=$!
 pids+=("$node_pid")
 for i in $(seq 300); do
-  [ -f "$work/node/study.db" ] && jid=$($check jobs "$work/node/study.db" open 2>/dev/null) && [ -n "$jid" ] &&
+  [ -f "$work/node/study.db" ] && jid=$(check jobs "$work/node/study.db" open 2>/dev/null) && [ -n "$jid" ] &&
     squeue --noheader --array "--jobs=$jid" --states=RUNNING | grep -q . && break
   [ "$i" = 300 ] && die "the node-failure study's tasks never ran: $(tail -n 5 "$work/node.log")"
   sleep 0.1
@@ -299,13 +347,13 @@ for i in $(seq 60); do
   [ "$i" = 60 ] && die "the node did not come back after the simulated failure"
   sleep 0.5
 done
-wait "$node_pid" || true
+wait_for "$node_pid" 300 || true
 grep -q "will be submitted again: its node failed" "$work/node.log" ||
   die "no run was submitted again after the node failed: $(tail -n 5 "$work/node.log")"
-node_runs=$($check done "$work/node/study.db") || die "node-failure study: $(tail -n 5 "$work/node.log")"
-retried=$($check tasks "$work/node/study.db" retried)
+node_runs=$(check done "$work/node/study.db") || die "node-failure study: $(tail -n 5 "$work/node.log")"
+retried=$(check tasks "$work/node/study.db" retried)
 say "node failure: $retried task(s) submitted again, all $node_runs runs done"
 
 runs=$((bowl_runs + heap_runs + limit_runs + node_runs))
-jobs=$((bowl_jobs + heap_jobs + $($check arrays "$work/limit/study.db") + $($check arrays "$work/node/study.db")))
+jobs=$((bowl_jobs + heap_jobs + $(check arrays "$work/limit/study.db") + $(check arrays "$work/node/study.db")))
 echo "slurm: runs=$runs jobs=$jobs resumed=yes equal_to_local=yes wall_s=$(($(date +%s) - t0))"

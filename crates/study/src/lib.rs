@@ -106,6 +106,11 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     // store or run exists.
     study.check_scene()?;
     if opts.restart && db.exists() {
+        // Tasks of the old results still out on Slurm would go on writing into the run folders.
+        let cancelled = slurm::withdraw_open(&Store::open(&db, false)?)?;
+        if cancelled > 0 {
+            eprintln!("cancelled {cancelled} Slurm task(s) of the old results");
+        }
         let aside = db.with_extension(format!(
             "db.old-{}",
             store::now_utc().replace([' ', ':'], "-")

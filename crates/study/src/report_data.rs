@@ -78,7 +78,14 @@ pub(crate) fn where_ran(stored: &[RunRecord]) -> String {
     if !slurm.is_empty() {
         let jobs: BTreeSet<&str> = slurm
             .iter()
-            .filter_map(|r| r.executor["slurm job ".len()..].split('_').next())
+            .filter_map(|r| {
+                // `slurm job 14_3`: the array's id is the leading digits.
+                let rest = &r.executor["slurm job ".len()..];
+                let id = &rest[..rest
+                    .find(|c: char| !c.is_ascii_digit())
+                    .unwrap_or(rest.len())];
+                (!id.is_empty()).then_some(id)
+            })
             .collect();
         let nodes: BTreeSet<&str> = slurm
             .iter()

@@ -61,6 +61,36 @@ pub struct RunRecord {
 pub struct Store {
     pub(crate) conn: Connection,
     pub path: PathBuf,
+    /// What an older store opened read-only lacks.
+    pub(crate) columns: Columns,
+}
+
+/// The columns and tables added since the first stores, and whether this store has them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Columns {
+    error_kind: bool,
+    origin: bool,
+    pub(crate) ledger: bool,
+}
+
+/// Brings an older store up to date: the schema, the columns added since.
+fn migrate(conn: &Connection) -> rusqlite::Result<()> {
+    conn.execute_batch(SCHEMA)?;
+    for column in ["error_kind", "host", "executor"] {
+        let has = conn
+            .prepare(&format!("SELECT {column} FROM runs LIMIT 0"))
+            .is_ok();
+        if !has {
+            if let Err(e) =
+                conn.execute_batch(&format!("ALTER TABLE runs ADD COLUMN {column} TEXT"))
+            {
+                if !e.to_string().contains("duplicate column") {
+                    return Err(e);
+                }
+            }
+        }
+    }
+    conn.execute_batch(crate::slurm::ledger::SCHEMA)
 }
 
 const SCHEMA: &str = "
@@ -107,29 +137,24 @@ impl Store {
         // Wait for a reader or another process rather than fail at once.
         conn.busy_timeout(std::time::Duration::from_secs(10))
             .map_err(db_err(path))?;
-        conn.execute_batch(SCHEMA).map_err(db_err(path))?;
         // Stores written before run errors had kinds (their failures read as kind "unknown"),
-        // or before hosts and executors were recorded, get the columns. Another process may add
-        // one at the same moment: that is fine too.
-        for column in ["error_kind", "host", "executor"] {
-            let has = conn
-                .prepare(&format!("SELECT {column} FROM runs LIMIT 0"))
-                .is_ok();
-            if !has {
-                if let Err(e) =
-                    conn.execute_batch(&format!("ALTER TABLE runs ADD COLUMN {column} TEXT"))
-                {
-                    if !e.to_string().contains("duplicate column") {
-                        return Err(db_err(path)(e));
-                    }
-                }
-            }
+        // before hosts and executors were recorded, or before Slurm tasks were kept, get the
+        // columns and the table. Another process may add one at the same moment: that is fine
+        // too. A reader that cannot write (a read-only copy) reads without them.
+        let migrated = migrate(&conn);
+        if create {
+            migrated.map_err(db_err(path))?;
         }
-        conn.execute_batch(crate::slurm::ledger::SCHEMA)
-            .map_err(db_err(path))?;
+        let has = |sql: &str| conn.prepare(sql).is_ok();
+        let columns = Columns {
+            error_kind: has("SELECT error_kind FROM runs LIMIT 0"),
+            origin: has("SELECT host, executor FROM runs LIMIT 0"),
+            ledger: has("SELECT id FROM cluster_tasks LIMIT 0"),
+        };
         Ok(Store {
             conn,
             path: path.to_path_buf(),
+            columns,
         })
     }
 
@@ -169,12 +194,21 @@ impl Store {
     pub fn runs(&self) -> Result<Vec<RunRecord>, String> {
         let mut st = self
             .conn
-            .prepare(
+            .prepare(&format!(
                 "SELECT stage, stage_kind, idx, inputs, seed, status, response, outputs, error,
-                        wall_s, finished_at, version, out_dir, fingerprint, error_kind,
-                        host, executor
+                        wall_s, finished_at, version, out_dir, fingerprint, {}, {}
                  FROM runs ORDER BY stage, idx",
-            )
+                if self.columns.error_kind {
+                    "error_kind"
+                } else {
+                    "NULL"
+                },
+                if self.columns.origin {
+                    "host, executor"
+                } else {
+                    "NULL, NULL"
+                }
+            ))
             .map_err(db_err(&self.path))?;
         let rows = st
             .query_map([], |r| {
@@ -278,13 +312,24 @@ impl StoreLock {
             {
                 Ok(mut f) => {
                     use std::io::Write;
-                    f.write_all(format!("{me}\n").as_bytes())
+                    // The host too: on a shared file system the lock may be seen from another
+                    // login node, where this process id means nothing.
+                    f.write_all(format!("{me}\n{}\n", crate::job::hostname()).as_bytes())
                         .and_then(|_| f.sync_all())
                         .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
                     return Ok(StoreLock { path });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                     let text = std::fs::read_to_string(&path).unwrap_or_default();
+                    let host = text.lines().nth(1).map(str::trim).unwrap_or("");
+                    if !host.is_empty() && host != crate::job::hostname() {
+                        let pid = text.lines().next().unwrap_or("?").trim();
+                        return Err(format!(
+                            "{}: the study is being run by process {pid} on {host} (lock file {}); stop it there, or if it no longer runs, remove that file",
+                            store.display(),
+                            path.display()
+                        ));
+                    }
                     match text.lines().next().and_then(|l| l.trim().parse::<u32>().ok()) {
                         Some(pid) if pid != me && !process_exists(pid) => {
                             // Stale: its process is gone.

@@ -644,6 +644,17 @@ fn the_store_is_locked_while_a_study_runs() {
         Some(std::process::id().to_string().as_str())
     );
     drop(lock);
+    // A lock taken on another machine (a login node sharing the file system) is never taken
+    // over from here: its process cannot be checked.
+    std::fs::write(&lock_file, format!("{pid}\nanother-login-node\n")).unwrap();
+    assert_eq!(
+        study::store::StoreLock::acquire(&db).unwrap_err(),
+        format!(
+            "{}: the study is being run by process {pid} on another-login-node (lock file {}); stop it there, or if it no longer runs, remove that file",
+            db.display(),
+            lock_file.display()
+        )
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -136,6 +136,28 @@ impl Store {
             .map_err(err(self))
     }
 
+    /// How many times Slurm ended this run's tasks for reasons not its own (node failure,
+    /// pre-emption): the tasks closed as retried, across coordinator restarts.
+    pub(crate) fn retried(
+        &self,
+        stage: usize,
+        index: usize,
+        fingerprint: &str,
+    ) -> Result<usize, String> {
+        if !self.columns.ledger {
+            return Ok(0);
+        }
+        self.conn
+            .query_row(
+                "SELECT COUNT(*) FROM cluster_tasks
+                 WHERE stage = ?1 AND idx = ?2 AND fingerprint = ?3 AND state = 'retried'",
+                params![stage as i64, index as i64, fingerprint],
+                |r| r.get::<_, i64>(0),
+            )
+            .map(|n| n as usize)
+            .map_err(err(self))
+    }
+
     /// Stores a task's run and closes the task, in one transaction: after a crash either both
     /// happened or neither.
     pub(crate) fn store_task_run(&mut self, task: i64, r: &RunRecord) -> Result<(), String> {
@@ -153,6 +175,10 @@ impl Store {
 
     /// Every task (`open_only`: those whose result is not stored yet), oldest first.
     pub fn cluster_tasks(&self, open_only: bool) -> Result<Vec<Task>, String> {
+        // A store from before Slurm tasks were kept, opened read-only, has none.
+        if !self.columns.ledger {
+            return Ok(Vec::new());
+        }
         let mut st = self
             .conn
             .prepare(&format!(

@@ -8,14 +8,19 @@
 //!   `sbatch` runs and get their job id as soon as it answers; a run's record is stored in the
 //!   same transaction that closes its task. A coordinator killed at any moment, started again,
 //!   re-attaches to the tasks still queued or running and collects the results of those that
-//!   ended meanwhile, instead of submitting them again. A task written but never given a job id
-//!   (killed during `sbatch`) is looked for by its job name, which carries the submission's token.
+//!   ended meanwhile, instead of submitting them again ([`submit`]). A task written but never
+//!   given a job id (killed during `sbatch`, or sbatch timed out) is looked for by its job name,
+//!   which carries the submission's token. Each submission has its own folder, so a result of an
+//!   older submission can never pass for a newer one's. The store's lock names its host, so a
+//!   second coordinator on another login node is refused.
 //! - **No accounting needed.** What is queued comes from `squeue`; why a task left the queue
 //!   without a result from `scontrol show job`, else `sacct`, else the line Slurm writes into the
 //!   task's log when it kills it ([`queue`]).
 //! - **Failures are results.** A time-limit kill is a failed run of kind `time_limit`; memory,
-//!   cancellation and start-up errors are kind `cluster`; a node failure or pre-emption is not the
-//!   run's fault and is submitted again (`retries`, default once) before it is stored as failed.
+//!   cancellation and start-up errors are kind `cluster`; a node failure, pre-emption, or an end
+//!   nobody can explain any more is not the run's fault and is submitted again (`retries`,
+//!   default once, counted across restarts) before it is stored as failed. A task that completed
+//!   without its result showing gets minutes for a shared file system to show it.
 //! - **Ctrl-C** asks whether to `scancel` the stage's queued and running tasks or leave them for
 //!   the next `demcal run` (`on_interrupt`).
 
@@ -23,10 +28,12 @@ pub mod ledger;
 pub mod queue;
 pub mod script;
 pub mod settings;
+mod status;
+mod submit;
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, IsTerminal, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -37,10 +44,16 @@ use crate::job::Job;
 use crate::run_error::{RunError, RunErrorKind};
 use crate::spec::Study;
 use crate::stages::{Execute, RunSpec, StageResult};
-use crate::store::{now_utc, RunRecord, Status, Store};
+use crate::store::{RunRecord, Status, Store};
 use ledger::Task;
 use queue::Verdict;
 pub use settings::{ExecutorSpec, OnInterrupt, SlurmSettings};
+pub use status::{job_list, status_lines};
+pub use submit::withdraw_open;
+
+/// How long a task that completed (exit 0) may take to show its result on this machine: NFS
+/// caches a folder's listing for up to a minute by default.
+const RESULT_SHOWS_WITHIN: Duration = Duration::from_secs(300);
 
 /// What a coordinator did, for its closing line.
 #[derive(Clone, Debug, Default)]
@@ -76,11 +89,14 @@ pub struct SlurmExecutor<'a> {
     max_array: usize,
     gpus: usize,
     terminal: bool,
+    /// Reasons for waiting already warned about.
+    warned: BTreeSet<String>,
     pub stats: SlurmStats,
 }
 
 impl<'a> SlurmExecutor<'a> {
-    /// Checks that Slurm answers and prepares the run folder.
+    /// Checks that Slurm answers, that the files the nodes need are there, and prepares the run
+    /// folder.
     pub fn new(
         settings: SlurmSettings,
         store: &'a mut Store,
@@ -94,6 +110,20 @@ impl<'a> SlurmExecutor<'a> {
                 format!("cannot tell which demcal is running ({e}); set demcal in [executor]")
             })?,
         };
+        // The nodes see the same paths (a shared file system), so what is missing here is
+        // missing there: said now rather than as a stage of failed tasks.
+        for (key, path) in [
+            ("demcal", Some(&demcal)),
+            ("environment_script", settings.environment_script.as_ref()),
+        ] {
+            if let Some(p) = path.filter(|p| !p.is_file()) {
+                return Err(format!(
+                    "{}: executor.{key}: {} is not a file here (the nodes must see it at the same path)",
+                    study.path.display(),
+                    p.display()
+                ));
+            }
+        }
         let run_folder = settings
             .run_folder
             .clone()
@@ -101,7 +131,8 @@ impl<'a> SlurmExecutor<'a> {
         let run_folder = std::path::absolute(&run_folder).unwrap_or(run_folder);
         std::fs::create_dir_all(run_folder.join("logs")).map_err(|e| {
             format!(
-                "{}: cannot create the run folder: {e}",
+                "{}: executor.run_folder: {}: cannot create: {e}",
+                study.path.display(),
                 run_folder.display()
             )
         })?;
@@ -135,234 +166,9 @@ impl<'a> SlurmExecutor<'a> {
             max_array: queue::max_array_size().max(2),
             gpus,
             terminal: std::io::stderr().is_terminal(),
+            warned: BTreeSet::new(),
             stats: SlurmStats::default(),
         })
-    }
-
-    /// The folder of a stage's job files and scripts.
-    fn stage_folder(&self, stage: &StageResult) -> PathBuf {
-        self.run_folder
-            .join(format!("stage{}-{}", stage.index + 1, stage.kind))
-    }
-
-    /// Writes the job files, the task lists and scripts, records the tasks, and submits one
-    /// array per `max_array` runs.
-    fn submit(
-        &mut self,
-        study: &Study,
-        stage: &StageResult,
-        items: Vec<(Job, RunSpec, usize)>,
-    ) -> Result<Vec<Tracked>, String> {
-        let folder = self.stage_folder(stage);
-        std::fs::create_dir_all(&folder)
-            .map_err(|e| format!("{}: cannot create: {e}", folder.display()))?;
-        let mut tracked = Vec::new();
-        let chunk = self.max_array - 1;
-        let mut items = items.into_iter().peekable();
-        while items.peek().is_some() {
-            let part: Vec<_> = items.by_ref().take(chunk).collect();
-            let token = token();
-            let base = self
-                .settings
-                .job_name
-                .clone()
-                .unwrap_or_else(|| format!("demcal-{}", stem(study)));
-            let job_name = format!("{base}-s{}-{token}", stage.index + 1);
-            let mut list = String::new();
-            let mut tasks = Vec::new();
-            for (i, (job, spec, attempt)) in part.iter().enumerate() {
-                let name = format!("run{:03}", spec.index + 1);
-                // `demcal run-one` writes its record beside the job file: runNNN.record.json.
-                let job_file = folder.join(format!("{name}.json"));
-                let record_file = folder.join(format!("{name}.record.json"));
-                // A result left by an earlier attempt must not pass for this one's.
-                let _ = std::fs::remove_file(&record_file);
-                write_atomic(&job_file, &job.to_json())?;
-                list.push_str(&job_file.display().to_string());
-                list.push('\n');
-                tasks.push(Task {
-                    id: 0,
-                    stage: stage.index,
-                    index: spec.index,
-                    attempt: *attempt,
-                    token: token.clone(),
-                    job_name: job_name.clone(),
-                    job_id: None,
-                    task: i as u32,
-                    fingerprint: job.fingerprint.clone(),
-                    job_file,
-                    record_file,
-                    log_dir: self.run_folder.join("logs"),
-                    submitted_at: now_utc(),
-                    state: "open".into(),
-                    note: None,
-                });
-            }
-            let tasks_file = folder.join(format!("array-{token}.tasks"));
-            let script_file = folder.join(format!("array-{token}.sh"));
-            write_atomic(&tasks_file, &list)?;
-            let what = format!(
-                "study {}, stage {} ({}), {} runs",
-                study.path.display(),
-                stage.index + 1,
-                stage.kind,
-                part.len()
-            );
-            write_atomic(
-                &script_file,
-                &script::batch_script(&self.settings, self.gpus, &what, &tasks_file, &self.demcal),
-            )?;
-            let ids = self.store.add_tasks(&tasks)?;
-            let submitted = queue::submit(
-                &script_file,
-                part.len(),
-                self.settings.max_running,
-                &job_name,
-                &self.run_folder.join("logs").join("%A_%a.out"),
-            );
-            let job_id = match submitted {
-                Ok(id) => id,
-                Err(e) => {
-                    for id in &ids {
-                        self.store.close_task(*id, "dropped", &e)?;
-                    }
-                    return Err(format!("stage {} ({}): {e}", stage.index + 1, stage.kind));
-                }
-            };
-            self.store.set_job_id(&token, &job_id)?;
-            self.stats.arrays += 1;
-            self.stats.tasks += part.len();
-            eprintln!(
-                "stage {} ({}): submitted job {job_id}: {} runs as tasks 0-{} (at most {} at once){}",
-                stage.index + 1,
-                stage.kind,
-                part.len(),
-                part.len() - 1,
-                self.settings.max_running,
-                if part.iter().any(|p| p.2 > 1) {
-                    ", submitted again after Slurm ended their tasks"
-                } else {
-                    ""
-                }
-            );
-            for ((job, spec, _), (mut task, id)) in part.into_iter().zip(tasks.into_iter().zip(ids))
-            {
-                task.id = id;
-                task.job_id = Some(job_id.clone());
-                tracked.push(Tracked {
-                    task,
-                    job,
-                    spec,
-                    gone_since: None,
-                });
-            }
-        }
-        Ok(tracked)
-    }
-
-    /// The tasks of this stage that an earlier coordinator left open: those still good are
-    /// followed again; those of runs no longer wanted (the study changed) are withdrawn.
-    fn reattach(
-        &mut self,
-        study: &Study,
-        stage: &StageResult,
-        runs: &[RunSpec],
-    ) -> Result<(Vec<Tracked>, Vec<RunSpec>), String> {
-        let open: Vec<Task> = self
-            .store
-            .cluster_tasks(true)?
-            .into_iter()
-            .filter(|t| t.stage == stage.index)
-            .collect();
-        let mut by_index: HashMap<usize, Task> = HashMap::new();
-        let mut stale = Vec::new();
-        for t in open {
-            // Only the newest attempt of a run counts; older ones were closed when retried.
-            if let Some(old) = by_index.insert(t.index, t) {
-                stale.push(old);
-            }
-        }
-        let mut tracked = Vec::new();
-        let mut fresh = Vec::new();
-        for spec in runs {
-            let job = Job::new(study, spec);
-            match by_index.remove(&spec.index) {
-                Some(t) if t.fingerprint == job.fingerprint => tracked.push(Tracked {
-                    task: t,
-                    job,
-                    spec: spec.clone(),
-                    gone_since: None,
-                }),
-                Some(t) => {
-                    stale.push(t);
-                    fresh.push(spec.clone());
-                }
-                None => fresh.push(spec.clone()),
-            }
-        }
-        stale.extend(by_index.into_values());
-        let withdraw: Vec<String> = stale
-            .iter()
-            .filter(|t| t.job_id.is_some())
-            .map(Task::name)
-            .collect();
-        if !withdraw.is_empty() {
-            if let Err(e) = queue::cancel(&withdraw) {
-                eprintln!("warning: {e}");
-            }
-        }
-        for t in &stale {
-            self.store.close_task(
-                t.id,
-                "dropped",
-                "the study no longer plans this run (changed or already stored)",
-            )?;
-        }
-        // Tasks written but never given a job id: the coordinator died during sbatch.
-        let tokens: BTreeSet<(String, String)> = tracked
-            .iter()
-            .filter(|t| t.task.job_id.is_none())
-            .map(|t| (t.task.token.clone(), t.task.job_name.clone()))
-            .collect();
-        for (token, name) in tokens {
-            let found = queue::squeue_by_name(&name)?;
-            match found.keys().next() {
-                Some((job_id, _)) => {
-                    self.store.set_job_id(&token, job_id)?;
-                    for t in tracked.iter_mut().filter(|t| t.task.token == token) {
-                        t.task.job_id = Some(job_id.clone());
-                    }
-                }
-                None => {
-                    // Not in the queue: ended already (its results may be there) or never
-                    // submitted. Results are collected below; the others are submitted again.
-                    let (done, lost): (Vec<_>, Vec<_>) = std::mem::take(&mut tracked)
-                        .into_iter()
-                        .partition(|t| t.task.token != token || t.task.record_file.exists());
-                    tracked = done;
-                    for t in lost {
-                        self.store.close_task(
-                            t.task.id,
-                            "dropped",
-                            "sbatch's answer was never recorded and no such job is queued",
-                        )?;
-                        fresh.push(t.spec);
-                    }
-                }
-            }
-        }
-        if !tracked.is_empty() {
-            let jobs = job_list(tracked.iter().filter_map(|t| t.task.job_id.as_deref()));
-            eprintln!(
-                "stage {} ({}): re-attached to {} task(s) of Slurm job(s) {} submitted earlier",
-                stage.index + 1,
-                stage.kind,
-                tracked.len(),
-                jobs
-            );
-            self.stats.reattached += tracked.len();
-        }
-        Ok((tracked, fresh))
     }
 
     /// The task's result when its record file is there, whole and for this run.
@@ -415,12 +221,16 @@ impl<'a> SlurmExecutor<'a> {
         };
         bar.inc(1);
         let line = format!(
-            "{stage_name}: run {} ({}) {outcome} ({:.1} s, {} on {})",
+            "{stage_name}: run {} ({}) {outcome} ({:.1} s, {}{})",
             t.spec.index + 1,
             t.spec.label,
             rec.wall_s,
             rec.executor,
-            if rec.host.is_empty() { "?" } else { &rec.host }
+            if rec.host.is_empty() {
+                String::new()
+            } else {
+                format!(" on {}", rec.host)
+            }
         );
         if self.terminal {
             bar.println(line);
@@ -430,10 +240,37 @@ impl<'a> SlurmExecutor<'a> {
         Ok(rec)
     }
 
-    /// What to do when Ctrl-C came while `open` tasks are out: cancel them or leave them.
-    fn interrupted_with(&mut self, open: &[Tracked], bar: &ProgressBar) -> Result<bool, String> {
+    /// A failed run the coordinator records itself (Slurm ended the task): made on `node`,
+    /// if Slurm said which, never on this login node.
+    fn failure(
+        t: &Tracked,
+        kind: RunErrorKind,
+        message: String,
+        wall_s: f64,
+        node: &str,
+    ) -> RunRecord {
+        let mut rec = t.job.record(Some(RunError::new(kind, message)), wall_s);
+        rec.host = if node == "(null)" {
+            String::new()
+        } else {
+            node.to_string()
+        };
+        rec
+    }
+
+    /// Ctrl-C came while `open` tasks are out: cancel them (asking first when told to) or leave
+    /// them for the next coordinator. Results that come in while cancelling are stored. Returns
+    /// the line to add to the interrupt's message.
+    fn interrupted_with(
+        &mut self,
+        study: &Study,
+        stage_name: &str,
+        open: Vec<Tracked>,
+        finished: &mut Vec<RunRecord>,
+        bar: &ProgressBar,
+    ) -> Result<String, String> {
         if open.is_empty() {
-            return Ok(false);
+            return Ok(String::new());
         }
         let cancel = match self.settings.on_interrupt {
             OnInterrupt::Cancel => true,
@@ -453,15 +290,32 @@ impl<'a> SlurmExecutor<'a> {
             }
             OnInterrupt::Ask => false,
         };
-        if cancel {
-            let ids: Vec<String> = open.iter().map(|t| t.task.name()).collect();
-            queue::cancel(&ids)?;
-            for t in open {
-                self.store
-                    .close_task(t.task.id, "cancelled", "cancelled at Ctrl-C")?;
+        let leave = format!(
+            "{} task(s) left queued or running on Slurm: the next demcal run collects them",
+            open.len()
+        );
+        if !cancel {
+            return Ok(leave);
+        }
+        let tasks: Vec<Task> = open.iter().map(|t| t.task.clone()).collect();
+        // Cancelled ones are not closed yet: a task that ends in between has its result kept.
+        let cancelled = submit::cancel_tasks(&tasks);
+        if let Err(e) = cancelled {
+            eprintln!("warning: {e}");
+            return Ok(leave);
+        }
+        let mut n = 0;
+        for t in open {
+            match self.read_record(&t) {
+                Some(Ok(rec)) => finished.push(self.store_run(study, stage_name, &t, rec, bar)?),
+                _ => {
+                    self.store
+                        .close_task(t.task.id, "cancelled", "cancelled at Ctrl-C")?;
+                    n += 1;
+                }
             }
         }
-        Ok(cancel)
+        Ok(format!("cancelled {n} queued or running task(s)"))
     }
 }
 
@@ -479,10 +333,15 @@ impl Execute for SlurmExecutor<'_> {
             stage.kind
         );
         let (mut tracked, fresh) = self.reattach(study, stage, runs)?;
-        let items = fresh
-            .into_iter()
-            .map(|spec| (Job::new(study, &spec), spec, 1))
-            .collect();
+        let mut items = Vec::new();
+        for spec in fresh {
+            let job = Job::new(study, &spec);
+            // Retries count across coordinators: after the tasks Slurm already ended.
+            let attempt = 1 + self
+                .store
+                .retried(spec.stage, spec.index, &job.fingerprint)?;
+            items.push((job, spec, attempt));
+        }
         tracked.extend(self.submit(study, stage, items)?);
         let bar = if self.terminal {
             let bar = ProgressBar::with_draw_target(
@@ -503,12 +362,11 @@ impl Execute for SlurmExecutor<'_> {
         bar.set_prefix(stage_name.clone());
         bar.set_position((stage.runs.len() - runs.len()) as u64);
         let poll = Duration::from_secs_f64(self.settings.poll_s);
-        // A task out of the queue gets this long for its result file to appear (a shared file
-        // system may show it late) before Slurm is asked why it ended.
+        // A task out of the queue gets this long for its result file to appear before Slurm is
+        // asked why it ended.
         let grace = (poll * 2).clamp(Duration::from_secs(5), Duration::from_secs(120));
         let every = crate::runner::log_interval().max(poll);
-        let mut last_log = Instant::now();
-        let mut last_counts = (usize::MAX, usize::MAX);
+        let mut last_log: Option<(Instant, String)> = None;
         let mut finished = Vec::new();
         let mut queue_warned = false;
         loop {
@@ -536,38 +394,47 @@ impl Execute for SlurmExecutor<'_> {
                     None
                 }
             };
+            // Listing a folder makes a network file system look again at what it holds.
+            let folders: BTreeSet<PathBuf> = tracked
+                .iter()
+                .filter_map(|t| t.task.record_file.parent().map(PathBuf::from))
+                .collect();
+            for f in folders {
+                let _ = std::fs::read_dir(f).map(|d| d.count());
+            }
             let mut retry = Vec::new();
             let mut keep = Vec::new();
-            let (mut waiting, mut running) = (0, 0);
+            let mut running = 0;
+            let mut waiting: BTreeMap<String, usize> = BTreeMap::new();
             for mut t in std::mem::take(&mut tracked) {
-                if let Some(result) = self.read_record(&t) {
-                    match result {
-                        Ok(rec) => {
-                            finished.push(self.store_run(study, &stage_name, &t, rec, &bar)?);
-                            continue;
-                        }
-                        // Maybe being written: judged once the task has left the queue.
-                        Err(e) if t.gone_since.is_none_or(|s| s.elapsed() < grace) => {
-                            let _ = e;
-                        }
-                        Err(e) => {
-                            let rec = t
-                                .job
-                                .record(Some(RunError::new(RunErrorKind::Cluster, e)), 0.0);
-                            finished.push(self.store_run(study, &stage_name, &t, rec, &bar)?);
-                            continue;
-                        }
+                match self.read_record(&t) {
+                    Some(Ok(rec)) => {
+                        finished.push(self.store_run(study, &stage_name, &t, rec, &bar)?);
+                        continue;
                     }
+                    // Maybe being written: judged once the task has been out of the queue a while.
+                    Some(Err(e)) if t.gone_since.is_some_and(|s| s.elapsed() >= grace) => {
+                        let rec = Self::failure(&t, RunErrorKind::Cluster, e, 0.0, "");
+                        finished.push(self.store_run(study, &stage_name, &t, rec, &bar)?);
+                        continue;
+                    }
+                    _ => {}
                 }
-                let (Some(q), Some(job_id)) = (&queued, t.task.job_id.clone()) else {
+                let Some(q) = &queued else {
                     keep.push(t);
                     continue;
                 };
-                if let Some(place) = q.get(&(job_id.clone(), t.task.task)) {
+                // A task never given a job id is not in the queue (its name was looked for).
+                let place = t
+                    .task
+                    .job_id
+                    .as_ref()
+                    .and_then(|j| q.get(&(j.clone(), t.task.task)));
+                if let Some(place) = place {
                     if place.running() {
                         running += 1;
                     } else {
-                        waiting += 1;
+                        *waiting.entry(place.reason.clone()).or_default() += 1;
                     }
                     t.gone_since = None;
                     keep.push(t);
@@ -579,7 +446,18 @@ impl Execute for SlurmExecutor<'_> {
                     continue;
                 }
                 let log = t.task.log();
-                let ending = queue::ending(&job_id, t.task.task, &log);
+                let ending = match &t.task.job_id {
+                    Some(job_id) => queue::ending(job_id, t.task.task, &log),
+                    None => queue::Ending::default(),
+                };
+                // demcal run-one exits 0 only after writing its result: the file is on its way.
+                if ending.state == "COMPLETED"
+                    && ending.exit_code.starts_with("0:")
+                    && since.elapsed() < RESULT_SHOWS_WITHIN
+                {
+                    keep.push(t);
+                    continue;
+                }
                 match queue::verdict(&ending, &t.task.name(), &log, &queue::log_tail(&log)) {
                     Verdict::Wait => {
                         t.gone_since = None;
@@ -594,18 +472,16 @@ impl Execute for SlurmExecutor<'_> {
                         retry.push(t);
                     }
                     Verdict::Retry(why) => {
-                        let msg = format!("Slurm ended the task {} time(s): {why}", t.task.attempt);
-                        let rec = t
-                            .job
-                            .record(Some(RunError::new(RunErrorKind::Cluster, msg)), 0.0);
+                        let msg = format!(
+                            "Slurm ended the run's task {} time(s), the last time: {why}",
+                            t.task.attempt
+                        );
+                        let rec = Self::failure(&t, RunErrorKind::Cluster, msg, 0.0, &ending.node);
                         finished.push(self.store_run(study, &stage_name, &t, rec, &bar)?);
                     }
                     Verdict::Fail(kind, msg) => {
                         let wall = seconds(&ending.run_time);
-                        let mut rec = t.job.record(Some(RunError::new(kind, msg)), wall);
-                        if !ending.node.is_empty() && ending.node != "(null)" {
-                            rec.host = ending.node.clone();
-                        }
+                        let rec = Self::failure(&t, kind, msg, wall, &ending.node);
                         finished.push(self.store_run(study, &stage_name, &t, rec, &bar)?);
                     }
                 }
@@ -622,16 +498,23 @@ impl Execute for SlurmExecutor<'_> {
             if tracked.is_empty() {
                 break;
             }
+            self.warn_stuck(&stage_name, &tracked, &waiting);
             let jobs = job_list(tracked.iter().filter_map(|t| t.task.job_id.as_deref()));
-            let status = format!("{waiting} queued, {running} running (job {jobs})");
-            bar.set_message(status.clone());
-            if !self.terminal
-                && ((waiting, running) != last_counts || last_log.elapsed() >= every * 12)
-                && last_log.elapsed() >= every
-            {
-                eprintln!("{stage_name}: {status}");
-                last_log = Instant::now();
-                last_counts = (waiting, running);
+            let queued_n: usize = waiting.values().sum();
+            let reasons = status::reasons(&waiting.iter().map(|(r, n)| (r.as_str(), *n)).collect());
+            let line = format!("{queued_n} queued{reasons}, {running} running (job {jobs})");
+            bar.set_message(line.clone());
+            // Off a terminal: the line when it changes (at most every few seconds), and once a
+            // minute or so in any case, so a long stage never looks hung.
+            let due = match &last_log {
+                None => true,
+                Some((at, said)) => {
+                    at.elapsed() >= every && (*said != line || at.elapsed() >= every * 12)
+                }
+            };
+            if !self.terminal && due {
+                eprintln!("{stage_name}: {line}");
+                last_log = Some((Instant::now(), line));
             }
             // Sleep in slices so that Ctrl-C is answered at once.
             let until = Instant::now() + poll;
@@ -649,22 +532,13 @@ impl Execute for SlurmExecutor<'_> {
                         _ => open.push(t),
                     }
                 }
-                let cancelled = self.interrupted_with(&open, &bar)?;
+                let left = self.interrupted_with(study, &stage_name, open, &mut finished, &bar)?;
                 bar.finish_and_clear();
-                let left = if open.is_empty() {
-                    String::new()
-                } else if cancelled {
-                    format!("; cancelled {} queued or running task(s)", open.len())
-                } else {
-                    format!(
-                        "; {} task(s) left queued or running on Slurm: the next demcal run collects them",
-                        open.len()
-                    )
-                };
                 return Err(format!(
-                    "interrupted: {} finished runs are stored in {}{left}; run the same command again to go on",
+                    "interrupted: {} finished runs are stored in {}{}; run the same command again to go on",
                     finished.len(),
-                    self.store.path.display()
+                    self.store.path.display(),
+                    if left.is_empty() { String::new() } else { format!("; {left}") }
                 ));
             }
         }
@@ -678,52 +552,23 @@ impl Execute for SlurmExecutor<'_> {
     }
 }
 
-/// Job ids in numeric order, each once, joined by commas.
-pub fn job_list<'s>(ids: impl Iterator<Item = &'s str>) -> String {
-    let set: BTreeSet<(usize, &str)> = ids.map(|i| (i.len(), i)).collect();
-    set.into_iter()
-        .map(|(_, i)| i)
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// A short token unique to this submission (its job name carries it).
-fn token() -> String {
-    use std::sync::atomic::AtomicU64;
-    static COUNT: AtomicU64 = AtomicU64::new(0);
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos() as u64)
-        .unwrap_or(0);
-    let mix = nanos
-        ^ (u64::from(std::process::id()) << 32)
-        ^ COUNT
-            .fetch_add(1, Ordering::Relaxed)
-            .wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    // SplitMix64's finaliser spreads the bits.
-    let mut z = mix.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    format!("{:08x}", (z ^ (z >> 31)) as u32)
-}
-
-fn stem(study: &Study) -> String {
-    let s: String = study
-        .path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "study".into())
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
+impl SlurmExecutor<'_> {
+    /// Warns once per reason when tasks wait for something that does not clear by itself.
+    fn warn_stuck(
+        &mut self,
+        stage_name: &str,
+        tracked: &[Tracked],
+        waiting: &BTreeMap<String, usize>,
+    ) {
+        for (reason, n) in waiting {
+            if queue::never_clears(reason) && self.warned.insert(reason.clone()) {
+                let jobs = job_list(tracked.iter().filter_map(|t| t.task.job_id.as_deref()));
+                eprintln!(
+                    "warning: {stage_name}: {n} task(s) of job {jobs} wait with reason {reason}, which does not clear by itself (a hold, or more than the partition, QOS or account allows): check [executor] (time_limit, partition, account, qos, memory) or ask the administrators; `scancel {jobs}` withdraws them"
+                );
             }
-        })
-        .take(40)
-        .collect();
-    s
+        }
+    }
 }
 
 /// Seconds in Slurm's `[D-]HH:MM:SS` (0 when it cannot be read).
@@ -737,93 +582,12 @@ fn seconds(s: &str) -> f64 {
     days * 86400.0 + hms
 }
 
-/// Writes a file whole or not at all (the nodes may read it the moment it is there).
-fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    std::fs::write(&tmp, text)
-        .and_then(|_| std::fs::rename(&tmp, path))
-        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
-}
-
-/// `demcal status`'s lines for the Slurm tasks: per stage, how many are queued, running, and
-/// finished, with their job ids. Asks `squeue` for the open ones when it can.
-pub fn status_lines(study: &Study, store: &Store) -> Result<String, String> {
-    let tasks = store.cluster_tasks(false)?;
-    if tasks.is_empty() {
-        return Ok(String::new());
-    }
-    let open_ids: Vec<String> = tasks
-        .iter()
-        .filter(|t| t.state == "open")
-        .filter_map(|t| t.job_id.clone())
-        .collect::<BTreeSet<_>>()
-        .into_iter()
-        .collect();
-    let queued = queue::squeue(&open_ids);
-    let mut s = String::from("on Slurm:\n");
-    let stages: BTreeSet<usize> = tasks.iter().map(|t| t.stage).collect();
-    for stage in stages {
-        let of: Vec<&Task> = tasks.iter().filter(|t| t.stage == stage).collect();
-        let jobs: BTreeSet<&str> = of.iter().filter_map(|t| t.job_id.as_deref()).collect();
-        let several = jobs.len() > 1;
-        let stored = of.iter().filter(|t| t.state == "stored").count();
-        let open: Vec<&&Task> = of.iter().filter(|t| t.state == "open").collect();
-        let counts = match &queued {
-            Ok(q) => {
-                let (mut waiting, mut running, mut ended) = (0, 0, 0);
-                for t in &open {
-                    match t.job_id.as_ref().and_then(|j| q.get(&(j.clone(), t.task))) {
-                        Some(p) if p.running() => running += 1,
-                        Some(_) => waiting += 1,
-                        None => ended += 1,
-                    }
-                }
-                format!(
-                    "{waiting} queued, {running} running, {stored} finished{}",
-                    if ended > 0 {
-                        format!(", {ended} ended and not yet collected")
-                    } else {
-                        String::new()
-                    }
-                )
-            }
-            Err(e) => format!(
-                "{} submitted and not yet collected, {stored} finished (queue not readable here: {e})",
-                open.len()
-            ),
-        };
-        let retried = of.iter().filter(|t| t.state == "retried").count();
-        let cancelled = of.iter().filter(|t| t.state == "cancelled").count();
-        let kind = study.plan.get(stage).map(|p| p.kind()).unwrap_or("?");
-        s.push_str(&format!(
-            "  {}. {kind:<10} job{} {}: {counts}{}\n",
-            stage + 1,
-            if several { "s" } else { "" },
-            job_list(jobs.into_iter()),
-            [("submitted again", retried), ("cancelled", cancelled)]
-                .iter()
-                .filter(|(_, n)| *n > 0)
-                .map(|(what, n)| format!(", {n} {what}"))
-                .collect::<String>()
-        ));
-    }
-    Ok(s)
-}
-
 #[cfg(test)]
 mod tests {
-    use super::*;
-
     #[test]
-    fn tokens_differ_and_times_read() {
-        let a = token();
-        let b = token();
-        assert_ne!(a, b);
-        assert_eq!(a.len(), 8);
-        assert_eq!(seconds("00:01:14"), 74.0);
-        assert_eq!(seconds("1-00:00:01"), 86401.0);
-        assert_eq!(seconds(""), 0.0);
+    fn slurm_times_in_seconds() {
+        assert_eq!(super::seconds("00:01:14"), 74.0);
+        assert_eq!(super::seconds("1-00:00:01"), 86401.0);
+        assert_eq!(super::seconds(""), 0.0);
     }
 }

@@ -11,7 +11,13 @@ use crate::run_error::RunErrorKind;
 
 /// Runs a Slurm command; its standard output, or one line saying what went wrong.
 fn slurm(program: &str, args: &[String]) -> Result<String, String> {
-    let out = Command::new(program).args(args).output().map_err(|e| {
+    let mut cmd = Command::new(program);
+    cmd.args(args);
+    // In a process group of its own, so that the Ctrl-C meant for the coordinator does not also
+    // stop an sbatch half way (the array made, its id never heard).
+    #[cfg(unix)]
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    let out = cmd.output().map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
             format!("{program}: not found (is this a Slurm login node? the Slurm commands must be on PATH)")
         } else {
@@ -54,20 +60,25 @@ pub fn max_array_size() -> usize {
         .unwrap_or(1001)
 }
 
-/// Submits `script` as an array of tasks `0..tasks` with at most `throttle` running at once;
-/// the array's job id.
+/// Submits `script` as an array of tasks `0..tasks` with at most `throttle` running at once,
+/// each logging to `<log_dir>/<array id>_<task>.out`; the array's job id.
 pub fn submit(
     script: &Path,
     tasks: usize,
     throttle: usize,
     job_name: &str,
-    log_pattern: &Path,
+    log_dir: &Path,
 ) -> Result<String, String> {
+    // sbatch expands % in the log's name: the folder's own are doubled.
+    let log = format!(
+        "{}/%A_%a.out",
+        log_dir.display().to_string().replace('%', "%%")
+    );
     let args = vec![
         "--parsable".to_string(),
-        format!("--array=0-{}%{throttle}", tasks - 1),
+        format!("--array=0-{}%{throttle}", tasks.max(1) - 1),
         format!("--job-name={job_name}"),
-        format!("--output={}", log_pattern.display()),
+        format!("--output={log}"),
         script.display().to_string(),
     ];
     let out = slurm("sbatch", &args)?;
@@ -106,6 +117,8 @@ pub fn squeue(job_ids: &[String]) -> Result<HashMap<(String, u32), Queued>, Stri
     let args = vec![
         "--noheader".to_string(),
         "--array".to_string(),
+        // Hidden partitions too: a task there is not gone.
+        "--all".to_string(),
         format!("--jobs={}", job_ids.join(",")),
         "--format=%F|%K|%T|%r".to_string(),
     ];
@@ -122,6 +135,7 @@ pub fn squeue_by_name(name: &str) -> Result<HashMap<(String, u32), Queued>, Stri
     let args = vec![
         "--noheader".to_string(),
         "--array".to_string(),
+        "--all".to_string(),
         format!("--name={name}"),
         "--format=%F|%K|%T|%r".to_string(),
     ];
@@ -364,10 +378,11 @@ pub fn verdict(e: &Ending, id: &str, log: &Path, log_tail: &str) -> Verdict {
             k,
             format!("the task ended without writing its result (job {id}{on}){tail}"),
         ),
-        "" => Verdict::Fail(
-            k,
-            format!("the task left the queue without a result, and Slurm no longer says why (job {id}){tail}"),
-        ),
+        // demcal run-one records every failure of its own, so a task gone without a record and
+        // without a known cause most likely met its node's end while nobody was looking.
+        "" => Verdict::Retry(format!(
+            "it left the queue without a result, and Slurm no longer says why (job {id}){tail}"
+        )),
         other => Verdict::Fail(
             k,
             format!("Slurm ended the task as {other} (job {id}{on}, reason {}){tail}", e.reason),
@@ -385,6 +400,27 @@ pub fn log_tail(log: &Path) -> String {
         .find(|l| !l.is_empty())
         .unwrap_or("");
     line.chars().take(240).collect()
+}
+
+/// Whether a task waiting for `reason` waits until someone acts: a hold, or a request beyond a
+/// limit of its partition, QOS or account.
+pub fn never_clears(reason: &str) -> bool {
+    reason.starts_with("JobHeld")
+        || reason.contains("launch failed requeued held")
+        || reason.starts_with("Partition")
+            && reason != "PartitionDown"
+            && reason != "PartitionInactive"
+        || reason.starts_with("QOSMax") && reason.ends_with("PerJobLimit")
+        || reason.starts_with("AssocMax") && reason.ends_with("PerJobLimit")
+        || matches!(
+            reason,
+            "InvalidAccount" | "InvalidQOS" | "DependencyNeverSatisfied" | "BadConstraints"
+        )
+}
+
+/// Withdraws every task of the submission named `name` (its job name carries its token).
+pub fn cancel_by_name(name: &str) -> Result<(), String> {
+    slurm("scancel", &[format!("--name={name}")]).map(|_| ())
 }
 
 /// Withdraws tasks (`14_3`) or whole arrays (`14`).
@@ -468,5 +504,22 @@ mod tests {
             ..Ending::default()
         };
         assert_eq!(verdict(&running, "4_2", Path::new("l"), ""), Verdict::Wait);
+        // Forgotten by Slurm and without a log line: most likely the node, so tried again.
+        assert!(
+            matches!(verdict(&Ending::default(), "4_2", Path::new("l"), ""), Verdict::Retry(m) if m.contains("no longer says why"))
+        );
+        for (reason, stuck) in [
+            ("Priority", false),
+            ("Resources", false),
+            ("JobArrayTaskLimit", false),
+            ("PartitionDown", false),
+            ("PartitionTimeLimit", true),
+            ("JobHeldAdmin", true),
+            ("QOSMaxWallDurationPerJobLimit", true),
+            ("QOSMaxJobsPerUserLimit", false),
+            ("InvalidAccount", true),
+        ] {
+            assert_eq!(never_clears(reason), stuck, "{reason}");
+        }
     }
 }

@@ -58,13 +58,15 @@ pub fn batch_script(
     for line in &s.sbatch_lines {
         writeln!(t, "#SBATCH {line}").unwrap();
     }
-    t.push_str("set -u\n");
+    // Module names are checked when the study is read (letters, digits, / . _ + - : and spaces).
     for m in &s.modules {
         writeln!(t, "module load {m}").unwrap();
     }
     if let Some(env) = &s.environment_script {
         writeln!(t, "source {}", quote(&env.display().to_string())).unwrap();
     }
+    // Strict only from here: site scripts and conda's activate often read unset variables.
+    t.push_str("set -u\n");
     let tasks = quote(&tasks.display().to_string());
     writeln!(
         t,
@@ -72,10 +74,10 @@ pub fn batch_script(
     )
     .unwrap();
     writeln!(t, "job=$(sed -n \"$((task + 1))p\" {tasks})").unwrap();
+    // The path as printf's argument, never inside double quotes where $ and ` would expand.
     writeln!(
         t,
-        "if [ -z \"$job\" ]; then echo \"demcal: array task $task has no line in {}\" >&2; exit 2; fi",
-        tasks.replace('"', "\\\"")
+        "if [ -z \"$job\" ]; then printf 'demcal: array task %s has no line in %s\\n' \"$task\" {tasks} >&2; exit 2; fi"
     )
     .unwrap();
     writeln!(

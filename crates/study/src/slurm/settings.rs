@@ -190,21 +190,29 @@ pub fn parse_executor(
             )),
         }
     };
-    // A Slurm name (partition, account, QOS, job name): no spaces or shell characters.
-    let name = |k: &str| -> Result<Option<String>, String> {
+    // A Slurm name (partition, account, QOS, job name): no spaces or shell characters. A job
+    // name may not hold a comma either: squeue --name reads one as a list.
+    let name = |k: &str, others: &str| -> Result<Option<String>, String> {
         match t.get(k) {
             None => Ok(None),
             Some(toml::Value::String(s))
                 if !s.is_empty()
                     && s.len() <= 200
                     && s.chars()
-                        .all(|c| c.is_ascii_alphanumeric() || "-_.,+@".contains(c)) =>
+                        .all(|c| c.is_ascii_alphanumeric() || others.contains(c)) =>
             {
                 Ok(Some(s.clone()))
             }
             Some(v) => Err(err(
                 &key(k),
-                format!("expected a Slurm name (letters, digits, - _ . , + @), got {v}"),
+                format!(
+                    "expected a Slurm name (letters, digits and {}), got {v}",
+                    others
+                        .chars()
+                        .map(String::from)
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                ),
             )),
         }
     };
@@ -295,9 +303,9 @@ pub fn parse_executor(
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(ExecutorSpec::Slurm(Box::new(SlurmSettings {
-        partition: name("partition")?,
-        account: name("account")?,
-        qos: name("qos")?,
+        partition: name("partition", "-_.,+@")?,
+        account: name("account", "-_.,+@")?,
+        qos: name("qos", "-_.,+@")?,
         time_limit,
         cpus_per_run: count("cpus_per_run", 1, 1, MOST_CPUS)?,
         gpus_per_run: t
@@ -307,14 +315,30 @@ pub fn parse_executor(
         memory,
         max_running: count("max_running", DEFAULT_MAX_RUNNING, 1, MOST_RUNNING)?,
         sbatch_lines,
-        modules: lines("modules")?,
+        modules: lines("modules")?
+            .into_iter()
+            .map(|m| {
+                if m.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "/._+-: ".contains(c))
+                {
+                    Ok(m)
+                } else {
+                    Err(err(
+                        &key("modules"),
+                        format!(
+                            "expected module names (letters, digits, / . _ + - :), got \"{m}\""
+                        ),
+                    ))
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?,
         environment_script: path("environment_script")?,
         demcal: path("demcal")?,
         poll_s,
         run_folder: path("run_folder")?,
         retries: count("retries", 1, 0, MOST_RETRIES)?,
         on_interrupt,
-        job_name: name("job_name")?,
+        job_name: name("job_name", "-_.+@")?,
     })))
 }
 
@@ -460,6 +484,16 @@ job_name = "maize"
                 "kind = \"slurm\"\npartition = \"a b\"",
                 "executor.partition",
                 "Slurm name",
+            ),
+            (
+                "kind = \"slurm\"\njob_name = \"a,b\"",
+                "executor.job_name",
+                "Slurm name",
+            ),
+            (
+                "kind = \"slurm\"\nmodules = [\"gcc; rm -rf ~\"]",
+                "executor.modules",
+                "module names",
             ),
             (
                 "kind = \"slurm\"\nsbatch_lines = [\"exclusive\"]",

@@ -289,6 +289,7 @@ for i in $(seq 300); do
   sleep 0.1
 done
 kill -9 "$cancel_pid"
+wait "$cancel_pid" 2>/dev/null || true
 timeout 120 "$DEMCAL" run "$work/cancel/study.toml" --restart >"$work/cancel-3.log" 2>&1 &
 cancel_pid=$!
 pids+=("$cancel_pid")

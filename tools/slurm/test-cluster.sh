@@ -269,7 +269,7 @@ for i in $(seq 600); do
   sleep 0.1
 done
 kill -INT "$cancel_pid"
-wait_for "$cancel_pid" 60 2>/dev/null && die "an interrupted study exited 0"
+wait_for "$cancel_pid" 60 && die "an interrupted study exited 0"
 grep -Eq "cancelled [0-9]+ queued or running task" "$work/cancel.log" || die "Ctrl-C did not cancel: $(tail -n 3 "$work/cancel.log")"
 cancel_jobs=$(check jobs "$work/cancel/study.db" cancelled)
 [ "$(check tasks "$work/cancel/study.db" open)" = 0 ] && [ -n "$cancel_jobs" ] || die "the cancelled tasks are not closed in the store"

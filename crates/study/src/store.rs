@@ -185,10 +185,25 @@ impl Store {
     }
 
     /// Forgets failed runs so that they run again.
-    pub fn delete_failed(&self) -> Result<usize, String> {
-        self.conn
+    pub fn delete_failed(&mut self) -> Result<usize, String> {
+        let path = self.path.clone();
+        let tx = self.conn.transaction().map_err(db_err(&path))?;
+        if self.columns.ledger {
+            // Their runs start afresh, with their retries after a node failure unused again.
+            tx.execute(
+                "UPDATE cluster_tasks SET state = 'dropped', note = 'its run was run again (--retry-failed)'
+                 WHERE state = 'retried' AND EXISTS (SELECT 1 FROM runs
+                     WHERE runs.stage = cluster_tasks.stage AND runs.idx = cluster_tasks.idx
+                       AND runs.status = 'failed')",
+                [],
+            )
+            .map_err(db_err(&path))?;
+        }
+        let n = tx
             .execute("DELETE FROM runs WHERE status = 'failed'", [])
-            .map_err(db_err(&self.path))
+            .map_err(db_err(&path))?;
+        tx.commit().map_err(db_err(&path))?;
+        Ok(n)
     }
 
     pub fn runs(&self) -> Result<Vec<RunRecord>, String> {
@@ -314,7 +329,7 @@ impl StoreLock {
                     use std::io::Write;
                     // The host too: on a shared file system the lock may be seen from another
                     // login node, where this process id means nothing.
-                    f.write_all(format!("{me}\n{}\n", crate::job::hostname()).as_bytes())
+                    f.write_all(format!("{me}\n{}\n", machine_name()).as_bytes())
                         .and_then(|_| f.sync_all())
                         .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
                     return Ok(StoreLock { path });
@@ -322,7 +337,7 @@ impl StoreLock {
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                     let text = std::fs::read_to_string(&path).unwrap_or_default();
                     let host = text.lines().nth(1).map(str::trim).unwrap_or("");
-                    if !host.is_empty() && host != crate::job::hostname() {
+                    if !host.is_empty() && !same_machine(host, &machine_name()) {
                         let pid = text.lines().next().unwrap_or("?").trim();
                         return Err(format!(
                             "{}: the study is being run by process {pid} on {host} (lock file {}); stop it there, or if it no longer runs, remove that file",
@@ -377,6 +392,23 @@ impl Drop for StoreLock {
             let _ = std::fs::remove_file(&self.path);
         }
     }
+}
+
+/// This machine's own name (the kernel's, not a Slurm node name that may alias it).
+fn machine_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .map(|h| h.trim().to_string())
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .or_else(|| std::env::var("COMPUTERNAME").ok())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// Whether two names are the same machine's: `login1` and `login1.cluster.example` are.
+fn same_machine(a: &str, b: &str) -> bool {
+    let short = |s: &str| s.split('.').next().unwrap_or("").to_ascii_lowercase();
+    short(a) == short(b)
 }
 
 /// Whether a process with this id exists on this machine.
@@ -475,6 +507,12 @@ mod tests {
     }
 
     #[test]
+    fn a_machine_by_its_short_or_full_name() {
+        assert!(same_machine("login1", "LOGIN1.cluster.example"));
+        assert!(!same_machine("login1", "login2.cluster.example"));
+    }
+
+    #[test]
     fn runs_round_trip_and_failed_runs_can_be_retried() {
         let dir = std::env::temp_dir().join(format!("demcal-store-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -508,7 +546,7 @@ mod tests {
         r.error_kind = Some(RunErrorKind::Diverged);
         s.insert(&r).unwrap();
         drop(s);
-        let s = Store::open(&path, false).unwrap();
+        let mut s = Store::open(&path, false).unwrap();
         let runs = s.runs().unwrap();
         assert_eq!(runs.len(), 2);
         assert_eq!(runs[0].response, Some(31.5));

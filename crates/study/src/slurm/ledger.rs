@@ -216,3 +216,70 @@ impl Store {
         rows.collect::<Result<Vec<_>, _>>().map_err(err(self))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run_error::RunErrorKind;
+    use crate::store::Status;
+
+    #[test]
+    fn tasks_round_trip_and_retries_restart_with_retry_failed() {
+        let dir = std::env::temp_dir().join(format!("demcal-ledger-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("s.db");
+        let _ = std::fs::remove_file(&path);
+        let mut s = Store::open(&path, true).unwrap();
+        let task = |attempt: usize, state: &str| Task {
+            id: 0,
+            stage: 0,
+            index: 2,
+            attempt,
+            token: format!("tok{attempt}"),
+            job_name: "demcal-s1".into(),
+            job_id: None,
+            task: 5,
+            fingerprint: "f".into(),
+            job_file: dir.join("run003.json"),
+            record_file: dir.join("run003.record.json"),
+            log_dir: dir.join("logs"),
+            submitted_at: "t".into(),
+            state: state.into(),
+            note: None,
+        };
+        s.add_tasks(&[task(1, "retried"), task(2, "open")]).unwrap();
+        s.set_job_id("tok2", "812").unwrap();
+        let open = s.cluster_tasks(true).unwrap();
+        assert_eq!(open.len(), 1);
+        assert_eq!(open[0].name(), "812_5");
+        assert_eq!(open[0].log(), dir.join("logs/812_5.out"));
+        assert_eq!(s.retried(0, 2, "f").unwrap(), 1);
+        // The run fails after its retry: stored with its task closed in one go.
+        let rec = RunRecord {
+            stage: 0,
+            stage_kind: "screening".into(),
+            index: 2,
+            inputs: serde_json::Value::Null,
+            seed: 1,
+            status: Status::Failed,
+            response: None,
+            outputs: serde_json::Value::Null,
+            error: Some("node failed twice".into()),
+            error_kind: Some(RunErrorKind::Cluster),
+            wall_s: 0.0,
+            finished_at: "t".into(),
+            version: "v".into(),
+            out_dir: "d".into(),
+            fingerprint: "f".into(),
+            host: String::new(),
+            executor: "slurm job 812_5".into(),
+        };
+        s.store_task_run(open[0].id, &rec).unwrap();
+        assert!(s.cluster_tasks(true).unwrap().is_empty());
+        assert_eq!(s.runs().unwrap()[0].error_kind, Some(RunErrorKind::Cluster));
+        // --retry-failed: the run starts afresh, its retries unused again.
+        assert_eq!(s.delete_failed().unwrap(), 1);
+        assert_eq!(s.retried(0, 2, "f").unwrap(), 0);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -129,6 +129,14 @@ impl<'a> SlurmExecutor<'a> {
             .clone()
             .unwrap_or_else(|| study.runs_dir().join("slurm"));
         let run_folder = std::path::absolute(&run_folder).unwrap_or(run_folder);
+        // A backslash in sbatch's --output turns off its %A_%a: every log would be one file.
+        if run_folder.to_string_lossy().contains('\\') {
+            return Err(format!(
+                "{}: executor.run_folder: {} holds a backslash, which sbatch's log names cannot take",
+                study.path.display(),
+                run_folder.display()
+            ));
+        }
         std::fs::create_dir_all(run_folder.join("logs")).map_err(|e| {
             format!(
                 "{}: executor.run_folder: {}: cannot create: {e}",
@@ -406,6 +414,7 @@ impl Execute for SlurmExecutor<'_> {
             let mut keep = Vec::new();
             let mut running = 0;
             let mut waiting: BTreeMap<String, usize> = BTreeMap::new();
+            let mut waiting_jobs: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
             for mut t in std::mem::take(&mut tracked) {
                 match self.read_record(&t) {
                     Some(Ok(rec)) => {
@@ -435,6 +444,12 @@ impl Execute for SlurmExecutor<'_> {
                         running += 1;
                     } else {
                         *waiting.entry(place.reason.clone()).or_default() += 1;
+                        if let Some(j) = &t.task.job_id {
+                            waiting_jobs
+                                .entry(place.reason.clone())
+                                .or_default()
+                                .insert(j.clone());
+                        }
                     }
                     t.gone_since = None;
                     keep.push(t);
@@ -498,7 +513,7 @@ impl Execute for SlurmExecutor<'_> {
             if tracked.is_empty() {
                 break;
             }
-            self.warn_stuck(&stage_name, &tracked, &waiting);
+            self.warn_stuck(&stage_name, &waiting, &waiting_jobs);
             let jobs = job_list(tracked.iter().filter_map(|t| t.task.job_id.as_deref()));
             let queued_n: usize = waiting.values().sum();
             let reasons = status::reasons(&waiting.iter().map(|(r, n)| (r.as_str(), *n)).collect());
@@ -557,14 +572,16 @@ impl SlurmExecutor<'_> {
     fn warn_stuck(
         &mut self,
         stage_name: &str,
-        tracked: &[Tracked],
         waiting: &BTreeMap<String, usize>,
+        jobs: &BTreeMap<String, BTreeSet<String>>,
     ) {
         for (reason, n) in waiting {
             if queue::never_clears(reason) && self.warned.insert(reason.clone()) {
-                let jobs = job_list(tracked.iter().filter_map(|t| t.task.job_id.as_deref()));
+                let ids = jobs.get(reason).cloned().unwrap_or_default();
+                let list = job_list(ids.iter().map(String::as_str));
                 eprintln!(
-                    "warning: {stage_name}: {n} task(s) of job {jobs} wait with reason {reason}, which does not clear by itself (a hold, or more than the partition, QOS or account allows): check [executor] (time_limit, partition, account, qos, memory) or ask the administrators; `scancel {jobs}` withdraws them"
+                    "warning: {stage_name}: {n} task(s) of job {list} wait with reason {reason}, which does not clear by itself (a hold, or more than the partition, QOS or account allows): check [executor] (time_limit, partition, account, qos, memory) or ask the administrators; `scancel {}` withdraws them, and their runs are then stored as failed",
+                    list.replace(", ", " ")
                 );
             }
         }

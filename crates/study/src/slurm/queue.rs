@@ -13,6 +13,16 @@ use crate::run_error::RunErrorKind;
 fn slurm(program: &str, args: &[String]) -> Result<String, String> {
     let mut cmd = Command::new(program);
     cmd.args(args);
+    // The user's squeue defaults (SQUEUE_STATES=all, a partition) would hide or invent tasks,
+    // and a time format would change what is parsed; long task ranges are printed whole.
+    for (k, _) in std::env::vars_os() {
+        if k.to_str()
+            .is_some_and(|k| k.starts_with("SQUEUE_") || k == "SLURM_TIME_FORMAT")
+        {
+            cmd.env_remove(k);
+        }
+    }
+    cmd.env("SLURM_BITSTR_LEN", "0");
     // In a process group of its own, so that the Ctrl-C meant for the coordinator does not also
     // stop an sbatch half way (the array made, its id never heard).
     #[cfg(unix)]

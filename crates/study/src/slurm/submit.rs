@@ -33,11 +33,14 @@ impl SlurmExecutor<'_> {
     ) -> Result<Vec<Tracked>, String> {
         let mut tracked = Vec::new();
         let chunk = self.max_array - 1;
-        let arrays = items.len().div_ceil(chunk);
-        let throttle = (self.settings.max_running / arrays.max(1)).max(1);
+        let total = items.len();
         let mut items = items.into_iter().peekable();
         while items.peek().is_some() {
             let part: Vec<_> = items.by_ref().take(chunk).collect();
+            // A stage split into several arrays shares its throttle in proportion to their sizes.
+            let throttle = (self.settings.max_running * part.len())
+                .div_ceil(total)
+                .max(1);
             let token = token();
             let folder = self.stage_folder(stage).join(&token);
             std::fs::create_dir_all(&folder).map_err(|e| {
@@ -210,14 +213,21 @@ impl SlurmExecutor<'_> {
             }
         }
         stale.extend(by_index.into_values());
-        if let Err(e) = withdraw(
+        // A stale task left running would wipe and rewrite its run's picture folder, which the
+        // run submitted afresh now uses too: nothing is submitted until they are withdrawn.
+        withdraw(
             self.store,
             &stale,
             "dropped",
             "the study no longer plans this run (changed, or stored meanwhile)",
-        ) {
-            eprintln!("warning: {e}");
-        }
+        )
+        .map_err(|e| {
+            format!(
+                "stage {} ({}): cannot withdraw the tasks of runs the study no longer plans: {e}; cancel them (scancel) and run again",
+                stage.index + 1,
+                stage.kind
+            )
+        })?;
         if !tracked.is_empty() {
             eprintln!(
                 "stage {} ({}): re-attached to {} task(s) of Slurm job(s) {} submitted earlier",
@@ -276,20 +286,26 @@ pub fn withdraw_open(store: &Store) -> Result<usize, String> {
     if open.is_empty() {
         return Ok(0);
     }
-    queue::check_available().map_err(|e| {
-        format!(
-            "{} Slurm task(s) of the old results are still open (jobs {}) and cannot be cancelled from here ({e}); cancel them with scancel, then run again",
-            open.len(),
-            super::job_list(open.iter().filter_map(|t| t.job_id.as_deref()))
+    let jobs = super::job_list(open.iter().filter_map(|t| t.job_id.as_deref()));
+    // The old store is moved aside whatever happens: a restart must always be possible.
+    let cancelled = queue::check_available().and_then(|_| {
+        withdraw(
+            store,
+            &open,
+            "cancelled",
+            "cancelled by demcal run --restart",
         )
-    })?;
-    withdraw(
-        store,
-        &open,
-        "cancelled",
-        "cancelled by demcal run --restart",
-    )?;
-    Ok(open.len())
+    });
+    match cancelled {
+        Ok(()) => Ok(open.len()),
+        Err(e) => {
+            eprintln!(
+                "warning: {} Slurm task(s) of the old results may still be queued or running (jobs {jobs}) and could not be cancelled ({e}): cancel them with scancel before their runs start again",
+                open.len()
+            );
+            Ok(0)
+        }
+    }
 }
 
 /// A short token unique to this submission (its folder and job name carry it).

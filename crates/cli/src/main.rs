@@ -2,6 +2,7 @@
 //! a library crate; nothing here knows physics.
 
 mod bench;
+mod lab;
 mod progress;
 
 use clap::{Parser, Subcommand};
@@ -137,6 +138,11 @@ enum Command {
     Doe {
         #[command(subcommand)]
         action: DoeCommand,
+    },
+    /// The lab side: angle of repose from a heap photo, friction, moduli, moisture, density.
+    Lab {
+        #[command(subcommand)]
+        action: lab::LabCommand,
     },
     /// Surrogates (GP, BP, GA-BP) trained on your own result table, and searched for a goal.
     Surrogate {
@@ -643,6 +649,7 @@ fn main() -> ExitCode {
                 .and_then(|_| simulate(&scene, out.as_deref(), backend.as_deref())),
             Command::Doe { action } => doe_command(action),
             Command::Surrogate { action } => surrogate_command(action),
+            Command::Lab { action } => lab::run(action),
             Command::Run {
                 study,
                 jobs,

@@ -580,11 +580,26 @@ fn anova_html(h: &mut String, fit: &Fit, title: &str) {
         esc(&fit.experiment.response_name)
     )
     .unwrap();
+    // Pure error on one or two degrees of freedom (a 12-run Plackett-Burman repeating a point)
+    // makes any lack-of-fit test meaningless: said instead of a verdict.
+    let thin_pure_error = fit
+        .pure_error
+        .as_ref()
+        .map(|p| p.df)
+        .filter(|df| (1..=2).contains(df));
     let row = |h: &mut String, r: &AnovaRow, verdict: bool| {
-        let note = match (verdict, r.p) {
-            (true, Some(p)) if p < 0.05 => "significant",
-            (true, Some(_)) => "not significant",
-            _ => "",
+        let lack_of_fit = fit.lack_of_fit.as_ref().is_some_and(|l| std::ptr::eq(l, r));
+        let thin = thin_pure_error.filter(|_| lack_of_fit).map(|df| {
+            format!(
+                "not judged: pure error has only {df} degree{} of freedom",
+                if df == 1 { "" } else { "s" }
+            )
+        });
+        let note = match (verdict, r.p, thin) {
+            (_, _, Some(t)) => t,
+            (true, Some(p), _) if p < 0.05 => "significant".to_string(),
+            (true, Some(_), _) => "not significant".to_string(),
+            _ => String::new(),
         };
         write!(
             h,
@@ -872,4 +887,57 @@ fn validation_plot(study: &Study, st: &StageResult) -> Result<String, String> {
         }
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A two-factor square with its centre twice and one more point: pure error on one degree
+    /// of freedom, and a lack of fit that a verdict would call significant.
+    #[test]
+    fn lack_of_fit_on_thin_pure_error_is_not_judged() {
+        let coded = vec![
+            vec![-1.0, -1.0],
+            vec![1.0, -1.0],
+            vec![-1.0, 1.0],
+            vec![1.0, 1.0],
+            vec![0.0, 0.0],
+            vec![0.0, 0.0],
+            vec![0.5, 0.5],
+        ];
+        let response = coded
+            .iter()
+            .map(|x: &Vec<f64>| 10.0 + 2.0 * x[0] + 3.0 * x[0] * x[0] + 5.0 * x[1] * x[1])
+            .zip([0.0, 0.0, 0.0, 0.0, 0.001, -0.001, 0.0])
+            .map(|(y, e)| y + e)
+            .collect();
+        let exp = doe::experiment::Experiment {
+            response_name: "y".into(),
+            factor_names: vec!["A".into(), "B".into()],
+            factors: None,
+            coded,
+            response,
+        };
+        let fit = Fit::new(
+            &exp,
+            &doe::model::ModelOrder::Linear.terms(2),
+            doe::fit::Curvature::Off,
+        )
+        .unwrap();
+        let (l, p) = (
+            fit.lack_of_fit.as_ref().unwrap(),
+            fit.pure_error.as_ref().unwrap(),
+        );
+        assert_eq!(p.df, 1);
+        assert!(l.p.unwrap() < 0.05, "{:?}", l.p);
+        let mut h = String::new();
+        anova_html(&mut h, &fit, "Screening");
+        let row = h.split("<tr>").find(|r| r.contains("Lack of Fit")).unwrap();
+        assert!(
+            row.contains("not judged: pure error has only 1 degree of freedom")
+                && !row.contains(">significant<"),
+            "{row}"
+        );
+    }
 }

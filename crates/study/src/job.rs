@@ -493,16 +493,20 @@ fn with_curve(
     }
 }
 
-/// This machine's name: Slurm's name for the node inside a job, else the kernel's.
+/// This machine's name as a run records it: Slurm's name for the node inside a job, else the
+/// kernel's.
 pub fn hostname() -> String {
     std::env::var("SLURMD_NODENAME")
         .ok()
         .filter(|h| !h.is_empty())
-        .or_else(|| {
-            std::fs::read_to_string("/proc/sys/kernel/hostname")
-                .ok()
-                .map(|h| h.trim().to_string())
-        })
+        .unwrap_or_else(machine_name)
+}
+
+/// This machine's own name (the kernel's, not a Slurm node name that may alias it).
+pub fn machine_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .map(|h| h.trim().to_string())
         .or_else(|| std::env::var("HOSTNAME").ok())
         .or_else(|| std::env::var("COMPUTERNAME").ok())
         .filter(|h| !h.is_empty())

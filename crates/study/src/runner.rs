@@ -18,6 +18,20 @@ use crate::spec::Study;
 use crate::stages::{Execute, RunSpec, StageResult};
 use crate::store::{RunRecord, Status, Store};
 
+/// A finished run in a few words for a progress line: its response, or why it failed.
+pub(crate) fn outcome(study: &Study, rec: &RunRecord) -> String {
+    match (&rec.status, rec.response) {
+        (Status::Done, Some(y)) => {
+            format!("{} = {}", study.target.response, crate::stages::sig(y))
+        }
+        _ => format!(
+            "failed ({}): {}",
+            rec.error_kind.map(|k| k.as_str()).unwrap_or("unknown"),
+            rec.error.clone().unwrap_or_default()
+        ),
+    }
+}
+
 /// How often a long run logs how far it is when standard error is not a terminal (a log file, a
 /// batch job): `DEMCAL_PROGRESS_S` seconds, default 5.
 pub fn log_interval() -> Duration {
@@ -168,16 +182,7 @@ impl Execute for LocalExecutor<'_> {
                         interrupted.store(true, Ordering::Relaxed);
                     }
                 }
-                let outcome = match (&rec.status, rec.response) {
-                    (Status::Done, Some(y)) => {
-                        format!("{} = {}", study.target.response, crate::stages::sig(y))
-                    }
-                    _ => format!(
-                        "failed ({}): {}",
-                        rec.error_kind.map(|k| k.as_str()).unwrap_or("unknown"),
-                        rec.error.clone().unwrap_or_default()
-                    ),
-                };
+                let outcome = outcome(study, &rec);
                 bar.inc(1);
                 let short: String = outcome.chars().take(70).collect();
                 bar.set_message(format!("last: run {} {short}", spec.index + 1));

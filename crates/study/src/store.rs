@@ -329,7 +329,7 @@ impl StoreLock {
                     use std::io::Write;
                     // The host too: on a shared file system the lock may be seen from another
                     // login node, where this process id means nothing.
-                    f.write_all(format!("{me}\n{}\n", machine_name()).as_bytes())
+                    f.write_all(format!("{me}\n{}\n", crate::job::machine_name()).as_bytes())
                         .and_then(|_| f.sync_all())
                         .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
                     return Ok(StoreLock { path });
@@ -337,7 +337,7 @@ impl StoreLock {
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                     let text = std::fs::read_to_string(&path).unwrap_or_default();
                     let host = text.lines().nth(1).map(str::trim).unwrap_or("");
-                    if !host.is_empty() && !same_machine(host, &machine_name()) {
+                    if !host.is_empty() && !same_machine(host, &crate::job::machine_name()) {
                         let pid = text.lines().next().unwrap_or("?").trim();
                         return Err(format!(
                             "{}: the study is being run by process {pid} on {host} (lock file {}); stop it there, or if it no longer runs, remove that file",
@@ -392,17 +392,6 @@ impl Drop for StoreLock {
             let _ = std::fs::remove_file(&self.path);
         }
     }
-}
-
-/// This machine's own name (the kernel's, not a Slurm node name that may alias it).
-fn machine_name() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .map(|h| h.trim().to_string())
-        .or_else(|| std::env::var("HOSTNAME").ok())
-        .or_else(|| std::env::var("COMPUTERNAME").ok())
-        .filter(|h| !h.is_empty())
-        .unwrap_or_else(|| "unknown".into())
 }
 
 /// Whether two names are the same machine's: `login1` and `login1.cluster.example` are.

@@ -217,16 +217,7 @@ impl<'a> SlurmExecutor<'a> {
         rec.executor = format!("slurm job {}", t.task.name());
         self.store.store_task_run(t.task.id, &rec)?;
         self.stats.stored += 1;
-        let outcome = match (&rec.status, rec.response) {
-            (Status::Done, Some(y)) => {
-                format!("{} = {}", study.target.response, crate::stages::sig(y))
-            }
-            _ => format!(
-                "failed ({}): {}",
-                rec.error_kind.map(|k| k.as_str()).unwrap_or("unknown"),
-                rec.error.clone().unwrap_or_default()
-            ),
-        };
+        let outcome = crate::runner::outcome(study, &rec);
         bar.inc(1);
         let line = format!(
             "{stage_name}: run {} ({}) {outcome} ({:.1} s, {}{})",

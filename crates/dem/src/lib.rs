@@ -23,6 +23,7 @@ pub mod scene;
 pub mod sim;
 pub mod specimen;
 pub mod timestep;
+pub mod units;
 
 pub use geometry::{Element, Geometry, Load, Motion};
 pub use material::{Interaction, Material, MaterialTable};

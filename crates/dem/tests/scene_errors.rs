@@ -263,7 +263,22 @@ fn dynamic_friction_is_an_alias_of_rolling_friction() {
 #[test]
 fn wrong_value_type() {
     let e = error_after("density = 1200", "density = \"heavy\"");
-    assert_has(&e, &["material[1].density", "invalid type", "expected f64"]);
+    assert_has(
+        &e,
+        &[
+            "material[1].density",
+            "\"heavy\": expected a number and a unit",
+            "(line 14)",
+        ],
+    );
+    let e = error_after("density = 1200", "density = true");
+    assert_has(
+        &e,
+        &[
+            "material[1].density",
+            "invalid type: boolean `true`, expected a density (kg/m3): a number, or a string with a unit such as \"1.2 g/cm3\"",
+        ],
+    );
 }
 
 #[test]

@@ -73,16 +73,38 @@ impl ParamPath {
         })
     }
 
-    /// The number at the path, or why there is none.
+    /// The number at the path (a string with a unit, `"29 MPa"`, counts, in its base unit), or
+    /// why there is none.
     pub fn check(&self, root: &toml::Table) -> Result<f64, String> {
         let mut copy = root.clone();
         let slot = self.slot(&mut copy)?;
-        number(slot).ok_or_else(|| format!("holds {slot}, not a number"))
+        match (number(slot), slot.as_str()) {
+            (Some(x), _) => Ok(x),
+            (None, Some(s)) => dem::units::parse(s)
+                .map(|(x, _)| x)
+                .map_err(|e| format!("holds {e}")),
+            _ => Err(format!("holds {slot}, not a number")),
+        }
     }
 
     /// Writes `value` at the path.
     pub fn set(&self, root: &mut toml::Table, value: f64) -> Result<(), String> {
-        *self.slot(root)? = toml::Value::Float(value);
+        self.set_quantity(root, value, None)
+    }
+
+    /// Writes `value` at the path: a number, or with `unit` a string in the dimension's base
+    /// unit (`"2.9e7 Pa"`), which the test's reader converts back exactly and checks that the key
+    /// takes that dimension.
+    pub fn set_quantity(
+        &self,
+        root: &mut toml::Table,
+        value: f64,
+        unit: Option<dem::units::Dimension>,
+    ) -> Result<(), String> {
+        *self.slot(root)? = match unit {
+            None => toml::Value::Float(value),
+            Some(d) => toml::Value::String(format!("{value:e} {}", d.symbol())),
+        };
         Ok(())
     }
 

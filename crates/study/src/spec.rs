@@ -21,6 +21,10 @@ pub struct Parameter {
     pub min: f64,
     pub max: f64,
     pub scale: Scale,
+    /// The dimension of `min` and `max` when they were given with a unit (`"1 MPa"`): values are
+    /// then written into the tests with the dimension's base unit, so that the test's reader
+    /// checks that the key takes that dimension.
+    pub unit: Option<dem::units::Dimension>,
 }
 
 impl Parameter {
@@ -284,13 +288,35 @@ impl Study {
                 ));
             }
             let paths = read_paths(t, &key, &tests, &err)?;
-            let get = |k: &str| -> Result<f64, String> {
-                number(t.get(k).ok_or_else(|| {
+            let get = |k: &str| -> Result<(f64, Option<dem::units::Dimension>), String> {
+                let v = t.get(k).ok_or_else(|| {
                     err(&format!("{key}.{k}"), "missing (expected a number)".into())
-                })?)
-                .ok_or_else(|| err(&format!("{key}.{k}"), "expected a number".into()))
+                })?;
+                match (number(v), v.as_str()) {
+                    (Some(x), _) => Ok((x, None)),
+                    (None, Some(s)) => dem::units::parse(s)
+                        .map(|(x, d)| (x, Some(d)))
+                        .map_err(|e| err(&format!("{key}.{k}"), e)),
+                    _ => Err(err(
+                        &format!("{key}.{k}"),
+                        "expected a number, or a string with a unit (\"1 MPa\")".into(),
+                    )),
+                }
             };
-            let (min, max) = (get("min")?, get("max")?);
+            let ((min, min_unit), (max, max_unit)) = (get("min")?, get("max")?);
+            if min_unit != max_unit {
+                let says = |u: Option<dem::units::Dimension>| {
+                    u.map_or("a plain number", dem::units::Dimension::describe)
+                };
+                return Err(err(
+                    &format!("{key}.max"),
+                    format!(
+                        "min is {} but max is {}: give both in units of the same quantity",
+                        says(min_unit),
+                        says(max_unit)
+                    ),
+                ));
+            }
             if min.is_nan() || max.is_nan() || min >= max {
                 return Err(err(
                     &format!("{key}.min"),
@@ -333,6 +359,7 @@ impl Study {
                 min,
                 max,
                 scale,
+                unit: min_unit,
             });
         }
 
@@ -446,6 +473,30 @@ impl Study {
         // a range the test would refuse (a restitution up to 1.6) shows now rather than after a
         // stage of failed runs. `check_scene` builds the whole scene before a study runs.
         let middle: Vec<f64> = study.parameters.iter().map(Parameter::middle).collect();
+        // A range given with a unit must fit each key it is written to; checked one parameter
+        // at a time so that the error names the parameter.
+        for (i, p) in study.parameters.iter().enumerate() {
+            let Some(unit) = p.unit else { continue };
+            for (path, ks) in &p.paths {
+                for &k in ks {
+                    let mut table = study.tests[k].table.clone();
+                    path.set_quantity(&mut table, middle[i], Some(unit))?;
+                    let label = study.test_label(k);
+                    virtual_tests::TestFile::from_table_in(&label, &table, &study.tests[k].dir)
+                        .map_err(|e| {
+                            let e = e.strip_prefix(&format!("{label}: ")).unwrap_or(&e);
+                            err(
+                                &format!("parameter[{i}].min"),
+                                format!(
+                                    "{} is given in units of {}, which \"{path}\" does not take: {e}",
+                                    p.name,
+                                    unit.describe()
+                                ),
+                            )
+                        })?;
+                }
+            }
+        }
         study.check_values(&middle)?;
         for (i, p) in study.parameters.iter().enumerate() {
             for (end, v) in [("min", p.min), ("max", p.max)] {
@@ -508,7 +559,7 @@ impl Study {
         let mut t = self.tests[k].table.clone();
         for (p, v) in self.parameters.iter().zip(values) {
             for (path, _) in p.paths.iter().filter(|(_, ks)| ks.contains(&k)) {
-                path.set(&mut t, *v)
+                path.set_quantity(&mut t, *v, p.unit)
                     .expect("paths checked when the study was read");
             }
         }

@@ -30,14 +30,18 @@ pub struct Settings {
     /// Material of the cylinder and plate.
     pub wall_material: String,
     /// Inner diameter and height of the cylinder (m).
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub cylinder_diameter: f64,
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub cylinder_height: f64,
     /// Side of the square base plate (m; default 6 cylinder diameters).
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub plate_size: Option<f64>,
     /// `{ count = N }` or `{ mass = kg }`: generated at random inside the cylinder, or with
     /// `from = "factory"` poured from a disc at the cylinder's top.
     pub fill: Fill,
     /// Height of the region filled inside the cylinder (m; default the cylinder height).
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub fill_height: Option<f64>,
     #[serde(default = "default_time_step_percent")]
     pub time_step_percent: f64,
@@ -47,15 +51,20 @@ pub struct Settings {
     pub rolling_viscous_damping: Option<f64>,
     /// Settled when the rms particle speed falls below this (m/s).
     #[serde(default = "default_settle_speed")]
+    #[serde(deserialize_with = "dem::units::speed::one")]
     pub settle_speed: f64,
     /// Longest settling before the lift (s of simulated time).
     #[serde(default = "default_settle_max_time")]
+    #[serde(deserialize_with = "dem::units::time::one")]
     pub settle_max_time: f64,
     /// Lift speed (m/s) and distance (m; default the cylinder height).
+    #[serde(deserialize_with = "dem::units::speed::one")]
     pub lift_speed: f64,
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub lift_distance: Option<f64>,
     /// Longest settling after the lift (s).
     #[serde(default = "default_final_max_time")]
+    #[serde(deserialize_with = "dem::units::time::one")]
     pub final_max_time: f64,
     /// Measurement: vertical planes through the axis, and the height band of each flank fitted.
     #[serde(default = "default_planes")]
@@ -68,15 +77,18 @@ pub struct Settings {
 #[serde(deny_unknown_fields)]
 pub struct Fill {
     pub count: Option<u64>,
+    #[serde(deserialize_with = "dem::units::mass::opt", default)]
     pub mass: Option<f64>,
     /// "inside" (default) or "factory".
     #[serde(default = "default_from")]
     pub from: String,
     /// Factory rate: particles/s or kg/s (default: the whole fill in 0.5 s).
     pub rate: Option<f64>,
+    #[serde(deserialize_with = "dem::units::mass_rate::opt", default)]
     pub mass_rate: Option<f64>,
     /// Downward speed of poured particles (m/s).
     #[serde(default)]
+    #[serde(deserialize_with = "dem::units::speed::one")]
     pub speed: f64,
 }
 

@@ -41,7 +41,9 @@ pub const MAX_CURVE_POINTS: usize = 1_000_000;
 pub struct CurveSettings {
     pub expression: String,
     #[serde(default)]
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub x_min: f64,
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub x_max: f64,
     #[serde(default = "default_points")]
     pub points: usize,

@@ -46,19 +46,25 @@ pub struct TiltSettings {
     pub plate_material: String,
     /// Plate length (down the slope) and width (m).
     #[serde(default = "default_plate")]
+    #[serde(deserialize_with = "dem::units::length::two")]
     pub plate_size: [f64; 2],
     #[serde(default = "default_tilt_rate")]
+    #[serde(deserialize_with = "dem::units::angular_speed_deg::one")]
     pub tilt_rate_deg_s: f64,
     #[serde(default = "default_max_angle")]
+    #[serde(deserialize_with = "dem::units::angle::one")]
     pub max_angle_deg: f64,
     /// How far down the plate (m, mean over the sample) counts as sliding.
     #[serde(default = "default_slide_distance")]
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub slide_distance: f64,
     #[serde(default = "default_time_step_percent")]
     pub time_step_percent: f64,
     #[serde(default = "default_rest_speed")]
+    #[serde(deserialize_with = "dem::units::speed::one")]
     pub settle_speed: f64,
     #[serde(default = "default_settle_max_time")]
+    #[serde(deserialize_with = "dem::units::time::one")]
     pub settle_max_time: f64,
 }
 
@@ -70,8 +76,10 @@ pub struct SlideSettings {
     pub ramp_material: String,
     /// Default: the ramp's material.
     pub plate_material: Option<String>,
+    #[serde(deserialize_with = "dem::units::angle::one")]
     pub ramp_angle_deg: f64,
     /// Slope distance from the release point to the foot (m).
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub ramp_length: f64,
     /// Releases to average over.
     #[serde(default = "default_releases")]
@@ -80,9 +88,11 @@ pub struct SlideSettings {
     pub time_step_percent: f64,
     /// At rest when the particle's speed falls below this (m/s).
     #[serde(default = "default_rest_speed")]
+    #[serde(deserialize_with = "dem::units::speed::one")]
     pub rest_speed: f64,
     /// Longest simulated time per release (s).
     #[serde(default = "default_max_time")]
+    #[serde(deserialize_with = "dem::units::time::one")]
     pub max_time: f64,
 }
 

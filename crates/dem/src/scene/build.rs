@@ -89,6 +89,7 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
 
     // Geometry.
     let mut warnings = Vec::new();
+    super::unit_hints::check(d, &mut warnings);
     let mut geometries = Vec::new();
     for (k, g) in d.geometries.iter().enumerate() {
         let geo = super::geometry::build(ctx, k, g, &material_id)?;

@@ -19,6 +19,7 @@ pub mod description;
 mod geometry;
 pub mod parse;
 mod particles;
+mod unit_hints;
 
 pub use description::*;
 pub use particles::prepare_shapes;

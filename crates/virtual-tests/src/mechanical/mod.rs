@@ -38,26 +38,33 @@ pub struct SpecimenSettings {
     /// The rind's (or the whole stalk's) material.
     pub material: String,
     /// Sphere radius (m): an hcp packing, or equal spheres packed at random.
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub radius: Option<f64>,
     /// Radii (m) of a random packing's size classes, with their number `fractions`.
+    #[serde(deserialize_with = "dem::units::length::opt_list", default)]
     pub radii: Option<Vec<f64>>,
     pub fractions: Option<Vec<f64>>,
     /// m.
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub length: f64,
     /// m.
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub diameter: f64,
     /// "hcp" (default) or "random".
     #[serde(default = "default_packing")]
     pub packing: String,
     /// hcp: nearest-neighbour distance (m); default one sphere diameter.
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub spacing: Option<f64>,
     /// random: how many spheres.
     pub count: Option<usize>,
     /// m; default 0 (solid).
     #[serde(default)]
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub hollow_diameter: f64,
     /// Pith: spheres within `core_diameter` of the axis get this material.
     pub core_material: Option<String>,
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub core_diameter: Option<f64>,
 }
 
@@ -70,8 +77,10 @@ fn default_packing() -> String {
 #[serde(deny_unknown_fields)]
 pub struct LoadingSettings {
     /// Tool speed (m/s).
+    #[serde(deserialize_with = "dem::units::speed::one")]
     pub speed: f64,
     /// Travel at which the test ends (m).
+    #[serde(deserialize_with = "dem::units::length::one")]
     pub max_displacement: f64,
     /// End early once the force has fallen below this fraction of its peak after the peak
     /// (0: run to `max_displacement`).

@@ -35,19 +35,25 @@ pub struct Settings {
     #[serde(flatten)]
     pub loading: LoadingSettings,
     /// shear: gap between the supports (m; default 1.5 blade thicknesses).
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub slot_width: Option<f64>,
     /// shear: blade thickness (m; default 1 mm).
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub blade_thickness: Option<f64>,
     /// shear: whether cover blocks over the supports hold the specimen down, as the holes or
     /// the clamped lid of a lab shear fixture do (default true); without them a compliant
     /// specimen bends down into the slot and its ends lift instead of being cut.
     pub clamped: Option<bool>,
     /// bending: distance between the supports (m).
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub span: Option<f64>,
     /// bending: radii of the supports and the punch (m; default 5 mm).
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub support_radius: Option<f64>,
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub punch_radius: Option<f64>,
     /// tension, cantilever: length of each gripped end (m; default a tenth of the specimen).
+    #[serde(deserialize_with = "dem::units::length::opt", default)]
     pub grip_length: Option<f64>,
 }
 

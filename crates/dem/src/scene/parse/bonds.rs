@@ -10,15 +10,21 @@ use serde::Deserialize;
 #[serde(deny_unknown_fields)]
 pub(super) struct BondEntry {
     materials: [String; 2],
+    #[serde(deserialize_with = "crate::units::bond_stiffness::one")]
     normal_stiffness: f64,
+    #[serde(deserialize_with = "crate::units::bond_stiffness::one")]
     shear_stiffness: f64,
+    #[serde(deserialize_with = "crate::units::stress::one")]
     critical_normal_stress: f64,
+    #[serde(deserialize_with = "crate::units::stress::one")]
     critical_shear_stress: f64,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     bond_radius: Option<f64>,
     bonded_disk_scale: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     contact_radius: Option<f64>,
     contact_radius_scale: Option<f64>,
-    #[serde(default)]
+    #[serde(deserialize_with = "crate::units::time::one", default)]
     formation_time: f64,
     #[serde(default)]
     damping: f64,

@@ -70,6 +70,11 @@ fn from_value<T: DeserializeOwned>(
             .split_whitespace()
             .collect::<Vec<_>>()
             .join(" ");
+        // toml's value errors end with " in `key`", which the key in front already says.
+        let msg = match msg.rfind(" in `") {
+            Some(i) if msg.ends_with('`') => msg[..i].to_string(),
+            _ => msg,
+        };
         let key = match (prefix.is_empty(), path == "." || path.is_empty()) {
             (_, true) => prefix.to_string(),
             (true, false) => path,
@@ -163,18 +168,23 @@ struct SceneFile {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 struct SimulationSection {
+    #[serde(deserialize_with = "crate::units::time::opt", default)]
     duration: Option<f64>,
     steps: Option<u64>,
+    #[serde(deserialize_with = "crate::units::time::opt", default)]
     time_step: Option<f64>,
     time_step_percent: Option<f64>,
+    #[serde(deserialize_with = "crate::units::acceleration::opt_three", default)]
     gravity: Option<V3>,
     contact_model: Option<String>,
     contact_parameters: Option<std::collections::BTreeMap<String, f64>>,
     rolling_friction_model: Option<String>,
     rolling_viscous_damping: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     neighbour_skin: Option<f64>,
     domain: Option<BoxEntry>,
     max_initial_overlap: Option<f64>,
+    #[serde(deserialize_with = "crate::units::speed::opt", default)]
     expected_max_speed: Option<f64>,
     backend: Option<String>,
 }
@@ -182,7 +192,9 @@ struct SimulationSection {
 #[derive(Deserialize, Debug, Clone, Copy)]
 #[serde(deny_unknown_fields)]
 struct BoxEntry {
+    #[serde(deserialize_with = "crate::units::length::three")]
     min: V3,
+    #[serde(deserialize_with = "crate::units::length::three")]
     max: V3,
 }
 
@@ -190,7 +202,9 @@ struct BoxEntry {
 #[serde(deny_unknown_fields)]
 struct OutputSection {
     directory: Option<String>,
+    #[serde(deserialize_with = "crate::units::time::opt", default)]
     snapshot_interval: Option<f64>,
+    #[serde(deserialize_with = "crate::units::time::opt", default)]
     force_interval: Option<f64>,
 }
 
@@ -198,9 +212,12 @@ struct OutputSection {
 #[serde(deny_unknown_fields)]
 struct MaterialEntry {
     name: String,
+    #[serde(deserialize_with = "crate::units::density::one")]
     density: f64,
     poisson_ratio: f64,
+    #[serde(deserialize_with = "crate::units::stress::opt", default)]
     shear_modulus: Option<f64>,
+    #[serde(deserialize_with = "crate::units::stress::opt", default)]
     youngs_modulus: Option<f64>,
 }
 
@@ -213,7 +230,7 @@ struct InteractionEntry {
     #[serde(alias = "dynamic_friction", alias = "kinetic_friction")]
     rolling_friction: f64,
     /// JKR cohesion (J/m^2).
-    #[serde(default)]
+    #[serde(deserialize_with = "crate::units::surface_energy::one", default)]
     surface_energy: f64,
 }
 
@@ -225,22 +242,30 @@ struct GeometryEntry {
     kind: String,
     material: String,
     // plane
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     point: Option<V3>,
     normal: Option<V3>,
     // box
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     min: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     max: Option<V3>,
     open: Option<Vec<String>>,
     // cylinder
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     base: Option<V3>,
     axis: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     radius: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     length: Option<f64>,
     caps: Option<String>,
     // mesh
     file: Option<String>,
     scale: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     offset: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     torque_point: Option<V3>,
     #[serde(default)]
     motion: Vec<MotionEntry>,
@@ -251,12 +276,17 @@ struct GeometryEntry {
 struct MotionEntry {
     #[serde(rename = "type")]
     kind: String,
+    #[serde(deserialize_with = "crate::units::speed::opt_three", default)]
     velocity: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     axis_point: Option<V3>,
     axis: Option<V3>,
+    #[serde(deserialize_with = "crate::units::angular_speed::opt", default)]
     angular_velocity: Option<f64>,
     rpm: Option<f64>,
+    #[serde(deserialize_with = "crate::units::time::opt", default)]
     start: Option<f64>,
+    #[serde(deserialize_with = "crate::units::time::opt", default)]
     end: Option<f64>,
 }
 

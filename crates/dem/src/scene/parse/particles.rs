@@ -8,6 +8,7 @@ use crate::mixture::FillTarget;
 use crate::scene::description::*;
 use crate::scene::{Ctx, SceneError};
 use crate::specimen::{Core, Packing, StalkSpecimen};
+use crate::units::{Dimension, Quantity};
 use glam::DVec3;
 use serde::Deserialize;
 
@@ -27,19 +28,29 @@ struct ShapeEntry {
     #[serde(rename = "type")]
     kind: String,
     // rod
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     length: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     diameter: Option<f64>,
     count: Option<usize>,
     // spheres: [x, y, z, r] rows
+    #[serde(deserialize_with = "crate::units::length::opt_four_list", default)]
     spheres: Option<Vec<[f64; 4]>>,
     // maize_kernel
     class: Option<String>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     width: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     height: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     thickness: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     upper_width: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     lower_width: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     upper_thickness: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     lower_thickness: Option<f64>,
 }
 
@@ -58,6 +69,7 @@ pub(super) struct ParticleEntry {
     region: Option<RegionEntry>,
     factory: Option<FactoryEntry>,
     fill: FillEntry,
+    #[serde(deserialize_with = "crate::units::speed::opt_three", default)]
     velocity: Option<V3>,
 }
 
@@ -80,9 +92,12 @@ struct FactoryEntry {
     #[serde(rename = "type")]
     kind: String,
     #[serde(alias = "center")]
+    #[serde(deserialize_with = "crate::units::length::three")]
     centre: V3,
     normal: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     radius: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt_two", default)]
     size: Option<[f64; 2]>,
     u_axis: Option<V3>,
 }
@@ -94,12 +109,12 @@ struct SizeEntry {
     kind: String,
     /// `value` reads better for a clump's fixed scale factor.
     #[serde(alias = "value")]
-    radius: Option<f64>,
-    min: Option<f64>,
-    max: Option<f64>,
-    mean: Option<f64>,
-    std: Option<f64>,
-    radii: Option<Vec<f64>>,
+    radius: Option<Quantity>,
+    min: Option<Quantity>,
+    max: Option<Quantity>,
+    mean: Option<Quantity>,
+    std: Option<Quantity>,
+    radii: Option<Vec<Quantity>>,
     fractions: Option<Vec<f64>>,
     basis: Option<String>,
 }
@@ -109,11 +124,16 @@ struct SizeEntry {
 struct RegionEntry {
     #[serde(rename = "type")]
     kind: String,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     min: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     max: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     base: Option<V3>,
     axis: Option<V3>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     radius: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     length: Option<f64>,
 }
 
@@ -123,23 +143,33 @@ struct FillEntry {
     #[serde(rename = "type")]
     kind: String,
     lattice: Option<String>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     spacing: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     origin: Option<V3>,
     count: Option<usize>,
+    #[serde(deserialize_with = "crate::units::mass::opt", default)]
     mass: Option<f64>,
     seed: Option<u64>,
     // factory
     rate: Option<f64>,
+    #[serde(deserialize_with = "crate::units::mass_rate::opt", default)]
     mass_rate: Option<f64>,
+    #[serde(deserialize_with = "crate::units::time::opt", default)]
     start: Option<f64>,
     // stalk specimen
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     length: Option<f64>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     diameter: Option<f64>,
     packing: Option<String>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     hollow_diameter: Option<f64>,
     core_material: Option<String>,
+    #[serde(deserialize_with = "crate::units::length::opt", default)]
     core_diameter: Option<f64>,
     #[serde(alias = "center")]
+    #[serde(deserialize_with = "crate::units::length::opt_three", default)]
     centre: Option<V3>,
     axis: Option<V3>,
 }
@@ -283,7 +313,7 @@ fn shape_and_size(
             let size = size.ok_or_else(|| ctx.err(key("size"), "missing; expected the radius distribution, e.g. { type = \"fixed\", radius = 0.002 }"))?;
             return Ok((
                 ParticleShape::Sphere,
-                size_distribution(ctx, &key("size"), &size)?,
+                size_distribution(ctx, &key("size"), &size, Some(Dimension::Length))?,
             ));
         }
     };
@@ -294,7 +324,7 @@ fn shape_and_size(
         ));
     }
     let scale = match scale {
-        Some(sc) => size_distribution(ctx, &key("scale"), &sc)?,
+        Some(sc) => size_distribution(ctx, &key("scale"), &sc, None)?,
         None => SizeDistribution::Fixed { radius: 1.0 },
     };
     let sk = |n: &str| format!("{prefix}.shape.{n}");
@@ -390,19 +420,46 @@ fn shape_keys(ctx: &Ctx, prefix: &str, s: &ShapeEntry, allowed: &[&str]) -> Resu
     ctx.only(prefix, &s.kind, &given, allowed)
 }
 
+/// A size distribution: radii (`length`) for spheres, or scale factors (`None`) for clumps,
+/// whose values are plain numbers.
 fn size_distribution(
     ctx: &Ctx,
     prefix: &str,
     s: &SizeEntry,
+    length: Option<Dimension>,
 ) -> Result<SizeDistribution, SceneError> {
     let key = |n: &str| format!("{prefix}.{n}");
+    let value = |q: &Quantity, name: &str| {
+        match length {
+            Some(d) => q.as_dimension(d),
+            None => q.as_number("a scale factor"),
+        }
+        .map_err(|e| ctx.err(key(name), e))
+    };
+    let one = |q: Option<Quantity>, name: &str| q.map(|q| value(&q, name)).transpose();
+    let (radius, min, max, mean, std) = (
+        one(s.radius, "radius")?,
+        one(s.min, "min")?,
+        one(s.max, "max")?,
+        one(s.mean, "mean")?,
+        one(s.std, "std")?,
+    );
+    let radii = match &s.radii {
+        Some(list) => Some(
+            list.iter()
+                .enumerate()
+                .map(|(i, q)| value(q, &format!("radii[{i}]")))
+                .collect::<Result<Vec<f64>, _>>()?,
+        ),
+        None => None,
+    };
     let given = [
-        ("radius", s.radius.is_some()),
-        ("min", s.min.is_some()),
-        ("max", s.max.is_some()),
-        ("mean", s.mean.is_some()),
-        ("std", s.std.is_some()),
-        ("radii", s.radii.is_some()),
+        ("radius", radius.is_some()),
+        ("min", min.is_some()),
+        ("max", max.is_some()),
+        ("mean", mean.is_some()),
+        ("std", std.is_some()),
+        ("radii", radii.is_some()),
         ("fractions", s.fractions.is_some()),
         ("basis", s.basis.is_some()),
     ];
@@ -410,37 +467,34 @@ fn size_distribution(
         "fixed" => {
             ctx.only(prefix, "fixed", &given, &["radius"])?;
             SizeDistribution::Fixed {
-                radius: ctx.require(s.radius, key("radius"), "the particle radius (m)")?,
+                radius: ctx.require(radius, key("radius"), "the particle radius (m)")?,
             }
         }
         "uniform" => {
             ctx.only(prefix, "uniform", &given, &["min", "max"])?;
             SizeDistribution::Uniform {
-                min: ctx.require(s.min, key("min"), "the smallest radius (m)")?,
-                max: ctx.require(s.max, key("max"), "the largest radius (m)")?,
+                min: ctx.require(min, key("min"), "the smallest radius (m)")?,
+                max: ctx.require(max, key("max"), "the largest radius (m)")?,
             }
         }
         "normal" => {
             ctx.only(prefix, "normal", &given, &["mean", "std", "min", "max"])?;
-            let mean = ctx.require(s.mean, key("mean"), "the mean radius (m)")?;
+            let mean = ctx.require(mean, key("mean"), "the mean radius (m)")?;
             let std = ctx.require(
-                s.std,
+                std,
                 key("std"),
                 "the standard deviation of the radius (m)",
             )?;
             SizeDistribution::TruncatedNormal {
                 mean,
                 std,
-                min: s.min.unwrap_or(mean - 3.0 * std),
-                max: s.max.unwrap_or(mean + 3.0 * std),
+                min: min.unwrap_or(mean - 3.0 * std),
+                max: max.unwrap_or(mean + 3.0 * std),
             }
         }
         "classes" => {
             ctx.only(prefix, "classes", &given, &["radii", "fractions", "basis"])?;
-            let radii = s
-                .radii
-                .clone()
-                .ok_or_else(|| ctx.err(key("radii"), "missing; expected a list of radii (m)"))?;
+            let radii = radii.ok_or_else(|| ctx.err(key("radii"), "missing; expected a list of radii (m)"))?;
             let fractions = s.fractions.clone().ok_or_else(|| {
                 ctx.err(key("fractions"), "missing; expected a list of fractions")
             })?;

@@ -192,6 +192,8 @@ struct OutputSection {
     directory: Option<String>,
     snapshot_interval: Option<f64>,
     force_interval: Option<f64>,
+    format: Option<String>,
+    contacts: Option<bool>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -289,6 +291,7 @@ fn describe(f: SceneFile, ctx: &Ctx, base: &Path) -> Result<SceneDescription, Sc
         .collect::<Result<_, _>>()?;
     let bonds = bonds::bonds(ctx, f.bonds)?;
     let o = f.output;
+    let defaults = OutputDescription::default();
     Ok(SceneDescription {
         bonds,
         simulation,
@@ -296,6 +299,8 @@ fn describe(f: SceneFile, ctx: &Ctx, base: &Path) -> Result<SceneDescription, Sc
             directory: base.join(o.directory.as_deref().unwrap_or("out")),
             snapshot_interval: o.snapshot_interval,
             force_interval: o.force_interval,
+            format: o.format.unwrap_or(defaults.format),
+            contacts: o.contacts.unwrap_or(defaults.contacts),
         },
         materials,
         interactions,

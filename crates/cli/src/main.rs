@@ -6,7 +6,7 @@ mod lab;
 mod progress;
 
 use clap::{Parser, Subcommand};
-use dem::output::{write_vtk, LoadWriter};
+use dem::output::{LoadWriter, Snapshots};
 use dem::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -30,7 +30,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run a scene file: snapshots (VTK), geometry loads (CSV) and a one-line summary.
+    /// Run a scene file: snapshots for ParaView (particles.pvd, geometry.pvd, ...), geometry loads (CSV) and a one-line summary.
     Simulate {
         scene: PathBuf,
         /// Worker threads (default: all cores).
@@ -878,27 +878,9 @@ fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<()
     std::fs::create_dir_all(&dir)
         .map_err(|e| format!("{}: cannot create output directory: {e}", dir.display()))?;
     let io = |e: std::io::Error| format!("{}: {e}", dir.display());
-    let mut snapshots = 0;
-    let mut snapshot = |sim: &dem::Simulation| -> Result<(), String> {
-        write_vtk(
-            &dir.join(format!("particles_{:06}.vtk", sim.steps)),
-            &sim.particles,
-            sim.time,
-        )
-        .map_err(io)?;
-        if let Some(bonds) = sim.bonds() {
-            dem::bond::output::write_bonds_vtk(
-                &dir.join(format!("bonds_{:06}.vtk", sim.steps)),
-                bonds,
-                &sim.particles,
-                sim.time,
-            )
-            .map_err(io)?;
-        }
-        snapshots += 1;
-        Ok(())
-    };
-    snapshot(&simulation)?;
+    let mut snapshots = Snapshots::new(&dir, output.snapshots);
+    let mut snapshot = |sim: &mut dem::Simulation| snapshots.write(sim).map_err(io);
+    snapshot(&mut simulation)?;
     let mut loads =
         LoadWriter::create(&dir.join("geometry_forces.csv"), &simulation.geometries).map_err(io)?;
     loads
@@ -923,7 +905,7 @@ fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<()
             next_load += output.force_interval;
         }
         if t >= next_snapshot - 0.5 * dt {
-            snapshot(&simulation)?;
+            snapshot(&mut simulation)?;
             last_snapshot_step = s;
             next_snapshot += output.snapshot_interval.unwrap_or(f64::INFINITY);
         }
@@ -964,7 +946,7 @@ fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<()
         return Err(format!("{}: {e}", path.display()));
     }
     if last_snapshot_step != simulation.steps {
-        snapshot(&simulation)?;
+        snapshot(&mut simulation)?;
     }
     let wall = start.elapsed().as_secs_f64();
     eprintln!("stages: {}", simulation.timers.breakdown());
@@ -976,7 +958,7 @@ fn simulate(path: &Path, out: Option<&Path>, backend: Option<&str>) -> Result<()
         wall,
         simulation.particles.len() as f64 * simulation.steps as f64 / wall.max(1e-9),
         simulation.kinetic_energy(),
-        snapshots,
+        snapshots.count(),
         dir.display()
     );
     Ok(())

@@ -42,6 +42,35 @@ region = { type = "cylinder", base = [0.0, 0.0, 0.0], radius = 0.02, length = 0.
 fill = { type = "random", count = 150, seed = 4 }
 "#;
 
+/// The XML header of a binary `.vtp` and the Float64 values of its array `name`, read from the
+/// appended block (a UInt64 byte count, then the values) at the array's offset.
+fn appended_f64s(bytes: &[u8], name: &str) -> (String, Vec<f64>) {
+    let marker = b"<AppendedData encoding=\"raw\">";
+    let at = bytes
+        .windows(marker.len())
+        .position(|w| w == marker)
+        .expect("appended data");
+    let xml = String::from_utf8(bytes[..at].to_vec()).unwrap();
+    let data = &bytes[at + bytes[at..].iter().position(|&b| b == b'_').unwrap() + 1..];
+    let tag = &xml[xml.find(&format!("Name=\"{name}\"")).unwrap()..];
+    let tag = &tag[..tag.find('>').unwrap()];
+    let offset: usize = tag
+        .split("offset=\"")
+        .nth(1)
+        .unwrap()
+        .split('"')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let len = u64::from_le_bytes(data[offset..offset + 8].try_into().unwrap()) as usize;
+    let values = data[offset + 8..offset + 8 + len]
+        .chunks(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    (xml, values)
+}
+
 fn demcal() -> Command {
     Command::new(env!("CARGO_BIN_EXE_demcal"))
 }
@@ -90,34 +119,49 @@ fn simulate_writes_snapshots_loads_and_a_summary() {
         "{summary}"
     );
 
-    let mut vtk: Vec<_> = std::fs::read_dir(dir.join("out"))
+    let mut vtp: Vec<_> = std::fs::read_dir(dir.join("out"))
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .filter(|n| n.ends_with(".vtk"))
+        .filter(|n| n.starts_with("particles_") && n.ends_with(".vtp"))
         .collect();
-    vtk.sort();
-    // t = 0, 0.02, 0.04 and the end.
-    assert_eq!(vtk.len(), 4, "{vtk:?}");
-    let text = std::fs::read_to_string(dir.join("out").join(&vtk[3])).unwrap();
-    assert!(text.contains("POINTS 150 double"));
+    vtp.sort();
+    // t = 0, 0.02, 0.04 and the end, each listed with its time in particles.pvd.
+    assert_eq!(vtp.len(), 4, "{vtp:?}");
+    let pvd = std::fs::read_to_string(dir.join("out").join("particles.pvd")).unwrap();
+    let listed: Vec<&str> = pvd.lines().filter(|l| l.contains("<DataSet")).collect();
+    assert_eq!(listed.len(), 4, "{pvd}");
+    assert!(listed[0].contains("timestep=\"0\""), "{}", listed[0]);
+    assert!(
+        listed[3].contains(&format!("file=\"{}\"", vtp[3])),
+        "{}",
+        listed[3]
+    );
+    // The cup, which does not move, is written once.
+    let geometry = std::fs::read_to_string(dir.join("out").join("geometry.pvd")).unwrap();
+    assert_eq!(
+        geometry
+            .matches("file=\"geometry_static_00000000.vtp\"")
+            .count(),
+        4,
+        "{geometry}"
+    );
+
+    let bytes = std::fs::read(dir.join("out").join(&vtp[3])).unwrap();
+    let (xml, points) = appended_f64s(&bytes, "Points");
+    assert!(xml.contains("NumberOfPoints=\"150\""));
     for field in [
-        "SCALARS radius",
-        "SCALARS material_id",
-        "VECTORS velocity",
-        "VECTORS angular_velocity",
+        "radius",
+        "material_id",
+        "velocity",
+        "angular_velocity",
+        "clump_id",
     ] {
-        assert!(text.contains(field), "{field}");
+        assert!(xml.contains(&format!("Name=\"{field}\"")), "{field}");
     }
     // Every particle is inside the cup at the end (it fell and stayed).
-    let points: Vec<Vec<f64>> = text
-        .lines()
-        .skip_while(|l| !l.starts_with("POINTS"))
-        .skip(1)
-        .take(150)
-        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
-        .collect();
+    assert_eq!(points.len(), 3 * 150);
     assert!(points
-        .iter()
+        .chunks(3)
         .all(|p| (p[0] * p[0] + p[1] * p[1]).sqrt() < 0.02 && p[2] > 0.0));
 
     let csv = std::fs::read_to_string(dir.join("out").join("geometry_forces.csv")).unwrap();

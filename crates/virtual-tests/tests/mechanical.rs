@@ -65,6 +65,7 @@ max_displacement = 0.002
 stop_force_fraction = 0.2
 curve_points = 300
 grip_length = 0.003
+snapshots = 4
 "#,
     );
     let out = std::env::temp_dir().join(format!("demcal-tension-{}", std::process::id()));
@@ -101,6 +102,31 @@ grip_length = 0.003
     let log = std::fs::read_to_string(out.join("bond_breakage.csv")).unwrap();
     assert_eq!(log.lines().count() as u64, broken + 1);
     assert!(out.join("force_displacement.svg").exists());
+    // The snapshots for ParaView: particles and bonds at the same times, bonds as lines that
+    // say which are intact.
+    let listed = |name: &str| {
+        let pvd = std::fs::read_to_string(out.join(name)).unwrap();
+        pvd.lines()
+            .filter(|l| l.contains("<DataSet"))
+            .map(|l| {
+                l.split("timestep=\"")
+                    .nth(1)
+                    .unwrap()
+                    .split('"')
+                    .next()
+                    .unwrap()
+                    .to_string()
+            })
+            .collect::<Vec<_>>()
+    };
+    let times = listed("particles.pvd");
+    // The bar breaks (and the test stops) before a quarter of the travel: two snapshots.
+    assert!(times.len() >= 2, "{times:?}");
+    assert_eq!(listed("bonds.pvd"), times);
+    let bonds = std::fs::read(out.join("bonds_00000000.vtp")).unwrap();
+    let header = String::from_utf8_lossy(&bonds[..bonds.len().min(4000)]);
+    assert!(header.contains("Name=\"intact\""), "{header}");
+    assert!(!header.contains("NumberOfLines=\"0\""), "{header}");
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -1,25 +1,14 @@
-//! Bond output: the breakage log and the bond counts over time as CSV, and the bonds as VTK lines
-//! (intact and broken) so that ParaView shows the crack next to the particle snapshots.
+//! Bond output: the breakage log and the bond counts over time as CSV, and the bonds as lines
+//! (intact and broken) for the snapshots (`bonds_*.vtp`, see [`crate::output`]) so that ParaView
+//! shows the crack next to the particles.
 
 use super::Bonds;
+use crate::output::particles::{point_of, stable_order};
+use crate::output::vtp::{Cells, DataArray, PolyData};
+use crate::output::write_atomically;
 use crate::particles::Particles;
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::Path;
-
-/// Writes `path` through a temporary file renamed at the end, so a reader never sees half a file.
-fn write_atomically(
-    path: &Path,
-    body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
-) -> io::Result<()> {
-    let tmp = path.with_extension("part");
-    {
-        let mut w = BufWriter::new(File::create(&tmp)?);
-        body(&mut w)?;
-        w.flush()?;
-    }
-    std::fs::rename(tmp, path)
-}
 
 /// The breakage log: one row per broken bond, in the order they broke.
 pub fn write_breakage_csv(path: &Path, bonds: &Bonds) -> io::Result<()> {
@@ -58,16 +47,15 @@ pub fn write_bond_counts_csv(path: &Path, bonds: &Bonds) -> io::Result<()> {
     })
 }
 
-/// The bonds as VTK lines between the current sphere centres, with cell data `intact` (1 or 0)
-/// and the points' stable ids; a broken bond is drawn between where its spheres are now.
-pub fn write_bonds_vtk(
-    path: &Path,
-    bonds: &Bonds,
-    particles: &Particles,
-    time: f64,
-) -> io::Result<()> {
-    let n = particles.len();
-    let mut index = vec![
+/// The bonds as lines between the current sphere centres (points in stable-id order, as in the
+/// particles file, with `id`), with cell data `intact` (1 or 0), `normal_force` (N, positive
+/// pushing apart) and `shear_force` (N, magnitude); a broken bond is drawn between where its
+/// spheres are now, with zero forces.
+pub fn bonds_polydata(bonds: &Bonds, particles: &Particles) -> PolyData {
+    let order = stable_order(particles);
+    let point = point_of(&order);
+    // Point index by stable id.
+    let mut by_id = vec![
         u32::MAX;
         particles
             .id
@@ -76,45 +64,39 @@ pub fn write_bonds_vtk(
             .max()
             .unwrap_or(0)
     ];
-    for k in 0..n {
-        index[particles.id[k] as usize] = k as u32;
+    for k in 0..particles.len() {
+        by_id[particles.id[k] as usize] = point[k] as u32;
     }
-    let lines: Vec<([u32; 2], bool)> = (0..bonds.len())
-        .map(|b| bonds.bond(b))
-        .filter(|(ids, _)| {
-            ids.iter()
-                .all(|&i| (i as usize) < index.len() && index[i as usize] != u32::MAX)
-        })
-        .map(|(ids, intact)| ([index[ids[0] as usize], index[ids[1] as usize]], intact))
-        .collect();
-    let tmp = path.with_extension("vtk.part");
-    {
-        let mut w = BufWriter::new(File::create(&tmp)?);
-        writeln!(w, "# vtk DataFile Version 3.0")?;
-        writeln!(w, "demcal bonds t={time:.9e}")?;
-        writeln!(w, "ASCII")?;
-        writeln!(w, "DATASET POLYDATA")?;
-        writeln!(w, "POINTS {n} double")?;
-        for x in &particles.position {
-            writeln!(w, "{:e} {:e} {:e}", x.x, x.y, x.z)?;
-        }
-        writeln!(w, "LINES {} {}", lines.len(), 3 * lines.len())?;
-        for (ends, _) in &lines {
-            writeln!(w, "2 {} {}", ends[0], ends[1])?;
-        }
-        writeln!(w, "CELL_DATA {}", lines.len())?;
-        writeln!(w, "SCALARS intact int 1")?;
-        writeln!(w, "LOOKUP_TABLE default")?;
-        for (_, intact) in &lines {
-            writeln!(w, "{}", *intact as u8)?;
-        }
-        writeln!(w, "POINT_DATA {n}")?;
-        writeln!(w, "SCALARS id int 1")?;
-        writeln!(w, "LOOKUP_TABLE default")?;
-        for id in &particles.id {
-            writeln!(w, "{id}")?;
-        }
-        w.flush()?;
+    let at = |id: u32| by_id.get(id as usize).copied().filter(|&p| p != u32::MAX);
+    let mut lines = Cells::default();
+    let (mut intact, mut normal, mut shear) = (Vec::new(), Vec::new(), Vec::new());
+    for b in 0..bonds.len() {
+        let (ids, whole) = bonds.bond(b);
+        let (Some(a), Some(c)) = (at(ids[0]), at(ids[1])) else {
+            continue;
+        };
+        lines.push([a as usize, c as usize]);
+        let (fn_, fs) = if whole {
+            bonds.bond_forces(b)
+        } else {
+            (0.0, 0.0)
+        };
+        intact.push(whole as i32);
+        normal.push(fn_);
+        shear.push(fs);
     }
-    std::fs::rename(tmp, path)
+    PolyData {
+        points: order.iter().map(|&k| particles.position[k]).collect(),
+        lines,
+        point_data: vec![DataArray::scalars_i32(
+            "id",
+            order.iter().map(|&k| particles.id[k] as i32).collect(),
+        )],
+        cell_data: vec![
+            DataArray::scalars_i32("intact", intact),
+            DataArray::scalars_f64("normal_force", normal),
+            DataArray::scalars_f64("shear_force", shear),
+        ],
+        ..Default::default()
+    }
 }

@@ -13,6 +13,7 @@ use crate::factory::Factory;
 use crate::geometry::Geometry;
 use crate::material::{Interaction, Material, MaterialTable};
 use crate::mixture::{self, Item, Mixture, ParticleType};
+use crate::output::{Encoding, SnapshotOptions};
 use crate::particles::Particles;
 use crate::sim::{Simulation, SimulationParams, BACKEND_NAMES};
 use crate::specimen::StalkSpecimen;
@@ -373,6 +374,16 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
         Some(v) => ctx.positive(v, "output.force_interval".into())?,
         None => (steps as f64 * dt / 1000.0).max(dt),
     };
+    let encoding = match o.format.as_str() {
+        "binary" => Encoding::Binary,
+        "ascii" => Encoding::Ascii,
+        other => {
+            return Err(ctx.err(
+                "output.format",
+                format!("unknown format \"{other}\" (expected \"binary\" or \"ascii\")"),
+            ))
+        }
+    };
 
     let max_overlap = ctx.non_negative(
         s.max_initial_overlap,
@@ -519,6 +530,10 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
             directory: o.directory.clone(),
             snapshot_interval,
             force_interval,
+            snapshots: SnapshotOptions {
+                encoding,
+                contacts: o.contacts,
+            },
         },
         rayleigh_time_step: rayleigh,
         collision_time: collision,

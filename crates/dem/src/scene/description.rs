@@ -142,6 +142,10 @@ pub struct OutputDescription {
     pub snapshot_interval: Option<f64>,
     /// Seconds between geometry load records (default a thousandth of the run).
     pub force_interval: Option<f64>,
+    /// How snapshots are stored: "binary" (default) or "ascii" (text, about three times larger).
+    pub format: String,
+    /// Whether snapshots include the contact force network (default false).
+    pub contacts: bool,
 }
 
 impl Default for OutputDescription {
@@ -150,6 +154,8 @@ impl Default for OutputDescription {
             directory: PathBuf::from("out"),
             snapshot_interval: None,
             force_interval: None,
+            format: "binary".into(),
+            contacts: false,
         }
     }
 }

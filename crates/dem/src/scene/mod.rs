@@ -66,6 +66,8 @@ pub struct OutputSettings {
     pub snapshot_interval: Option<f64>,
     /// Seconds between geometry load records.
     pub force_interval: f64,
+    /// What the snapshots hold and how they are stored.
+    pub snapshots: crate::output::SnapshotOptions,
 }
 
 /// A built scene: the simulation ready to run and what to do with it.

@@ -22,6 +22,7 @@
 
 mod backend;
 mod bodies;
+mod contacts;
 mod cpu;
 mod extension;
 mod params;
@@ -30,6 +31,7 @@ pub mod segment;
 pub mod walls;
 
 pub use backend::{Backend, StepInputs};
+pub use contacts::PairContact;
 pub use cpu::{kick_spin, CpuBackend};
 pub use extension::StepExtension;
 pub use params::{SimError, SimulationParams, StageTimers};
@@ -71,6 +73,9 @@ pub struct Simulation {
     poses_at_build: Vec<(DMat3, DVec3)>,
     bounds_at_build: (DVec3, DVec3),
     forces_ready: bool,
+    /// Whether the pair output slots hold the forces of the current state (a list rebuild clears
+    /// them until the next force evaluation).
+    pair_forces_current: bool,
     /// Extra neighbour-search reach for attraction beyond touching (0 without cohesion).
     cohesive_reach: f64,
     /// Current index of each particle by stable id (particles are reordered at rebuilds).
@@ -107,6 +112,7 @@ impl Simulation {
             poses_at_build: Vec::new(),
             bounds_at_build: (DVec3::ZERO, DVec3::ZERO),
             forces_ready: false,
+            pair_forces_current: false,
             cohesive_reach: 0.0,
             index_of: Vec::new(),
             prepared_radius: -1.0,
@@ -462,6 +468,7 @@ impl Simulation {
         let t0 = Instant::now();
         self.backend
             .pair_forces(&self.particles, &mut self.neighbours, &inputs);
+        self.pair_forces_current = true;
         let t1 = Instant::now();
         self.timers.pair_forces += t1 - t0;
         self.backend
@@ -513,6 +520,7 @@ impl Simulation {
             .neighbours
             .rebuild(&mut self.particles, self.cohesive_reach);
         let order = reorder.order;
+        self.pair_forces_current = false;
         self.index_of.resize(self.particles.len(), 0);
         for (k, &id) in self.particles.id.iter().enumerate() {
             self.index_of[id as usize] = k as u32;

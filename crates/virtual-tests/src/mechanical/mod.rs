@@ -19,8 +19,9 @@ pub mod tests;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use dem::bond::output::{write_bond_counts_csv, write_bonds_vtk, write_breakage_csv};
+use dem::bond::output::{write_bond_counts_csv, write_breakage_csv};
 use dem::fill::SizeDistribution;
+use dem::output::{SnapshotOptions, Snapshots};
 use dem::scene::{GroupParticles, ParticleGroup, ParticleShape, Placement};
 use dem::specimen::{Core, Packing, StalkSpecimen};
 use dem::Simulation;
@@ -92,7 +93,8 @@ pub struct LoadingSettings {
     /// Time step as a percentage of the Rayleigh step (default 10 %, as the stalk studies).
     #[serde(default = "default_time_step_percent")]
     pub time_step_percent: f64,
-    /// Particle and bond snapshots (VTK) written into the output folder over the loading.
+    /// Snapshots for ParaView (particles, bonds, geometry; `particles.pvd` lists them) written
+    /// into the output folder over the loading.
     #[serde(default)]
     pub snapshots: usize,
 }
@@ -413,31 +415,21 @@ pub fn load(
     // (kinetic energy, work so far) at every curve point.
     let mut energies = vec![(0.0, 0.0)];
     let out = run.out.map(|d| d.to_path_buf());
-    let snapshot = |sim: &Simulation| -> Result<(), TestError> {
-        if let Some(dir) = &out {
+    let mut snapshots = out
+        .as_ref()
+        .map(|dir| Snapshots::new(dir, SnapshotOptions::default()));
+    let mut snapshot = |sim: &mut Simulation| -> Result<(), TestError> {
+        if let (Some(dir), Some(series)) = (&out, snapshots.as_mut()) {
             std::fs::create_dir_all(dir)
                 .map_err(|e| TestError::Measurement(format!("{}: {e}", dir.display())))?;
-            let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
-            dem::output::write_vtk(
-                &dir.join(format!("particles_{:08}.vtk", sim.steps)),
-                &sim.particles,
-                sim.time,
-            )
-            .map_err(io)?;
-            if let Some(b) = sim.bonds() {
-                write_bonds_vtk(
-                    &dir.join(format!("bonds_{:08}.vtk", sim.steps)),
-                    b,
-                    &sim.particles,
-                    sim.time,
-                )
-                .map_err(io)?;
-            }
+            series
+                .write(sim)
+                .map_err(|e| TestError::Measurement(format!("{}: {e}", dir.display())))?;
         }
         Ok(())
     };
     if loading.snapshots > 0 {
-        snapshot(&sim)?;
+        snapshot(&mut sim)?;
     }
     let mut done = 0u64;
     let phase = format!("{test}: loading");
@@ -457,7 +449,7 @@ pub fn load(
 
         energies.push((specimen_kinetic_energy(&sim), work));
         if done % snapshot_every < n && loading.snapshots > 0 {
-            snapshot(&sim)?;
+            snapshot(&mut sim)?;
         }
         if loading.stop_force_fraction > 0.0 {
             let (k_peak, peak) = peak_of(&force);

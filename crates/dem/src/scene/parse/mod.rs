@@ -206,6 +206,8 @@ struct OutputSection {
     snapshot_interval: Option<f64>,
     #[serde(deserialize_with = "crate::units::time::opt", default)]
     force_interval: Option<f64>,
+    format: Option<String>,
+    contacts: Option<bool>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -319,6 +321,7 @@ fn describe(f: SceneFile, ctx: &Ctx, base: &Path) -> Result<SceneDescription, Sc
         .collect::<Result<_, _>>()?;
     let bonds = bonds::bonds(ctx, f.bonds)?;
     let o = f.output;
+    let defaults = OutputDescription::default();
     Ok(SceneDescription {
         bonds,
         simulation,
@@ -326,6 +329,8 @@ fn describe(f: SceneFile, ctx: &Ctx, base: &Path) -> Result<SceneDescription, Sc
             directory: base.join(o.directory.as_deref().unwrap_or("out")),
             snapshot_interval: o.snapshot_interval,
             force_interval: o.force_interval,
+            format: o.format.unwrap_or(defaults.format),
+            contacts: o.contacts.unwrap_or(defaults.contacts),
         },
         materials,
         interactions,

@@ -13,6 +13,7 @@ pub mod contact;
 pub mod factory;
 pub mod fill;
 pub mod geometry;
+pub mod keys;
 pub mod maize_kernel;
 pub mod material;
 pub mod mixture;

@@ -99,6 +99,66 @@ pub enum Stage {
     },
 }
 
+/// The stages a plan may hold, in the order help texts list them.
+pub const STAGE_NAMES: &[&str] = &[
+    "screening",
+    "steepest",
+    "rsm",
+    "optimize",
+    "bayesopt",
+    "ga_bp",
+    "smc",
+    "validate",
+];
+
+/// The keys a stage's table takes (besides `stage`), or `None` for a stage that does not exist.
+pub fn stage_keys(kind: &str) -> Option<&'static [&'static str]> {
+    Some(match kind {
+        "screening" => &[
+            "design",
+            "runs",
+            "resolution",
+            "center_points",
+            "alpha",
+            "min_factors",
+            "max_factors",
+        ],
+        "steepest" => &["steps", "direction"],
+        "rsm" => &["design", "alpha", "center_points", "reduce", "alpha_out"],
+        "optimize" => &["solutions", "starts"],
+        "validate" => &["replicates"],
+        "bayesopt" => &[
+            "initial",
+            "iterations",
+            "batch",
+            "budget",
+            "patience",
+            "tolerance",
+            "kernel",
+            "restarts",
+        ],
+        "ga_bp" => &[
+            "runs",
+            "hidden",
+            "generations",
+            "population",
+            "mutation",
+            "search_generations",
+            "search_population",
+            "train_fraction",
+            "max_epochs",
+        ],
+        "smc" => &[
+            "samples",
+            "iterations",
+            "ess",
+            "sigma_tolerance",
+            "components",
+        ],
+        _ => return None,
+    })
+}
+
 pub const STAGES: &str = "screening, steepest, rsm, optimize, bayesopt, ga_bp, smc, validate";
 
 /// Largest sizes a surrogate stage may ask for.
@@ -179,52 +239,12 @@ pub(crate) fn parse_plan(
                 ))
             }
         };
-        let allowed: &[&str] = match kind.as_str() {
-            "screening" => &[
-                "design",
-                "runs",
-                "resolution",
-                "center_points",
-                "alpha",
-                "min_factors",
-                "max_factors",
-            ],
-            "steepest" => &["steps", "direction"],
-            "rsm" => &["design", "alpha", "center_points", "reduce", "alpha_out"],
-            "optimize" => &["solutions", "starts"],
-            "validate" => &["replicates"],
-            "bayesopt" => &[
-                "initial",
-                "iterations",
-                "batch",
-                "budget",
-                "patience",
-                "tolerance",
-                "kernel",
-                "restarts",
-            ],
-            "ga_bp" => &[
-                "runs",
-                "hidden",
-                "generations",
-                "population",
-                "mutation",
-                "search_generations",
-                "search_population",
-                "train_fraction",
-                "max_epochs",
-            ],
-            "smc" => &[
-                "samples",
-                "iterations",
-                "ess",
-                "sigma_tolerance",
-                "components",
-            ],
-            other => {
+        let allowed: &[&str] = match stage_keys(&kind) {
+            Some(keys) => keys,
+            None => {
                 return Err(err(
                     &format!("{key}.stage"),
-                    format!("unknown stage \"{other}\" (expected one of: {STAGES})"),
+                    format!("unknown stage \"{kind}\" (expected one of: {STAGES})"),
                 ))
             }
         };

@@ -12,6 +12,55 @@ use crate::target::{parse_objective, parse_target, TestOutputs};
 pub use crate::target::{Combine, Target, Term};
 use virtual_tests::file::one_line;
 
+/// The keys of a study file's top level.
+pub(crate) const STUDY_KEYS: &[&str] = &[
+    "name",
+    "seed",
+    "test",
+    "parameter",
+    "target",
+    "plan",
+    "run_time_limit_s",
+    "import",
+    "objective",
+    "backend",
+    "executor",
+];
+/// The keys of a `[[parameter]]`.
+pub(crate) const PARAMETER_KEYS: &[&str] = &["name", "path", "paths", "min", "max", "scale"];
+/// The keys of an `[[import]]`.
+pub(crate) const IMPORT_KEYS: &[&str] = &["study", "parameter", "path", "paths"];
+/// The keys of a `[[test]]` beside the test's own content given inline.
+pub(crate) const TEST_KEYS: &[&str] = &["name", "file"];
+
+/// Every section of a study file, as `docs/reference.md` heads it, with the keys its reader
+/// accepts, so that the reference is checked against the code.
+pub fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
+    let mut v = vec![
+        ("study file".to_string(), STUDY_KEYS.to_vec()),
+        ("[[test]]".to_string(), TEST_KEYS.to_vec()),
+        ("[[parameter]]".to_string(), PARAMETER_KEYS.to_vec()),
+        ("[[import]]".to_string(), IMPORT_KEYS.to_vec()),
+        (
+            "[target]".to_string(),
+            [crate::target::TARGET_KEYS, crate::lab_curve::CURVE_KEYS].concat(),
+        ),
+        (
+            "[objective]".to_string(),
+            crate::target::OBJECTIVE_KEYS.to_vec(),
+        ),
+    ];
+    for stage in crate::plan::STAGE_NAMES {
+        let keys = crate::plan::stage_keys(stage).expect("every stage has its keys");
+        v.push((format!("plan: {stage}"), [&["stage"][..], keys].concat()));
+    }
+    v.push((
+        "[executor]".to_string(),
+        crate::slurm::settings::KEYS.to_vec(),
+    ));
+    v
+}
+
 /// A parameter to calibrate: one value written into one or more places of the study's tests.
 #[derive(Clone, Debug)]
 pub struct Parameter {
@@ -183,24 +232,11 @@ impl Study {
         let err = |key: &str, msg: String| format!("{file}: {key}: {msg}");
         let doc: toml::Table =
             toml::from_str(text).map_err(|e| format!("{file}: {}", one_line(&e.to_string())))?;
-        const KEYS: &[&str] = &[
-            "name",
-            "seed",
-            "test",
-            "parameter",
-            "target",
-            "plan",
-            "run_time_limit_s",
-            "import",
-            "objective",
-            "backend",
-            "executor",
-        ];
         for k in doc.keys() {
-            if !KEYS.contains(&k.as_str()) {
+            if !STUDY_KEYS.contains(&k.as_str()) {
                 return Err(err(
                     k,
-                    format!("unknown key (expected {})", KEYS.join(", ")),
+                    format!("unknown key (expected {})", STUDY_KEYS.join(", ")),
                 ));
             }
         }
@@ -269,7 +305,7 @@ impl Study {
                 .as_table()
                 .ok_or_else(|| err(&key, "expected a table".into()))?;
             for k in t.keys() {
-                if !["name", "path", "paths", "min", "max", "scale"].contains(&k.as_str()) {
+                if !PARAMETER_KEYS.contains(&k.as_str()) {
                     return Err(err(
                         &format!("{key}.{k}"),
                         "unknown key (expected name, path or paths, min, max, scale)".into(),
@@ -729,7 +765,7 @@ fn parse_imports(
             .as_table()
             .ok_or_else(|| err(&key, "expected a table".into()))?;
         for k in t.keys() {
-            if !["study", "parameter", "path", "paths"].contains(&k.as_str()) {
+            if !IMPORT_KEYS.contains(&k.as_str()) {
                 return Err(err(
                     &format!("{key}.{k}"),
                     "unknown key (expected study, parameter, path or paths)".into(),

@@ -242,7 +242,7 @@ pub fn parse_objective(
         .as_table()
         .ok_or_else(|| err("objective", "expected a table with combine".into()))?;
     for k in t.keys() {
-        if k != "combine" {
+        if !OBJECTIVE_KEYS.contains(&k.as_str()) {
             return Err(err(
                 &format!("objective.{k}"),
                 "unknown key (expected combine)".into(),
@@ -272,6 +272,21 @@ pub struct TestOutputs<'a> {
 
 /// Reads one target table, `key` (`target` or `target[i]`). `combine` is how the study combines
 /// its targets (None for a single target); `dir` is where lab curve files are taken from.
+/// The keys of a `[target]` (besides a curve target's, [`CURVE_KEYS`]).
+pub(crate) const TARGET_KEYS: &[&str] = &[
+    "response",
+    "value",
+    "replicates",
+    "unit",
+    "test",
+    "weight",
+    "importance",
+    "low",
+    "high",
+];
+/// The keys of `[objective]`.
+pub(crate) const OBJECTIVE_KEYS: &[&str] = &["combine"];
+
 pub fn parse_target(
     t: &toml::Table,
     key: &str,
@@ -280,17 +295,7 @@ pub fn parse_target(
     dir: &Path,
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Target, String> {
-    const KEYS: &[&str] = &[
-        "response",
-        "value",
-        "replicates",
-        "unit",
-        "test",
-        "weight",
-        "importance",
-        "low",
-        "high",
-    ];
+    const KEYS: &[&str] = TARGET_KEYS;
     for k in t.keys() {
         if !KEYS.contains(&k.as_str()) && !CURVE_KEYS.contains(&k.as_str()) {
             return Err(err(

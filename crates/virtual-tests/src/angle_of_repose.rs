@@ -322,6 +322,13 @@ impl VirtualTest for AngleOfRepose {
         "a cylinder on a plate is filled, lifted, and the heap's angle measured"
     }
 
+    fn reference_sections(&self) -> Vec<(String, Vec<&'static str>)> {
+        vec![
+            ("[angle_of_repose]".into(), dem::keys::of::<Settings>()),
+            ("angle_of_repose.fill".into(), dem::keys::of::<Fill>()),
+        ]
+    }
+
     fn response_names(&self) -> &'static [&'static str] {
         &[
             "angle_of_repose_deg",

@@ -21,6 +21,17 @@ use dem::scene::{
 use dem::sim::BACKEND_NAMES;
 use serde::de::DeserializeOwned;
 
+/// The keys of a test file's top level (beside the table named after its test).
+pub const FILE_KEYS: &[&str] = &[
+    "test",
+    "seed",
+    "backend",
+    "material",
+    "interaction",
+    "particle_type",
+    "bond",
+];
+
 /// A test file read into its parts.
 #[derive(Clone, Debug)]
 pub struct TestFile {
@@ -50,18 +61,7 @@ impl TestFile {
         needs_materials: bool,
     ) -> Result<TestFile, String> {
         for key in value.keys() {
-            if ![
-                "test",
-                "seed",
-                "backend",
-                "material",
-                "interaction",
-                "particle_type",
-                "bond",
-                test,
-            ]
-            .contains(&key.as_str())
-            {
+            if key != test && !FILE_KEYS.contains(&key.as_str()) {
                 return Err(format!(
                     "{name}: {key}: unknown key (expected test, seed, backend, material, interaction, particle_type, bond, {test})"
                 ));

@@ -178,6 +178,13 @@ fn evaluate(
 }
 
 impl VirtualTest for Function {
+    fn reference_sections(&self) -> Vec<(String, Vec<&'static str>)> {
+        vec![
+            ("[function]".into(), dem::keys::of::<Settings>()),
+            ("function.curve".into(), dem::keys::of::<CurveSettings>()),
+        ]
+    }
+
     type Settings = Settings;
     type Outcome = Outcome;
 

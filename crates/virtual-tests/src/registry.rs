@@ -27,6 +27,20 @@ pub static TESTS: &[&dyn Registered] = &[
     &Function,
 ];
 
+/// Every section of a test file, as `docs/reference.md` heads it, with the keys its reader
+/// accepts: the file's top level, then each test's tables.
+pub fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
+    let mut v = vec![("test file".to_string(), crate::file::FILE_KEYS.to_vec())];
+    for t in TESTS {
+        for s in t.reference_sections() {
+            if !v.iter().any(|(name, _)| *name == s.0) {
+                v.push(s);
+            }
+        }
+    }
+    v
+}
+
 /// The test called `name`.
 pub fn find(name: &str) -> Option<&'static dyn Registered> {
     TESTS.iter().copied().find(|t| t.name() == name)
@@ -83,6 +97,27 @@ impl TestFile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_test_lists_the_keys_of_its_settings() {
+        for (section, keys) in reference_sections() {
+            assert!(!keys.is_empty(), "{section}: no keys listed");
+        }
+        let all = reference_sections();
+        let keys = |name: &str| &all.iter().find(|(s, _)| s == name).unwrap().1;
+        // The mechanical tests' own keys and those of the flattened loading.
+        let m = keys("shear, compression, bending, tension, cantilever");
+        for k in [
+            "specimen",
+            "fixture_material",
+            "speed",
+            "snapshots",
+            "grip_length",
+        ] {
+            assert!(m.contains(&k), "{k}: {m:?}");
+        }
+        assert!(keys("angle_of_repose.fill").contains(&"mass_rate"));
+    }
 
     #[test]
     fn names_are_unique_and_every_test_has_responses() {

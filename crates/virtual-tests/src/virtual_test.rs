@@ -162,6 +162,16 @@ pub trait VirtualTest: Sync {
     fn pictures(&self, _outcome: &Self::Outcome) -> Result<Vec<Picture>, String> {
         Ok(Vec::new())
     }
+    /// The sections of its table with the keys each accepts, as `docs/reference.md` heads them,
+    /// so that the reference is checked against the code: by default the settings' fields under
+    /// `[<name>]`. A test whose settings nest tables, or flatten a struct (whose keys serde does
+    /// not list), names them itself.
+    fn reference_sections(&self) -> Vec<(String, Vec<&'static str>)> {
+        vec![(
+            format!("[{}]", self.name()),
+            dem::keys::of::<Self::Settings>(),
+        )]
+    }
 }
 
 /// A finished run, whatever the test.
@@ -187,6 +197,8 @@ pub trait Registered: Sync {
     fn check_scene_file(&self, file: &TestFile, seed: u64) -> Result<(), String>;
     /// Reads and checks the settings, runs, and gives the outcome in every form.
     fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError>;
+    /// See [`VirtualTest::reference_sections`].
+    fn reference_sections(&self) -> Vec<(String, Vec<&'static str>)>;
 }
 
 impl<T: VirtualTest> Registered for T {
@@ -209,6 +221,10 @@ impl<T: VirtualTest> Registered for T {
     fn check_file(&self, file: &TestFile) -> Result<(), String> {
         let settings: T::Settings = file.settings()?;
         self.check(file, &settings)
+    }
+
+    fn reference_sections(&self) -> Vec<(String, Vec<&'static str>)> {
+        VirtualTest::reference_sections(self)
     }
 
     fn check_scene_file(&self, file: &TestFile, seed: u64) -> Result<(), String> {

@@ -107,7 +107,8 @@ const MOST_CPUS: usize = 4096;
 const MOST_GPUS: usize = 64;
 const MOST_RETRIES: usize = 5;
 
-const KEYS: &[&str] = &[
+/// The keys of `[executor]`.
+pub(crate) const KEYS: &[&str] = &[
     "kind",
     "partition",
     "account",

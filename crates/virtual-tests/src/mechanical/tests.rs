@@ -445,6 +445,36 @@ fn run(
     Ok(outcome)
 }
 
+/// The mechanical tests' sections (one for all five: they read the same settings). serde lists
+/// no keys for a struct that flattens another, so the settings' own keys come from serialising
+/// a minimal one, where every field shows (an absent option as null).
+fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
+    let minimal: Settings = toml::from_str(
+        "fixture_material = \"steel\"\nspeed = 0.1\nmax_displacement = 0.001\n\
+         specimen = { material = \"stalk\", radius = 0.001, length = 0.02, diameter = 0.01 }",
+    )
+    .expect("the minimal mechanical settings read");
+    let json = serde_json::to_value(&minimal).expect("settings serialise");
+    let own: Vec<&'static str> = json
+        .as_object()
+        .map(|o| {
+            o.keys()
+                .map(|k| &*Box::leak(k.clone().into_boxed_str()))
+                .collect()
+        })
+        .unwrap_or_default();
+    vec![
+        (
+            "shear, compression, bending, tension, cantilever".into(),
+            own,
+        ),
+        (
+            "specimen".into(),
+            dem::keys::of::<super::SpecimenSettings>(),
+        ),
+    ]
+}
+
 macro_rules! mechanical_test {
     ($ty:ident, $kind:expr, $about:expr) => {
         impl VirtualTest for $ty {
@@ -457,6 +487,10 @@ macro_rules! mechanical_test {
 
             fn about(&self) -> &'static str {
                 $about
+            }
+
+            fn reference_sections(&self) -> Vec<(String, Vec<&'static str>)> {
+                reference_sections()
             }
 
             fn response_names(&self) -> &'static [&'static str] {

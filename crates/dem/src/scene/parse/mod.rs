@@ -145,6 +145,25 @@ pub fn group_particles(
     particles::group_from_entry(&ctx, key, e)
 }
 
+/// Every section of a scene file, as `docs/reference.md` heads it, with the keys its reader
+/// accepts (read from the structs below, so the reference is checked against them).
+pub fn reference_sections() -> Vec<(&'static str, Vec<&'static str>)> {
+    use crate::keys::of;
+    let mut v = vec![
+        ("scene file", of::<SceneFile>()),
+        ("[simulation]", of::<SimulationSection>()),
+        ("simulation.domain", of::<BoxEntry>()),
+        ("[output]", of::<OutputSection>()),
+        ("[[material]]", of::<MaterialEntry>()),
+        ("[[interaction]]", of::<InteractionEntry>()),
+        ("[[geometry]]", of::<GeometryEntry>()),
+        ("geometry.motion", of::<MotionEntry>()),
+    ];
+    v.extend(particles::reference_sections());
+    v.push(("[[bond]]", of::<bonds::BondEntry>()));
+    v
+}
+
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 struct SceneFile {

@@ -174,6 +174,22 @@ struct FillEntry {
     axis: Option<V3>,
 }
 
+/// The particle sections of a scene file with the keys each accepts (see
+/// [`super::reference_sections`]).
+pub(super) fn reference_sections() -> Vec<(&'static str, Vec<&'static str>)> {
+    use crate::keys::of;
+    vec![
+        ("[[particle_type]]", of::<ParticleTypeEntry>()),
+        ("shape", of::<ShapeEntry>()),
+        ("size and scale", of::<SizeEntry>()),
+        ("[[particles]]", of::<ParticleEntry>()),
+        ("particles (of a virtual test)", of::<GroupParticlesEntry>()),
+        ("particles.region", of::<RegionEntry>()),
+        ("particles.fill", of::<FillEntry>()),
+        ("particles.factory", of::<FactoryEntry>()),
+    ]
+}
+
 pub(super) fn particle_type(
     ctx: &Ctx,
     k: usize,

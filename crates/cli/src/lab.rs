@@ -89,8 +89,10 @@ pub enum LabCommand {
     /// Relative error of a simulated value against the lab's: |sim - lab| / lab x 100 %.
     #[command(after_help = "Example:\n  demcal lab relative-error --simulated 27.67 --lab 27.35")]
     RelativeError {
+        /// The simulated value (any unit, the same as --lab).
         #[arg(long, allow_negative_numbers = true)]
         simulated: f64,
+        /// The lab's value (not zero).
         #[arg(long, allow_negative_numbers = true)]
         lab: f64,
     },

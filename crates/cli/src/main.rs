@@ -2,6 +2,7 @@
 //! a library crate; nothing here knows physics.
 
 mod bench;
+mod help_check;
 mod lab;
 mod progress;
 
@@ -21,7 +22,8 @@ use progress::{check_count, check_jobs, LogLine};
 #[command(
     name = "demcal",
     version,
-    about = "Calibrate DEM models of agricultural materials"
+    about = "Calibrate DEM models of agricultural materials",
+    after_help = "Example (a whole calibration, then its state):\n  demcal run examples/quickstart/study.toml --jobs 2\n  demcal status examples/quickstart/study.toml"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -31,7 +33,11 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Run a scene file: snapshots for ParaView (particles.pvd, geometry.pvd, ...), geometry loads (CSV) and a one-line summary.
+    #[command(
+        after_help = "Example:\n  demcal simulate examples/scenes/cylinder_lift.toml --out lift-out --threads 2"
+    )]
     Simulate {
+        /// The scene file (TOML; keys in docs/reference.md).
         scene: PathBuf,
         /// Worker threads (default: all cores).
         #[arg(long)]
@@ -45,7 +51,11 @@ enum Command {
     },
     /// Measure the angle of repose of a heap given as spheres: a CSV file (x, y, z, radius) or a
     /// LIGGGHTS/LAMMPS custom dump (last frame), the way `demcal test` measures its own heaps.
+    #[command(
+        after_help = "Example:\n  demcal heap-angle heap.csv --axis 0,0 --base 0 --out heap-check --json"
+    )]
     HeapAngle {
+        /// The heap: a CSV file with columns x, y, z, radius (m), or a LIGGGHTS/LAMMPS dump.
         file: PathBuf,
         /// Vertical planes through the heap axis.
         #[arg(long, default_value_t = 4)]
@@ -71,7 +81,11 @@ enum Command {
     },
     #[command(about = format!("Run a virtual lab test ({}) and print what it measures", virtual_tests::registry::names().join(", ")))]
     #[command(long_about = format!("Run a virtual lab test and print what it measures. Tests: {}.", virtual_tests::tests_help()))]
+    #[command(
+        after_help = "Example:\n  demcal test examples/quickstart/repose.toml --seed 2 --out repose-out --json"
+    )]
     Test {
+        /// The virtual test file (TOML: test = \"...\", materials, and the test's table).
         test: PathBuf,
         /// Seed of the particle generation (overrides the file's `seed`).
         #[arg(long)]
@@ -91,7 +105,11 @@ enum Command {
     },
     /// Run (or resume) a calibration study: every stage of its plan, the runs stored in
     /// <study>.db next to it, then the report in report/ next to it.
+    #[command(
+        after_help = "Example:\n  demcal run examples/quickstart/study.toml --jobs 2\n  demcal run cluster-study.toml --executor slurm --jobs 50"
+    )]
     Run {
+        /// The study file (TOML: tests, parameters, target, plan; see docs/reference.md).
         study: PathBuf,
         /// Simulations at once; each gets its share of the cores (default 1). With the GPU back
         /// end, the runs per batch: simulations that run at once share the GPU's kernel launches
@@ -116,7 +134,11 @@ enum Command {
     },
     /// Run one simulation of a study from a job file (the unit a cluster executor submits) and
     /// write its record as JSON.
+    #[command(
+        after_help = "Example (as a Slurm task runs it):\n  demcal run-one study.runs/stage1-screening/a1b2c3/run004.json --threads 4"
+    )]
     RunOne {
+        /// The job file a study wrote (runNNN.json: the test with its parameters set, the seed).
         job: PathBuf,
         /// Where to write the record (default: the job file with .record.json in place of .json).
         #[arg(long)]
@@ -126,30 +148,48 @@ enum Command {
         threads: Option<usize>,
     },
     /// Show a study's stages, runs done / failed / pending, and the best values so far.
-    Status { study: PathBuf },
+    #[command(after_help = "Example:\n  demcal status examples/quickstart/study.toml")]
+    Status {
+        /// The study file whose stored runs to show.
+        study: PathBuf,
+    },
     /// Write a study's report (index.html, results.csv, summary.json) from its stored runs.
+    #[command(
+        after_help = "Example:\n  demcal report examples/quickstart/study.toml --out paper-report"
+    )]
     Report {
+        /// The study file whose stored runs to report.
         study: PathBuf,
         /// Folder to write to (default: report/ next to the study).
         #[arg(long)]
         out: Option<PathBuf>,
     },
     /// Designed experiments: generate designs, analyse results (ANOVA), optimise fitted models.
+    #[command(
+        after_help = "Example (a design, then its analysis once the response column is filled in):\n  demcal doe design ccd --factors static_friction:0.2:0.8,rolling_friction:0.02:0.2 --out ccd.csv\n  demcal doe analyze ccd.csv --response angle_deg --model quadratic"
+    )]
     Doe {
         #[command(subcommand)]
         action: DoeCommand,
     },
     /// The lab side: angle of repose from a heap photo, friction, moduli, moisture, density.
+    #[command(
+        after_help = "Example:\n  demcal lab photo-angle heap.jpg --debug heap-check.png --json"
+    )]
     Lab {
         #[command(subcommand)]
         action: lab::LabCommand,
     },
     /// Surrogates (GP, BP, GA-BP) trained on your own result table, and searched for a goal.
+    #[command(
+        after_help = "Example:\n  demcal surrogate optimize results.csv --response angle_deg --factors D,E,G --model ga-bp --goal target=38.65"
+    )]
     Surrogate {
         #[command(subcommand)]
         action: SurrogateCommand,
     },
     /// Run a peer benchmark and print particle-steps per second (batch: simulations per hour).
+    #[command(after_help = "Example:\n  demcal bench settle --threads 2")]
     Bench {
         /// settle: 21 160 spheres settling in a box; settle-wide: the box widened 8 times in x
         /// and y (1 444 000 spheres, 5 000 steps); bonded: the seed-000 stalk specimen crushed;
@@ -157,8 +197,10 @@ enum Command {
         /// the back end chosen, then on the CPU runner.
         #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch"])]
         name: String,
+        /// Time steps to run (default: the benchmark's own, 20 000 for settle).
         #[arg(long)]
         steps: Option<u64>,
+        /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
         /// Run the stages on the CPU or the GPU.
@@ -182,6 +224,9 @@ enum Command {
 #[derive(Subcommand)]
 enum DoeCommand {
     /// Write a design as CSV (run order, point type, coded and actual columns).
+    #[command(
+        after_help = "Example:\n  demcal doe design pb --factors restitution:0.2:0.6,static_friction:0.2:0.8,rolling_friction:0.02:0.2 --runs 12 --centers 1 --out pb.csv"
+    )]
     Design {
         /// plackett-burman (pb), factorial, fractional, ccd, box-behnken (bbd), lhs, random, steepest.
         kind: String,
@@ -223,7 +268,11 @@ enum DoeCommand {
         out: Option<PathBuf>,
     },
     /// Fit a model and print the ANOVA table, fit statistics and equations.
+    #[command(
+        after_help = "Example:\n  demcal doe analyze crates/doe/tests/data/silage-repose-ccd.csv --response angle_deg --model quadratic --plots plots"
+    )]
     Analyze {
+        /// The design with its response columns filled in (CSV, as `demcal doe design` writes it).
         data: PathBuf,
         #[command(flatten)]
         model: ModelArgs,
@@ -235,7 +284,11 @@ enum DoeCommand {
         plots: Option<PathBuf>,
     },
     /// Fit the responses and search for the settings that best meet the goals (desirability).
+    #[command(
+        after_help = "Example:\n  demcal doe optimize crates/doe/tests/data/silage-repose-ccd.csv --response angle_deg --model quadratic --goal angle_deg:target=38.65"
+    )]
     Optimize {
+        /// The design with its response columns filled in (CSV).
         data: PathBuf,
         #[command(flatten)]
         model: ModelArgs,
@@ -249,8 +302,10 @@ enum DoeCommand {
         /// Random starts of the local search.
         #[arg(long, default_value_t = 100)]
         starts: usize,
+        /// Seed of the random starts.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// One JSON object with the solutions instead of the table.
         #[arg(long)]
         json: bool,
     },
@@ -260,22 +315,32 @@ enum DoeCommand {
 enum SurrogateCommand {
     /// Train a surrogate on 80 % of the rows and print R^2, RMSE and MAE on training, test and
     /// all rows.
+    #[command(
+        after_help = "Example:\n  demcal surrogate fit crates/doe/tests/data/silage-repose-ccd.csv --response angle_deg --factors D,E,G --model gp"
+    )]
     Fit {
+        /// The result table (CSV: factor columns and the response column).
         data: PathBuf,
         #[command(flatten)]
         model: SurrogateArgs,
+        /// One JSON object with the scores instead of the table.
         #[arg(long)]
         json: bool,
     },
     /// Train a surrogate, then search it with a genetic algorithm (GA-BP-GA for --model ga-bp)
     /// for the factor settings that meet the goal, inside the table's factor ranges.
+    #[command(
+        after_help = "Example:\n  demcal surrogate optimize crates/doe/tests/data/silage-repose-ccd.csv --response angle_deg --factors D,E,G --model ga-bp --goal target=38.65"
+    )]
     Optimize {
+        /// The result table (CSV: factor columns and the response column).
         data: PathBuf,
         #[command(flatten)]
         model: SurrogateArgs,
         /// target=V (e.g. the lab's 38.65), minimize or maximize.
         #[arg(long)]
         goal: String,
+        /// One JSON object with the solution instead of the table.
         #[arg(long)]
         json: bool,
     },

@@ -142,7 +142,7 @@ pub struct OutputDescription {
     pub snapshot_interval: Option<f64>,
     /// Seconds between geometry load records (default a thousandth of the run).
     pub force_interval: Option<f64>,
-    /// How snapshots are stored: "binary" (default) or "ascii" (text, about three times larger).
+    /// How snapshots are stored: "binary" (default) or "ascii" (text, about twice the size).
     pub format: String,
     /// Whether snapshots include the contact force network (default false).
     pub contacts: bool,

@@ -5,7 +5,7 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$root"
 cargo build --release -q -p demcal-cli
-lig=$(SHARED=${SHARED:-$root/../shared} tools/peers/liggghts_settle.sh | tail -n 1)
+lig=$(tools/peers/liggghts_settle.sh | tail -n 1)
 dem=$(./target/release/demcal bench settle "$@" | tail -n 1)
 echo "$lig"
 echo "$dem"

@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Runs the LIGGGHTS settle benchmark (../shared/bench/liggghts/settle.lig, single process) and
-# prints its loop time plus the same bed height and kinetic energy that `demcal bench settle` prints.
+# Runs the LIGGGHTS settle benchmark (tools/peers/liggghts/settle.lig, single process; see
+# docs/benchmarks.md) and prints its loop time plus the same bed height and kinetic energy that
+# `demcal bench settle` prints.
 # The stock input is copied unchanged except for one dump of the final positions, so the peer
 # does exactly the benchmark's work.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-shared=${SHARED:-$here/../../../shared}
-lig=$shared/bench/liggghts/settle.lig
+lig=$here/liggghts/settle.lig
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # The dump fires at step 0 and at the last step; the final one is what we read.

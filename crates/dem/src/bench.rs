@@ -1,4 +1,4 @@
-//! Benchmarks that compare the engine with its peers (shared/bench/README.md).
+//! Benchmarks that compare the engine with its peers (docs/benchmarks.md).
 
 use crate::scene::Scene;
 use std::path::Path;

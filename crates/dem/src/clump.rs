@@ -6,7 +6,7 @@
 //! whose cross-section is a disc of radius max_i sqrt(r_i^2 - (z - z_i)^2): piecewise polynomial
 //! in z, so Gauss-Legendre between the breakpoints integrates it exactly. Otherwise a seeded,
 //! stratified Monte Carlo (one jittered sample in each of 128^3 cells, 2.1 million samples) is
-//! used; physics.md asks for at least 1e6.
+//! used; docs/physics.md asks for at least 1e6.
 
 use glam::{DMat3, DQuat, DVec3};
 use rand::{Rng, SeedableRng};

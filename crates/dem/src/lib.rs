@@ -4,7 +4,7 @@
 //! Hertz-Mindlin (no slip) contacts with optional JKR cohesion, constant directional torque or
 //! elastic-plastic spring-dashpot rolling friction, analytic walls and STL
 //! meshes with prescribed motion, cell-grid neighbour lists with a skin, velocity Verlet, and TOML
-//! scene files. The physics contract is `shared/spec/physics.md`; [`sim`] explains the step pipeline.
+//! scene files. The physics contract is `docs/physics.md`; [`sim`] explains the step pipeline.
 
 pub mod bench;
 pub mod bond;

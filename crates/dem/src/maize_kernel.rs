@@ -1,4 +1,4 @@
-//! Multi-sphere models of maize kernels, fitted to the four shape classes of lab-tests.md from
+//! Multi-sphere models of maize kernels, fitted to the four shape classes of docs/lab-tests.md from
 //! their measured dimensions.
 //!
 //! Each class is a target solid with an inside test. The fit is greedy coverage by inscribed
@@ -46,8 +46,9 @@ pub enum KernelShape {
 }
 
 impl KernelShape {
-    /// The published dimensions (lab-tests.md, maize kernels). The near-spherical class has no
-    /// published dimensions; 8.0 x 8.5 x 6.5 mm is our assumption from the other classes' sizes.
+    /// The published dimensions (docs/lab-tests.md section 1, maize kernels). The near-spherical
+    /// class has no published dimensions; 8.0 x 8.5 x 6.5 mm is our assumption from the other
+    /// classes' sizes.
     pub fn published(kind: &str) -> Option<KernelShape> {
         let mm = 1e-3;
         Some(match kind {

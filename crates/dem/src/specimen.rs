@@ -1,6 +1,6 @@
 //! Stalk specimens: cylinders packed with spheres that a bond model will join.
 //!
-//! The lab tests of a stalk (shear, radial compression, three-point bending; `lab-tests.md`
+//! The lab tests of a stalk (shear, radial compression, three-point bending; `docs/lab-tests.md`
 //! sections 3-6) model the stalk as a packing of spheres bonded where their contact spheres
 //! overlap. This module builds the packing only: where each sphere is, its radius, and whether it
 //! lies in the core (pith) or the rind (epidermis). Bonds are someone else's business.
@@ -18,11 +18,12 @@
 //!   [`fill::lattice_points`] with the lattice anchored at the specimen's centre (a site on the
 //!   axis, so the cross-section is symmetric about it) and its close-packed layers stacked along
 //!   the local z, that is, containing the stalk's axis. Spacing defaults to one diameter, the
-//!   spheres touching: lab-tests.md section 3's shear specimen (20 mm long, 15 mm across, 0.43 mm
-//!   spheres) then holds 6 725 spheres with 37 186 pairs within the 0.6 mm contact radius. EDEM's
-//!   4 235 spheres are as sparse as a spacing of 1 mm (4 313 here; 4 217 with the layers across
-//!   the axis), and its 18 980 bonds (4.5 per sphere, against a lattice's 5.4 at that spacing)
-//!   say that its "hcp" is not a perfect lattice; `spacing` is there to match a published count.
+//!   spheres touching: docs/lab-tests.md section 3's shear specimen (20 mm long, 15 mm across,
+//!   0.43 mm spheres) then holds 6 725 spheres with 37 186 pairs within the 0.6 mm contact
+//!   radius. EDEM's 4 235 spheres are as sparse as a spacing of 1 mm (4 313 here; 4 217 with the
+//!   layers across the axis), and its 18 980 bonds (4.5 per sphere, against a lattice's 5.4 at
+//!   that spacing) say that its "hcp" is not a perfect lattice; `spacing` is there to match a
+//!   published count.
 //! - **Random packing** (`Packing::Random`) draws `count` radii from the group's size
 //!   distribution, scatters the centres in the cylinder with every radius scaled down (to a
 //!   solid fraction of 0.3), and then alternates overlap relaxation with projection back into the
@@ -39,7 +40,7 @@
 //!   and only a fraction near jamming (0.55-0.6 for two sizes in a stalk a few large spheres
 //!   across) gives a connected specimen with about 6-7 neighbours each. A solid fraction above
 //!   [`MAX_RANDOM_SOLID_FRACTION`] is refused before anything is placed; one that jams before
-//!   the scale reaches 1 is reported with the fraction it reached. lab-tests.md section 4's
+//!   the scale reaches 1 is reported with the fraction it reached. docs/lab-tests.md section 4's
 //!   3 534 spheres of 1.5 mm would fill 125 % of their stalk, so "bimodal" needs a second, smaller
 //!   class: 0.75 mm (half the radius, so the small spheres sit in the large ones' voids) with
 //!   40.6 % large by number gives a solid fraction of 0.60 in about 1.5 s.

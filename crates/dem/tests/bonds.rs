@@ -1,4 +1,4 @@
-//! Verification case V7 (physics.md): bonded spheres. A straight chain bends as an
+//! Verification case V7 (docs/physics.md): bonded spheres. A straight chain bends as an
 //! Euler-Bernoulli cantilever with E = k_n x bond length and I = pi R_B^4 / 4, a simply supported
 //! chain deflects as the three-point-bending beam formula, and a bond breaks in tension at exactly
 //! sigma_c A and in shear at tau_c A (to the step). Plus: same results for any thread count.

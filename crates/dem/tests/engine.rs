@@ -1,5 +1,5 @@
-//! Engine behaviour beyond the spec's verification cases: meshes, geometry loads, moving walls,
-//! contact history across neighbour-list rebuilds, and determinism.
+//! Engine behaviour beyond the verification cases of docs/physics.md: meshes, geometry loads,
+//! moving walls, contact history across neighbour-list rebuilds, and determinism.
 
 mod common;
 

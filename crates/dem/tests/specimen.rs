@@ -1,5 +1,5 @@
 //! Stalk specimens (`dem::specimen`, `fill.type = "stalk"`): counts and geometry of the packings
-//! of lab-tests.md sections 3-4, hollow and core options, determinism, and scene-file errors.
+//! of docs/lab-tests.md sections 3-4, hollow and core options, determinism, and scene-file errors.
 
 use dem::fill::SizeDistribution;
 use dem::scene::{GroupParticles, ParticleShape, Placement, Scene};
@@ -55,7 +55,7 @@ fn mean_coordination(packed: &Packed, contact_factor: f64) -> f64 {
     2.0 * pairs_within(&packed.spheres, contact_factor).len() as f64 / packed.spheres.len() as f64
 }
 
-/// lab-tests.md section 3, the shear specimen: 20 mm long, 15 mm across, spheres of 0.43 mm on
+/// docs/lab-tests.md section 3, the shear specimen: 20 mm long, 15 mm across, spheres of 0.43 mm on
 /// a hexagonal close-packed lattice, bonded within a contact radius of 0.6 mm. EDEM reports
 /// 4 235 particles and 18 980 bonds.
 #[test]
@@ -234,8 +234,8 @@ fn absurd_specimens_are_refused() {
     assert_eq!(e.key, "packing");
 }
 
-/// lab-tests.md section 4, the radial compression specimen: 3 534 spheres of 1.5 mm and 0.75 mm
-/// in a stalk 90 mm long and 23.78 mm across. About 1.5 s (the test profile is optimised).
+/// docs/lab-tests.md section 4, the radial compression specimen: 3 534 spheres of 1.5 mm and
+/// 0.75 mm in a stalk 90 mm long and 23.78 mm across. About 1.5 s (the test profile is optimised).
 #[test]
 fn compression_specimen_random() {
     // 40.6 % of the spheres large gives a solid fraction of 0.6 (see the module notes).

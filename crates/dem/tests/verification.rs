@@ -1,4 +1,4 @@
-//! Verification cases V1-V6 and V8 of shared/spec/physics.md on the CPU back end; the cases are
+//! Verification cases V1-V6 and V8 of docs/physics.md on the CPU back end; the cases are
 //! `common/verification_cases.rs` (which the GPU back end runs too) and
 //! `common/verification_more.rs`.
 

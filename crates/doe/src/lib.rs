@@ -1,7 +1,7 @@
 //! Designed experiments, the Design-Expert part of demcal.
 //!
 //! Factors with coded <-> actual mapping (linear or logarithmic); the design generators of
-//! `shared/spec/calibration.md` (Plackett-Burman, regular two-level factorials with generators and
+//! `docs/calibration.md` (Plackett-Burman, regular two-level factorials with generators and
 //! aliases, central composite, Box-Behnken, Latin hypercube, steepest paths), each returning coded
 //! runs that [`Design::run_order`] shuffles with a recorded seed; least-squares response-surface
 //! models with Design-Expert's ANOVA ([`Fit`]); desirability optimisation ([`optimize`]); and SVG

@@ -1,4 +1,4 @@
-//! The two reference analyses of shared/spec/calibration.md (data copied into tests/data), to the
+//! The two reference analyses of docs/calibration.md (data in tests/data), to the
 //! printed precision: each value must round to the printed digits, so the tolerance is half a unit
 //! in the last place.
 

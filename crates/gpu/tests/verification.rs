@@ -1,4 +1,4 @@
-//! Verification cases V1-V6 and V8 of shared/spec/physics.md on the GPU back end, with the same
+//! Verification cases V1-V6 and V8 of docs/physics.md on the GPU back end, with the same
 //! tolerances as on the CPU (`crates/dem/tests/verification.rs` includes the same cases). On a
 //! machine without a GPU they run on Mesa's lavapipe; with no adapter at all they are skipped,
 //! unless `DEMCAL_REQUIRE_GPU=1` (as CI sets) makes that a failure.

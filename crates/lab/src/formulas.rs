@@ -144,7 +144,7 @@ mod tests {
 
     #[test]
     fn published_values() {
-        // Maize on steel: 28.6 deg gives mu_s = 0.545 (lab-tests.md).
+        // Maize on steel: 28.6 deg gives mu_s = 0.545 (docs/lab-tests.md section 2).
         let mu = friction_from_tilt(28.6).unwrap()[0].value;
         assert!((mu - 0.545).abs() < 5e-4, "{mu}");
         // A 10 mm x 20 mm cylinder with k = 1e5 N/m: E = 4e5 x 0.02 / (pi 1e-4) = 25.46 MPa.

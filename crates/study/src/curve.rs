@@ -1,4 +1,4 @@
-//! Comparing a simulated curve with the lab's, as `shared/spec/lab-tests.md` ("How a curve is
+//! Comparing a simulated curve with the lab's, as `docs/lab-tests.md` ("How a curve is
 //! compared") asks: both curves normalised the way the study file says, resampled on 1000 evenly
 //! spaced points over the range both cover by linear interpolation, and the mean squared
 //! difference taken. From the normalised simulated curve come the measures a study can also
@@ -9,7 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Points of the comparison grid (lab-tests.md).
+/// Points of the comparison grid (docs/lab-tests.md, "How a curve is compared").
 pub const COMPARE_POINTS: usize = 1000;
 /// Points of the copy of the simulated curve kept in a run's outputs for the report's plot.
 pub const PLOT_POINTS: usize = 200;

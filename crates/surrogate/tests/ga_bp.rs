@@ -12,10 +12,11 @@ const ALPHA: f64 = 1.68179;
 /// The lab angle of repose the published GA-BP-GA calibration aimed at (deg).
 const LAB_ANGLE: f64 = 38.65;
 
-/// The 23 runs of /work/shared/data/silage-repose-ccd.csv: coded D, E, G and the angle (deg).
+/// The 23 runs of the published silage CCD (`crates/doe/tests/data/silage-repose-ccd.csv`, the
+/// reference data of docs/calibration.md): coded D, E, G and the angle (deg).
 fn silage() -> (Vec<Vec<f64>>, Vec<f64>) {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/silage-repose-ccd.csv");
+        .join("../doe/tests/data/silage-repose-ccd.csv");
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
     let mut lines = text.lines();

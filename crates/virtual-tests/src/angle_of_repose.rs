@@ -1,6 +1,6 @@
-//! The lifted-cylinder angle-of-repose test (lab-tests.md, section 1): a cylinder open at both ends
-//! stands on a plate, is filled with particles that settle, is lifted at constant speed, and the
-//! heap left behind is measured once it is still.
+//! The lifted-cylinder angle-of-repose test (docs/lab-tests.md, section 1): a cylinder open at
+//! both ends stands on a plate, is filled with particles that settle, is lifted at constant speed,
+//! and the heap left behind is measured once it is still.
 
 use std::time::Instant;
 

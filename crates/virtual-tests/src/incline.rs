@@ -1,4 +1,4 @@
-//! The inclined-plane tests of lab-tests.md, section 2.
+//! The inclined-plane tests of docs/lab-tests.md, section 2.
 //!
 //! `incline_tilt`: a steel plate carrying a sample is tilted slowly about a horizontal axis until
 //! the sample slides; the angle at which it has moved `slide_distance` down the plate (in the

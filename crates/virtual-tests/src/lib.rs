@@ -1,4 +1,4 @@
-//! Virtual lab tests: the set-ups of `shared/spec/lab-tests.md` built on the DEM engine, and the
+//! Virtual lab tests: the set-ups of `docs/lab-tests.md` built on the DEM engine, and the
 //! measurements the labs make on them.
 //!
 //! A test file names its test (`test = "angle_of_repose"`), carries the materials,

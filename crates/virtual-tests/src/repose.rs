@@ -1,7 +1,8 @@
 //! Angle-of-repose measurement on a particle heap, done the way labs do it on a photo
-//! (lab-tests.md, section 1): in several vertical planes through the heap axis, take the surface
-//! profile (the highest particle surface per radial bin), fit a straight line to each flank between
-//! the toe and the rounded apex, and report the mean angle and its spread over flanks and planes.
+//! (docs/lab-tests.md, section 1): in several vertical planes through the heap axis, take the
+//! surface profile (the highest particle surface per radial bin), fit a straight line to each flank
+//! between the toe and the rounded apex, and report the mean angle and its spread over flanks and
+//! planes.
 
 use glam::DVec3;
 

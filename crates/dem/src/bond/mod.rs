@@ -1,5 +1,5 @@
 //! Bonded particles: EDEM's "Hertz-Mindlin with bonding" (Bonding V2), the Potyondy-Cundall
-//! parallel bond, as `shared/spec/physics.md` ("Bonded particle model") states it.
+//! parallel bond, as `docs/physics.md` ("Bonded particle model") states it.
 //!
 //! Design notes:
 //! - **A step extension.** Bonds are a [`StepExtension`]: they add their forces after the contacts

@@ -1,4 +1,4 @@
-//! Hertz-Mindlin (no slip), EDEM's default law, with optional JKR cohesion (physics.md).
+//! Hertz-Mindlin (no slip), EDEM's default law, with optional JKR cohesion (docs/physics.md).
 
 use super::jkr::{jkr_contact_radius, jkr_cutoff_overlap};
 use super::{tangential_spring, ContactForce, ContactHistory, ContactLaw, ContactPoint, PairParams};

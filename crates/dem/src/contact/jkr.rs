@@ -1,9 +1,9 @@
-//! JKR cohesion: the cut-off overlap and the contact radius (physics.md). The Hertz-Mindlin law
-//! uses them when a pair has a surface energy (EDEM's "Hertz-Mindlin with JKR").
+//! JKR cohesion: the cut-off overlap and the contact radius (docs/physics.md). The Hertz-Mindlin
+//! law uses them when a pair has a surface energy (EDEM's "Hertz-Mindlin with JKR").
 
 use std::f64::consts::PI;
 
-/// The (negative) overlap d_c down to which a JKR contact still attracts (physics.md):
+/// The (negative) overlap d_c down to which a JKR contact still attracts (docs/physics.md):
 /// d_c = a_c^2/R* - sqrt(4 pi gamma a_c / E*), a_c = [(9 pi gamma R*^2 / (2 E*)) (3/4 - 1/sqrt 2)]^(1/3).
 pub fn jkr_cutoff_overlap(gamma: f64, e_star: f64, r_eff: f64) -> f64 {
     if gamma <= 0.0 {

@@ -90,8 +90,8 @@ pub struct ContactForce {
     /// Total normal force (positive = repulsive); not clamped at zero.
     pub normal: f64,
     /// The normal load that friction and rolling resistance scale with: the normal force, plus for
-    /// JKR the pull-off correction 2 * 3 pi gamma R* (physics.md), so a cohesive contact pulled
-    /// to zero net force still has friction.
+    /// JKR the pull-off correction 2 * 3 pi gamma R* (docs/physics.md), so a cohesive contact
+    /// pulled to zero net force still has friction.
     pub load: f64,
     /// Tangential force on this particle.
     pub tangential: DVec3,

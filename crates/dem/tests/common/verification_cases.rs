@@ -1,4 +1,4 @@
-// Verification cases V1-V6 and V8 of shared/spec/physics.md, with the tolerances given there,
+// Verification cases V1-V6 and V8 of docs/physics.md, with the tolerances given there,
 // included by `verification.rs` (CPU back end) and by `crates/gpu/tests/verification.rs` (GPU
 // back end). The including file provides `mod common` and `fn backend() -> &'static str`.
 

@@ -1,4 +1,4 @@
-//! The mechanical tests of bonded stalks (lab-tests.md sections 3-6): a bonded specimen, a
+//! The mechanical tests of bonded stalks (docs/lab-tests.md sections 3-6): a bonded specimen, a
 //! fixture, and a tool driven at a set speed while its force is recorded against its travel.
 //!
 //! Every test here shares one loop ([`load`]): the tool (a moving geometry, or a grip of spheres

@@ -2,14 +2,14 @@
 //! origin; loads come down along -z (tension pulls along +x).
 //!
 //! - `shear`: two support blocks with a slot between them, a blade (a thin block) coming down
-//!   through the slot across the stalk (the grooved shear fixture of lab-tests.md section 3).
+//!   through the slot across the stalk (the grooved shear fixture of docs/lab-tests.md section 3).
 //! - `compression`: radial compression between two flat plates (section 4).
 //! - `bending`: three-point bending: two cylindrical supports `span` apart, a cylindrical punch
 //!   in the middle (section 5).
 //! - `tension`: the spheres within `grip_length` of each end are gripped; one grip pulls along
 //!   the axis (the simplest check of bond strength).
 //! - `cantilever`: one end gripped, the spheres within `grip_length` of the other end driven down
-//!   (V7 of physics.md in test form).
+//!   (V7 of docs/physics.md in test form).
 
 use dem::scene::{GeometryDescription, GeometryShape, SceneDescription};
 use dem::Simulation;

@@ -16,6 +16,7 @@ pub mod fit;
 pub mod model;
 pub mod optimize;
 pub mod plots;
+pub mod raster;
 
 pub use data::DataTable;
 pub use design::Design;

@@ -10,6 +10,7 @@
 pub mod commands;
 pub mod data;
 pub mod design;
+pub mod diagnostics;
 pub mod experiment;
 pub mod factor;
 pub mod fit;

@@ -17,6 +17,7 @@ pub mod fit;
 pub mod model;
 pub mod optimize;
 pub mod plots;
+pub mod plots_surface;
 pub mod raster;
 
 pub use data::DataTable;

@@ -21,6 +21,9 @@ pub struct Parameter {
     pub min: f64,
     pub max: f64,
     pub scale: Scale,
+    /// The unit the report's tables and axes give (`unit`); None: told from the path's last
+    /// key (a friction has none, a density kg/m³).
+    pub unit: Option<String>,
 }
 
 impl Parameter {
@@ -265,10 +268,10 @@ impl Study {
                 .as_table()
                 .ok_or_else(|| err(&key, "expected a table".into()))?;
             for k in t.keys() {
-                if !["name", "path", "paths", "min", "max", "scale"].contains(&k.as_str()) {
+                if !["name", "path", "paths", "min", "max", "scale", "unit"].contains(&k.as_str()) {
                     return Err(err(
                         &format!("{key}.{k}"),
-                        "unknown key (expected name, path or paths, min, max, scale)".into(),
+                        "unknown key (expected name, path or paths, min, max, scale, unit)".into(),
                     ));
                 }
             }
@@ -327,12 +330,23 @@ impl Study {
                     format!("a log-scale parameter needs min > 0, got {min}"),
                 ));
             }
+            let unit = match t.get("unit") {
+                None => None,
+                Some(toml::Value::String(u)) => Some(u.clone()),
+                Some(_) => {
+                    return Err(err(
+                        &format!("{key}.unit"),
+                        "expected a string, e.g. \"kg/m³\" or \"-\" for none".into(),
+                    ))
+                }
+            };
             parameters.push(Parameter {
                 name,
                 paths,
                 min,
                 max,
                 scale,
+                unit,
             });
         }
 

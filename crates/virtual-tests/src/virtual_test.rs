@@ -162,6 +162,11 @@ pub trait VirtualTest: Sync {
     fn pictures(&self, _outcome: &Self::Outcome) -> Result<Vec<Picture>, String> {
         Ok(Vec::new())
     }
+    /// The settings with every default filled in, as TOML, for a report's table of what a study
+    /// holds fixed; None for a test that does not give them (the file's own table is shown).
+    fn settings_value(&self, _settings: &Self::Settings) -> Option<toml::Value> {
+        None
+    }
 }
 
 /// A finished run, whatever the test.
@@ -187,6 +192,8 @@ pub trait Registered: Sync {
     fn check_scene_file(&self, file: &TestFile, seed: u64) -> Result<(), String>;
     /// Reads and checks the settings, runs, and gives the outcome in every form.
     fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError>;
+    /// The file's settings with the test's defaults filled in ([`VirtualTest::settings_value`]).
+    fn full_settings(&self, file: &TestFile) -> Option<toml::Value>;
 }
 
 impl<T: VirtualTest> Registered for T {
@@ -215,6 +222,11 @@ impl<T: VirtualTest> Registered for T {
         let settings: T::Settings = file.settings()?;
         self.check(file, &settings)?;
         self.check_scene(file, &settings, seed)
+    }
+
+    fn full_settings(&self, file: &TestFile) -> Option<toml::Value> {
+        let settings: T::Settings = file.settings().ok()?;
+        self.settings_value(&settings)
     }
 
     fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError> {

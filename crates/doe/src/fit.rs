@@ -83,6 +83,12 @@ pub struct Fit {
     pub leverage: Vec<f64>,
     /// Externally studentized residuals (NaN where the leverage is 1).
     pub studentized: Vec<f64>,
+    /// Cook's distance of each run, D = e^2 / (p MSE) h / (1 - h)^2 (NaN where the leverage is
+    /// 1 or there is no residual error).
+    pub cooks_distance: Vec<f64>,
+    /// (X'X)^-1 of the model matrix (with the curvature column last when curvature is
+    /// separated): the coefficients' covariance over the residual mean square.
+    pub xtx_inv: DMatrix<f64>,
     /// Effects, for two-level designs (every non-centre run at +-1).
     pub effects: Vec<Effect>,
     /// Terms removed by backward elimination, with the p value at which each left.
@@ -426,6 +432,16 @@ impl Fit {
             })
             .collect();
 
+        let cooks_distance = (0..n)
+            .map(|i| {
+                let h = leverage[i];
+                if h > 1.0 - 1e-10 || error_ms.is_none() {
+                    return f64::NAN;
+                }
+                residuals[i].powi(2) / (p as f64 * ms_res) * h / (1.0 - h).powi(2)
+            })
+            .collect();
+
         let t_crit = t_critical(0.05, df_res).unwrap_or(f64::NAN);
         let coefficients: Vec<Coefficient> = (0..terms.len())
             .map(|j| {
@@ -500,6 +516,8 @@ impl Fit {
             residuals,
             leverage,
             studentized,
+            cooks_distance,
+            xtx_inv: c,
             effects,
             removed: Vec::new(),
             aliased: Vec::new(),

@@ -10,12 +10,15 @@
 pub mod commands;
 pub mod data;
 pub mod design;
+pub mod diagnostics;
 pub mod experiment;
 pub mod factor;
 pub mod fit;
 pub mod model;
 pub mod optimize;
 pub mod plots;
+pub mod plots_surface;
+pub mod raster;
 
 pub use data::DataTable;
 pub use design::Design;

@@ -1,18 +1,119 @@
 //! SVG plots of a fit, drawn with plotters' SVG backend (text is left to the SVG viewer, so no
-//! system fonts are needed): Pareto chart, predicted vs actual, residuals vs predicted, normal
-//! plot of residuals, a contour plot and a 3-D surface over two factors.
+//! system fonts are needed; [`crate::raster`] turns them into PNG): Pareto chart, predicted vs
+//! actual, the residual diagnostics (normal plot, residuals against predicted values and against
+//! run order, Cook's distance), and in [`crate::plots_surface`] the contour plot, 3-D surface
+//! and perturbation plot.
+//!
+//! Every plot is [`SIZE`] SVG units, its text sized for a page that shows it at 90-100 % of
+//! that: tick labels and legends 18.5 units, axis titles 19.4, like body text. Figures carry no
+//! title: a report or paper captions them. Axis titles come from [`Labels`]: the response's and
+//! factors' names with their units.
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use statrs::distribution::{ContinuousCDF, Normal};
 
-use crate::fit::{fmt_sig, t_critical, Fit};
+use crate::fit::{t_critical, Fit};
+pub use crate::plots_surface::{
+    colour_map, contour_plot, contour_segments, grid, nice_ticks, perturbation_plot, surface_plot,
+    ContourMarks, Grid,
+};
 
-const SIZE: (u32, u32) = (720, 540);
+/// Width and height of every plot, in SVG units (pixels at 100 %).
+pub const SIZE: (u32, u32) = (640, 480);
 pub const FONT: &str = "sans-serif";
-const POSITIVE: RGBColor = RGBColor(230, 120, 20);
-const NEGATIVE: RGBColor = RGBColor(40, 100, 200);
-const POINT: RGBColor = RGBColor(200, 30, 30);
+/// plotters' text sizes; its SVG backend writes font-size = size / 1.24.
+/// Tick labels, legends and notes: 18.5 units.
+pub const TEXT: u32 = 23;
+/// Axis titles: 19.4 units.
+pub const DESC: u32 = 24;
+pub const POSITIVE: RGBColor = RGBColor(230, 120, 20);
+pub const NEGATIVE: RGBColor = RGBColor(40, 100, 200);
+pub const POINT: RGBColor = RGBColor(200, 30, 30);
+/// Series colours for several lines (colour-blind safe, Okabe-Ito).
+pub const SERIES: [RGBColor; 6] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(230, 159, 0),
+];
+
+/// The font size SVG text of plotters' `size` gets.
+pub fn svg_px(size: u32) -> f32 {
+    size as f32 / 1.24
+}
+
+/// Axis titles of a fit's plots: the response's and each factor's, with their units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Labels {
+    pub response: String,
+    pub factors: Vec<String>,
+    /// Short names of the factors for labels on lines (A, B, ... by default).
+    pub letters: Vec<String>,
+}
+
+impl Labels {
+    /// The fit's own names: factors in actual units where their ranges are known, else coded.
+    pub fn of(fit: &Fit) -> Labels {
+        let coded = fit.experiment.factors.is_none();
+        Labels {
+            response: fit.experiment.response_name.clone(),
+            factors: fit
+                .experiment
+                .factor_names
+                .iter()
+                .map(|n| {
+                    if coded {
+                        format!("{n} (coded)")
+                    } else {
+                        n.clone()
+                    }
+                })
+                .collect(),
+            letters: letters(fit),
+        }
+    }
+
+    /// Names with units: `unit` of the response, `units` of each factor ("" where unknown).
+    pub fn with_units(fit: &Fit, unit: &str, units: &[String]) -> Labels {
+        Labels {
+            response: with_unit(&fit.experiment.response_name, unit),
+            factors: fit
+                .experiment
+                .factor_names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| with_unit(n, units.get(i).map_or("", String::as_str)))
+                .collect(),
+            letters: letters(fit),
+        }
+    }
+}
+
+fn letters(fit: &Fit) -> Vec<String> {
+    (0..fit.experiment.factor_names.len())
+        .map(crate::design::factor_letter)
+        .collect()
+}
+
+/// `name (unit)`; a name that ends in its unit (`angle_deg`, `deg`) drops the ending. "-" or
+/// "–" marks a quantity without dimension; an empty unit leaves the name bare.
+pub fn with_unit(name: &str, unit: &str) -> String {
+    let unit = unit.trim();
+    if unit.is_empty() {
+        return name.to_string();
+    }
+    let unit = if unit == "-" { "–" } else { unit };
+    let base = name
+        .strip_suffix(&format!("_{unit}"))
+        .filter(|b| !b.is_empty())
+        .unwrap_or(name);
+    format!("{base} ({unit})")
+}
 
 /// A plotters error as text.
 pub fn err<E: std::fmt::Debug>(e: E) -> String {
@@ -23,14 +124,169 @@ pub fn err<E: std::fmt::Debug>(e: E) -> String {
 pub fn render(
     draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<(), String>,
 ) -> Result<String, String> {
+    render_sized(SIZE, draw)
+}
+
+/// [`render`] at another size.
+pub fn render_sized(
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<(), String>,
+) -> Result<String, String> {
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         draw(&root)?;
         root.present().map_err(err)?;
     }
     Ok(svg)
+}
+
+/// A 2-D chart of numbers.
+pub type Chart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A tick label: the shortest decimal that shows the value (ticks are round numbers).
+pub fn tick(v: &f64) -> String {
+    let v = *v;
+    if v == 0.0 || !v.is_finite() {
+        return "0".into();
+    }
+    let a = v.abs();
+    if !(1e-3..1e5).contains(&a) {
+        let s = format!("{v:.2e}");
+        let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
+        let m = m.trim_end_matches('0').trim_end_matches('.');
+        return format!("{m}e{e}");
+    }
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.replace('-', "−")
+    }
+}
+
+/// Axes in the plots' style: a light grid, round ticks, the labels' size, titles `x` and `y`.
+pub fn draw_mesh(chart: &mut Chart, x: &str, y: &str) -> Result<(), String> {
+    chart
+        .configure_mesh()
+        .x_desc(x)
+        .y_desc(y)
+        .x_labels(6)
+        .y_labels(6)
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .label_style((FONT, TEXT))
+        .axis_desc_style((FONT, DESC))
+        .light_line_style(TRANSPARENT)
+        .bold_line_style(BLACK.mix(0.1))
+        .draw()
+        .map_err(err)
+}
+
+/// A chart on `root` over `x` by `y`, with room for tick labels and axis titles.
+pub fn chart<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    top: u32,
+) -> Result<Chart<'a, 'b>, String> {
+    ChartBuilder::on(root)
+        .margin(14)
+        .margin_top(top)
+        .margin_right(22)
+        .x_label_area_size(66)
+        .y_label_area_size(92)
+        .build_cartesian_2d(x, y)
+        .map_err(err)
+}
+
+/// A legend entry's mark.
+#[derive(Clone, Copy, Debug)]
+pub enum Mark {
+    Dot(RGBColor),
+    Ring(RGBColor),
+    Cross(RGBColor),
+    Line(RGBColor, u32),
+    Dashed(RGBColor, u32),
+    Bar(RGBColor),
+}
+
+/// Width of `text` at plotters size `size` (DejaVu Sans, what the PNGs use and the usual
+/// sans-serif).
+pub fn text_width(text: &str, size: u32) -> i32 {
+    crate::raster::text_width(text, svg_px(size)).ceil() as i32
+}
+
+/// Draws a mark of the legend centred at (x, y), 26 units wide.
+pub fn draw_mark(
+    root: &DrawingArea<SVGBackend, Shift>,
+    m: Mark,
+    x: i32,
+    y: i32,
+) -> Result<(), String> {
+    match m {
+        Mark::Dot(c) => root.draw(&Circle::new((x, y), 6, c.filled())),
+        Mark::Ring(c) => root.draw(&Circle::new((x, y), 8, c.stroke_width(3))),
+        Mark::Cross(c) => {
+            root.draw(&Cross::new((x, y), 8, WHITE.stroke_width(6)))
+                .map_err(err)?;
+            root.draw(&Cross::new((x, y), 8, c.stroke_width(3)))
+        }
+        Mark::Line(c, w) => root.draw(&PathElement::new(
+            vec![(x - 13, y), (x + 13, y)],
+            c.stroke_width(w),
+        )),
+        Mark::Dashed(c, w) => {
+            for dx in [-13, -1, 10] {
+                root.draw(&PathElement::new(
+                    vec![(x + dx, y), ((x + dx + 7).min(x + 13), y)],
+                    c.stroke_width(w),
+                ))
+                .map_err(err)?;
+            }
+            Ok(())
+        }
+        Mark::Bar(c) => root.draw(&Rectangle::new(
+            [(x - 11, y - 8), (x + 11, y + 8)],
+            c.filled(),
+        )),
+    }
+    .map_err(err)
+}
+
+/// A row of legend entries starting at (x, y) (the middle of the first row), wrapped within
+/// `width`; returns the height used.
+pub fn legend_row(
+    root: &DrawingArea<SVGBackend, Shift>,
+    items: &[(Mark, String)],
+    x: i32,
+    y: i32,
+    width: i32,
+) -> Result<i32, String> {
+    let line = (svg_px(TEXT) * 1.45).round() as i32;
+    let (mut cx, mut cy) = (x, y);
+    for (m, label) in items {
+        let w = 30 + text_width(label, TEXT) + 22;
+        if cx > x && cx + w > x + width {
+            cx = x;
+            cy += line;
+        }
+        draw_mark(root, *m, cx + 13, cy)?;
+        root.draw(&Text::new(
+            label.clone(),
+            (cx + 32, cy),
+            (FONT, TEXT)
+                .into_font()
+                .color(&BLACK)
+                .pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(err)?;
+        cx += w;
+    }
+    Ok(cy - y + line)
 }
 
 /// The axis range for data spanning lo..hi, widened a little; a sane range when the data are
@@ -54,11 +310,15 @@ pub fn min_max(v: impl Iterator<Item = f64>) -> (f64, f64) {
         .fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)))
 }
 
-/// Pareto chart of |t| of the two-level effects, largest first, orange for positive and blue for
-/// negative effects, with the t limit and the Bonferroni limit (alpha 0.05).
+/// Pareto chart of |t| of the two-level effects, largest at the top, orange for positive and
+/// blue for negative effects, with the t limit and the Bonferroni limit (alpha 0.05) and a
+/// legend saying so.
 pub fn pareto_chart(fit: &Fit) -> Result<String, String> {
     if fit.effects.is_empty() {
         return Err("plot: a Pareto chart needs a two-level design (effects)".into());
+    }
+    if fit.effects.iter().any(|e| !e.t.is_finite()) {
+        return Err("plot: no residual error (exact fit), so the effects have no t values".into());
     }
     let mut effects = fit.effects.clone();
     effects.sort_by(|a, b| b.t.abs().total_cmp(&a.t.abs()));
@@ -69,124 +329,158 @@ pub fn pareto_chart(fit: &Fit) -> Result<String, String> {
         .chain(limits.iter().flat_map(|(a, b)| [*a, *b]))
         .filter(|v| v.is_finite())
         .fold(0.0f64, f64::max)
-        * 1.1;
-    if fit.effects.iter().any(|e| !e.t.is_finite()) {
-        return Err("plot: no residual error (exact fit), so the effects have no t values".into());
-    }
+        * 1.08;
     let top = if top > 0.0 { top } else { 1.0 };
     let m = effects.len();
+    let name_width = effects
+        .iter()
+        .map(|e| text_width(&e.name, TEXT))
+        .max()
+        .unwrap_or(0)
+        .clamp(30, 300);
     render(|root| {
+        let mut items = vec![
+            (Mark::Bar(POSITIVE), "positive effect".to_string()),
+            (Mark::Bar(NEGATIVE), "negative effect".to_string()),
+        ];
+        if let Some((t, bonf)) = limits {
+            items.push((
+                Mark::Line(BLACK, 2),
+                format!("t limit {}", tick(&round_to(t, 3))),
+            ));
+            items.push((
+                Mark::Dashed(BLACK, 2),
+                format!("Bonferroni limit {}", tick(&round_to(bonf, 3))),
+            ));
+        }
+        let used = legend_row(root, &items, 16, 26, SIZE.0 as i32 - 32)?;
         let mut chart = ChartBuilder::on(root)
-            .caption(
-                format!("Pareto chart: {}", fit.experiment.response_name),
-                (FONT, 22),
-            )
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(56)
-            .build_cartesian_2d(0.0..m as f64, 0.0..top)
+            .margin(14)
+            .margin_top(used + 10)
+            .margin_right(22)
+            .x_label_area_size(66)
+            .y_label_area_size(name_width + 18)
+            .build_cartesian_2d(0.0..top, 0.0..m as f64)
             .map_err(err)?;
         chart
             .configure_mesh()
-            .disable_x_mesh()
-            .disable_x_axis()
-            .y_desc("|t-value|")
+            .disable_y_mesh()
+            .y_labels(0)
+            .x_labels(6)
+            .x_label_formatter(&tick)
+            .x_desc("|t| of the effect")
+            .label_style((FONT, TEXT))
+            .axis_desc_style((FONT, DESC))
+            .light_line_style(TRANSPARENT)
+            .bold_line_style(BLACK.mix(0.1))
             .draw()
             .map_err(err)?;
+        let row = |i: usize| (m - i) as f64;
         chart
             .draw_series(effects.iter().enumerate().map(|(i, e)| {
                 let colour = if e.t >= 0.0 { POSITIVE } else { NEGATIVE };
                 Rectangle::new(
-                    [(i as f64 + 0.15, 0.0), (i as f64 + 0.85, e.t.abs())],
+                    [(0.0, row(i) - 0.85), (e.t.abs(), row(i) - 0.15)],
                     colour.filled(),
                 )
             }))
             .map_err(err)?;
-        chart
-            .draw_series(effects.iter().enumerate().map(|(i, e)| {
-                Text::new(
-                    e.name.clone(),
-                    (i as f64 + 0.5, 0.0),
-                    (FONT, 15).into_font().color(&BLACK).pos(
-                        plotters::style::text_anchor::Pos::new(
-                            plotters::style::text_anchor::HPos::Center,
-                            plotters::style::text_anchor::VPos::Bottom,
-                        ),
-                    ),
-                )
-            }))
+        for (i, e) in effects.iter().enumerate() {
+            let (px, py) = chart.backend_coord(&(0.0, row(i) - 0.5));
+            root.draw(&Text::new(
+                e.name.clone(),
+                (px - 8, py),
+                (FONT, TEXT)
+                    .into_font()
+                    .color(&BLACK)
+                    .pos(Pos::new(HPos::Right, VPos::Center)),
+            ))
             .map_err(err)?;
+        }
         if let Some((t, bonf)) = limits {
-            for (value, label) in [(t, "t-value limit"), (bonf, "Bonferroni limit")] {
-                if value <= top {
-                    chart
-                        .draw_series(LineSeries::new(
-                            [(0.0, value), (m as f64, value)],
-                            BLACK.stroke_width(1),
-                        ))
-                        .map_err(err)?;
-                    chart
-                        .draw_series([Text::new(
-                            format!("{label} {value:.3}"),
-                            (m as f64 * 0.98, value),
-                            (FONT, 13).into_font().color(&BLACK).pos(
-                                plotters::style::text_anchor::Pos::new(
-                                    plotters::style::text_anchor::HPos::Right,
-                                    plotters::style::text_anchor::VPos::Bottom,
-                                ),
-                            ),
-                        )])
-                        .map_err(err)?;
-                }
+            if t <= top {
+                chart
+                    .draw_series(LineSeries::new(
+                        [(t, 0.0), (t, m as f64)],
+                        BLACK.stroke_width(2),
+                    ))
+                    .map_err(err)?;
+            }
+            if bonf <= top {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(bonf, 0.0), (bonf, m as f64)],
+                        8,
+                        6,
+                        BLACK.stroke_width(2),
+                    ))
+                    .map_err(err)?;
             }
         }
         Ok(())
     })
 }
 
-/// Scatter of (x, y) with an optional reference line and horizontal lines.
-#[allow(clippy::too_many_arguments)]
+fn round_to(v: f64, decimals: i32) -> f64 {
+    let k = 10f64.powi(decimals);
+    (v * k).round() / k
+}
+
+/// A horizontal reference line with its legend text.
+#[derive(Clone, Debug)]
+pub struct HLine {
+    pub y: f64,
+    pub label: String,
+}
+
+/// Scatter of (x, y) with an optional y = x line (`square` axes) and labelled horizontal lines.
 pub fn scatter(
-    title: &str,
     x_desc: &str,
     y_desc: &str,
     points: &[(f64, f64)],
-    line: Option<[(f64, f64); 2]>,
-    hlines: &[f64],
+    line: Option<([(f64, f64); 2], &str)>,
+    hlines: &[HLine],
     square: bool,
 ) -> Result<String, String> {
     let (mut x0, mut x1) = min_max(points.iter().map(|p| p.0));
-    let (mut y0, mut y1) = min_max(points.iter().map(|p| p.1).chain(hlines.iter().copied()));
+    let (mut y0, mut y1) = min_max(points.iter().map(|p| p.1).chain(hlines.iter().map(|h| h.y)));
     if square {
         let (lo, hi) = (x0.min(y0), x1.max(y1));
         (x0, x1, y0, y1) = (lo, hi, lo, hi);
     }
     render(|root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 22))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(60)
-            .build_cartesian_2d(padded(x0, x1), padded(y0, y1))
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc(x_desc)
-            .y_desc(y_desc)
-            .draw()
-            .map_err(err)?;
-        let xr = padded(x0, x1);
-        for &h in hlines {
+        let mut items = Vec::new();
+        if let Some((_, label)) = line {
+            items.push((Mark::Line(BLACK, 2), label.to_string()));
+        }
+        let mut seen = Vec::new();
+        for h in hlines {
+            if !seen.contains(&h.label) {
+                items.push((Mark::Dashed(POINT, 2), h.label.clone()));
+                seen.push(h.label.clone());
+            }
+        }
+        let top = if items.is_empty() {
+            18
+        } else {
+            legend_row(root, &items, 16, 26, SIZE.0 as i32 - 32)? + 10
+        };
+        let (xr, yr) = (padded(x0, x1), padded(y0, y1));
+        let mut chart = chart(root, xr.clone(), yr, top as u32)?;
+        draw_mesh(&mut chart, x_desc, y_desc)?;
+        for h in hlines {
             chart
-                .draw_series(LineSeries::new(
-                    [(xr.start, h), (xr.end, h)],
-                    RED.stroke_width(1),
+                .draw_series(DashedLineSeries::new(
+                    [(xr.start, h.y), (xr.end, h.y)],
+                    8,
+                    6,
+                    POINT.stroke_width(2),
                 ))
                 .map_err(err)?;
         }
-        if let Some(l) = line {
+        if let Some((l, _)) = line {
             chart
-                .draw_series(LineSeries::new(l, BLACK.stroke_width(1)))
+                .draw_series(LineSeries::new(l, BLACK.stroke_width(2)))
                 .map_err(err)?;
         }
         chart
@@ -194,7 +488,7 @@ pub fn scatter(
                 points
                     .iter()
                     .filter(|p| p.0.is_finite() && p.1.is_finite())
-                    .map(|&p| Circle::new(p, 4, POINT.filled())),
+                    .map(|&p| Circle::new(p, 6, NEGATIVE.filled())),
             )
             .map_err(err)?;
         Ok(())
@@ -202,7 +496,7 @@ pub fn scatter(
 }
 
 /// Predicted (fitted model) against observed values, with the line y = x.
-pub fn predicted_vs_actual(fit: &Fit) -> Result<String, String> {
+pub fn predicted_vs_actual(fit: &Fit, labels: &Labels) -> Result<String, String> {
     let pts: Vec<(f64, f64)> = fit
         .experiment
         .response
@@ -212,41 +506,124 @@ pub fn predicted_vs_actual(fit: &Fit) -> Result<String, String> {
         .collect();
     let (lo, hi) = min_max(pts.iter().flat_map(|p| [p.0, p.1]));
     scatter(
-        &format!("Predicted vs. actual: {}", fit.experiment.response_name),
-        "Actual",
-        "Predicted",
+        &format!("actual {}", labels.response),
+        &format!("predicted {}", labels.response),
         &pts,
-        Some([(lo, lo), (hi, hi)]),
+        Some(([(lo, lo), (hi, hi)], "predicted = actual")),
         &[],
         true,
     )
 }
 
 /// Limit for externally studentized residuals: the Bonferroni-corrected two-sided t at 0.05.
-fn outlier_limit(fit: &Fit) -> Option<f64> {
+pub fn outlier_limit(fit: &Fit) -> Option<f64> {
     let n = fit.experiment.runs();
     let df = fit.residual.df.checked_sub(1)?;
     t_critical(0.05 / n as f64, df)
 }
 
+fn outlier_lines(fit: &Fit) -> Vec<HLine> {
+    outlier_limit(fit).map_or(vec![], |l| {
+        let label = format!("outlier limits (Bonferroni t {})", tick(&round_to(l, 2)));
+        vec![
+            HLine {
+                y: -l,
+                label: label.clone(),
+            },
+            HLine { y: l, label },
+        ]
+    })
+}
+
+const STUDENTIZED: &str = "externally studentized residual";
+
 /// Externally studentized residuals against predicted values, with the outlier limits.
-pub fn residuals_vs_predicted(fit: &Fit) -> Result<String, String> {
+pub fn residuals_vs_predicted(fit: &Fit, labels: &Labels) -> Result<String, String> {
     let pts: Vec<(f64, f64)> = fit
         .predicted
         .iter()
         .copied()
         .zip(fit.studentized.iter().copied())
         .collect();
-    let limits: Vec<f64> = outlier_limit(fit).map_or(vec![], |l| vec![-l, l]);
     scatter(
-        &format!("Residuals vs. predicted: {}", fit.experiment.response_name),
-        "Predicted",
-        "Externally studentized residuals",
+        &format!("predicted {}", labels.response),
+        STUDENTIZED,
         &pts,
         None,
-        &limits,
+        &outlier_lines(fit),
         false,
     )
+}
+
+/// Externally studentized residuals in the order the runs were made (`runs`: each row's run
+/// number; the row's position when empty), with the outlier limits: a trend shows drift.
+pub fn residuals_vs_run(fit: &Fit, runs: &[usize]) -> Result<String, String> {
+    let pts: Vec<(f64, f64)> = fit
+        .studentized
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (runs.get(i).copied().unwrap_or(i + 1) as f64, *r))
+        .collect();
+    scatter(
+        "run number (order made)",
+        STUDENTIZED,
+        &pts,
+        None,
+        &outlier_lines(fit),
+        false,
+    )
+}
+
+/// Cook's distance of each run against its run number (as [`residuals_vs_run`]), stems from
+/// zero, with the usual limit D = 1 (a run above it moves the fit by itself).
+pub fn cooks_distance_plot(fit: &Fit, runs: &[usize]) -> Result<String, String> {
+    let pts: Vec<(f64, f64)> = fit
+        .cooks_distance
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.is_finite())
+        .map(|(i, d)| (runs.get(i).copied().unwrap_or(i + 1) as f64, *d))
+        .collect();
+    if pts.is_empty() {
+        return Err("plot: no Cook's distance (no residual error)".into());
+    }
+    let (x0, x1) = min_max(pts.iter().map(|p| p.0));
+    let top = pts.iter().map(|p| p.1).fold(1.0f64, f64::max) * 1.1;
+    render(|root| {
+        let used = legend_row(
+            root,
+            &[
+                (Mark::Dot(NEGATIVE), "Cook's distance of a run".to_string()),
+                (Mark::Dashed(POINT, 2), "D = 1".to_string()),
+            ],
+            16,
+            26,
+            SIZE.0 as i32 - 32,
+        )?;
+        let xr = (x0 - 0.7)..(x1 + 0.7);
+        let mut chart = chart(root, xr.clone(), 0.0..top, (used + 10) as u32)?;
+        draw_mesh(&mut chart, "run number (order made)", "Cook's distance")?;
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(xr.start, 1.0), (xr.end, 1.0)],
+                8,
+                6,
+                POINT.stroke_width(2),
+            ))
+            .map_err(err)?;
+        for &(x, d) in &pts {
+            chart
+                .draw_series(LineSeries::new(
+                    [(x, 0.0), (x, d)],
+                    NEGATIVE.stroke_width(3),
+                ))
+                .map_err(err)?;
+        }
+        chart
+            .draw_series(pts.iter().map(|&p| Circle::new(p, 6, NEGATIVE.filled())))
+            .map_err(err)?;
+        Ok(())
+    })
 }
 
 /// Normal probability plot of the externally studentized residuals (Blom scores), with the line
@@ -268,332 +645,40 @@ pub fn normal_plot(fit: &Fit) -> Result<String, String> {
         .collect();
     let (lo, hi) = min_max(pts.iter().flat_map(|p| [p.0, p.1]));
     scatter(
-        &format!("Normal plot of residuals: {}", fit.experiment.response_name),
-        "Externally studentized residuals",
-        "Normal score",
+        STUDENTIZED,
+        "normal quantile",
         &pts,
-        Some([(lo, lo), (hi, hi)]),
+        Some(([(lo, lo), (hi, hi)], "normal residuals")),
         &[],
         false,
     )
-}
-
-/// A response evaluated on a grid over two factors, the others held at `held` (coded).
-pub struct Grid {
-    pub x: Vec<f64>,
-    pub y: Vec<f64>,
-    /// values[i][j] at (x[i], y[j]).
-    pub values: Vec<Vec<f64>>,
-}
-
-fn axis_value(fit: &Fit, factor: usize, coded: f64) -> f64 {
-    match &fit.experiment.factors {
-        Some(f) => f[factor].to_actual(coded),
-        None => coded,
-    }
-}
-
-fn axis_name(fit: &Fit, factor: usize) -> String {
-    let name = &fit.experiment.factor_names[factor];
-    match &fit.experiment.factors {
-        Some(_) => format!("{name} (actual)"),
-        None => format!("{name} (coded)"),
-    }
-}
-
-/// Evaluates the model over factors `fx` and `fy` across `range` (coded), others at `held`.
-pub fn grid(fit: &Fit, fx: usize, fy: usize, held: &[f64], range: (f64, f64), n: usize) -> Grid {
-    let coords: Vec<f64> = (0..n)
-        .map(|i| range.0 + (range.1 - range.0) * i as f64 / (n - 1) as f64)
-        .collect();
-    let values = coords
-        .iter()
-        .map(|&cx| {
-            coords
-                .iter()
-                .map(|&cy| {
-                    let mut x = held.to_vec();
-                    x[fx] = cx;
-                    x[fy] = cy;
-                    fit.predict_coded(&x)
-                })
-                .collect()
-        })
-        .collect();
-    Grid {
-        x: coords.clone(),
-        y: coords,
-        values,
-    }
-}
-
-pub fn colour_map(t: f64) -> RGBColor {
-    // Blue - cyan - green - yellow - red, as response-surface software shows low to high.
-    let stops = [
-        (0.0, (40.0, 60.0, 200.0)),
-        (0.25, (40.0, 170.0, 220.0)),
-        (0.5, (60.0, 190.0, 90.0)),
-        (0.75, (240.0, 220.0, 60.0)),
-        (1.0, (220.0, 50.0, 40.0)),
-    ];
-    let t = t.clamp(0.0, 1.0);
-    let i = stops.iter().rposition(|s| s.0 <= t).unwrap_or(0).min(3);
-    let (a, b) = (stops[i], stops[i + 1]);
-    let u = (t - a.0) / (b.0 - a.0);
-    let mix = |p: f64, q: f64| (p + u * (q - p)).round() as u8;
-    RGBColor(
-        mix(a.1 .0, b.1 .0),
-        mix(a.1 .1, b.1 .1),
-        mix(a.1 .2, b.1 .2),
-    )
-}
-
-/// Contour line segments of `g` at `level` by marching squares, in grid (coded) coordinates.
-pub fn contour_segments(g: &Grid, level: f64) -> Vec<[(f64, f64); 2]> {
-    let mut segs = Vec::new();
-    let interp = |p: (f64, f64), q: (f64, f64), vp: f64, vq: f64| {
-        let t = if vq != vp {
-            (level - vp) / (vq - vp)
-        } else {
-            0.5
-        };
-        (p.0 + t * (q.0 - p.0), p.1 + t * (q.1 - p.1))
-    };
-    for i in 0..g.x.len() - 1 {
-        for j in 0..g.y.len() - 1 {
-            let c = [
-                ((g.x[i], g.y[j]), g.values[i][j]),
-                ((g.x[i + 1], g.y[j]), g.values[i + 1][j]),
-                ((g.x[i + 1], g.y[j + 1]), g.values[i + 1][j + 1]),
-                ((g.x[i], g.y[j + 1]), g.values[i][j + 1]),
-            ];
-            let mut crossings = Vec::new();
-            for e in 0..4 {
-                let (p, vp) = c[e];
-                let (q, vq) = c[(e + 1) % 4];
-                if (vp < level) != (vq < level) {
-                    crossings.push(interp(p, q, vp, vq));
-                }
-            }
-            match crossings.len() {
-                2 => segs.push([crossings[0], crossings[1]]),
-                4 => {
-                    // Saddle: decide by the cell centre.
-                    let centre = 0.25 * c.iter().map(|v| v.1).sum::<f64>();
-                    if (centre < level) == (c[0].1 < level) {
-                        segs.push([crossings[0], crossings[3]]);
-                        segs.push([crossings[1], crossings[2]]);
-                    } else {
-                        segs.push([crossings[0], crossings[1]]);
-                        segs.push([crossings[2], crossings[3]]);
-                    }
-                }
-                _ => {}
-            }
-        }
-    }
-    segs
-}
-
-/// Filled contour plot of the response over factors `fx`, `fy` (coded `range`), the other factors
-/// held at `held` (coded), with labelled contour lines and the design points that lie in the plane.
-pub fn contour_plot(
-    fit: &Fit,
-    fx: usize,
-    fy: usize,
-    held: &[f64],
-    range: (f64, f64),
-) -> Result<String, String> {
-    const N: usize = 41;
-    const LEVELS: usize = 8;
-    let g = grid(fit, fx, fy, held, range, N);
-    let (lo, hi) = min_max(g.values.iter().flatten().copied());
-    let ax = |c: f64| axis_value(fit, fx, c);
-    let ay = |c: f64| axis_value(fit, fy, c);
-    let (x0, x1) = (ax(range.0), ax(range.1));
-    let (y0, y1) = (ay(range.0), ay(range.1));
-    let held_note: Vec<String> = (0..held.len())
-        .filter(|&f| f != fx && f != fy)
-        .map(|f| {
-            format!(
-                "{} = {}",
-                fit.experiment.factor_names[f],
-                fmt_sig(axis_value(fit, f, held[f]))
-            )
-        })
-        .collect();
-    render(|root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(
-                format!("{} contours", fit.experiment.response_name),
-                (FONT, 22),
-            )
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc(axis_name(fit, fx))
-            .y_desc(axis_name(fit, fy))
-            .draw()
-            .map_err(err)?;
-        let span = (hi - lo).max(1e-300);
-        let half = 0.5 * (g.x[1] - g.x[0]);
-        chart
-            .draw_series((0..N).flat_map(|i| {
-                let g = &g;
-                (0..N).map(move |j| {
-                    let (cx, cy) = (g.x[i], g.y[j]);
-                    let a = (ax((cx - half).max(range.0)), ay((cy - half).max(range.0)));
-                    let b = (ax((cx + half).min(range.1)), ay((cy + half).min(range.1)));
-                    Rectangle::new([a, b], colour_map((g.values[i][j] - lo) / span).filled())
-                })
-            }))
-            .map_err(err)?;
-        for l in 1..=LEVELS {
-            let level = lo + span * l as f64 / (LEVELS + 1) as f64;
-            let segs = contour_segments(&g, level);
-            chart
-                .draw_series(segs.iter().map(|s| {
-                    PathElement::new(
-                        vec![(ax(s[0].0), ay(s[0].1)), (ax(s[1].0), ay(s[1].1))],
-                        BLACK.stroke_width(1),
-                    )
-                }))
-                .map_err(err)?;
-            if let Some(s) = segs.get(segs.len() / 2) {
-                chart
-                    .draw_series([Text::new(
-                        fmt_sig(level),
-                        (ax(s[0].0), ay(s[0].1)),
-                        (FONT, 12).into_font().color(&BLACK),
-                    )])
-                    .map_err(err)?;
-            }
-        }
-        // Design points in this plane (other factors at their held values).
-        let pts: Vec<(f64, f64)> = fit
-            .experiment
-            .coded
-            .iter()
-            .filter(|x| {
-                (0..x.len()).all(|f| f == fx || f == fy || (x[f] - held[f]).abs() < 1e-9)
-                    && [x[fx], x[fy]]
-                        .iter()
-                        .all(|v| *v >= range.0 - 1e-9 && *v <= range.1 + 1e-9)
-            })
-            .map(|x| (ax(x[fx]), ay(x[fy])))
-            .collect();
-        chart
-            .draw_series(pts.iter().map(|&p| Circle::new(p, 4, BLACK.filled())))
-            .map_err(err)?;
-        if !held_note.is_empty() {
-            root.draw(&Text::new(
-                format!("held: {}", held_note.join(", ")),
-                (80, SIZE.1 as i32 - 18),
-                (FONT, 13).into_font(),
-            ))
-            .map_err(err)?;
-        }
-        Ok(())
-    })
-}
-
-/// 3-D response surface over factors `fx`, `fy`, the others held at `held` (coded).
-pub fn surface_plot(
-    fit: &Fit,
-    fx: usize,
-    fy: usize,
-    held: &[f64],
-    range: (f64, f64),
-) -> Result<String, String> {
-    const N: usize = 25;
-    let g = grid(fit, fx, fy, held, range, N);
-    let (lo, hi) = min_max(g.values.iter().flatten().copied());
-    let span = (hi - lo).max(1e-300);
-    let xs: Vec<f64> = g.x.iter().map(|&c| axis_value(fit, fx, c)).collect();
-    let ys: Vec<f64> = g.y.iter().map(|&c| axis_value(fit, fy, c)).collect();
-    let value_at = |x: f64, y: f64| -> f64 {
-        let i = xs.iter().position(|v| *v == x).unwrap_or(0);
-        let j = ys.iter().position(|v| *v == y).unwrap_or(0);
-        g.values[i][j]
-    };
-    render(|root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(
-                format!(
-                    "{} over {} and {}",
-                    fit.experiment.response_name,
-                    fit.experiment.factor_names[fx],
-                    fit.experiment.factor_names[fy]
-                ),
-                (FONT, 22),
-            )
-            .margin(20)
-            .build_cartesian_3d(xs[0]..xs[N - 1], padded(lo, hi), ys[0]..ys[N - 1])
-            .map_err(err)?;
-        chart.with_projection(|mut p| {
-            // A low view: the height reads off the surface instead of being folded into depth.
-            p.pitch = 0.2;
-            p.yaw = 0.6;
-            p.scale = 0.85;
-            p.into_matrix()
-        });
-        chart
-            .configure_axes()
-            .light_grid_style(BLACK.mix(0.1))
-            .max_light_lines(3)
-            .draw()
-            .map_err(err)?;
-        let style = |v: &f64| colour_map((v - lo) / span).mix(0.9).filled();
-        chart
-            .draw_series(
-                SurfaceSeries::xoz(xs.iter().copied(), ys.iter().copied(), value_at)
-                    .style_func(&style),
-            )
-            .map_err(err)?;
-        root.draw(&Text::new(
-            format!(
-                "x: {}   z: {}   vertical: {}",
-                axis_name(fit, fx),
-                axis_name(fit, fy),
-                fit.experiment.response_name
-            ),
-            (40, SIZE.1 as i32 - 22),
-            (FONT, 14).into_font(),
-        ))
-        .map_err(err)?;
-        Ok(())
-    })
 }
 
 /// Writes every plot that applies to `fit` into `dir`; returns the files written. The contour and
 /// surface use the two most significant main effects (by p value), others held at the centre.
 pub fn write_all(fit: &Fit, dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let labels = Labels::of(fit);
     let mut plots: Vec<(&str, String)> = Vec::new();
     if !fit.effects.is_empty() && fit.effects.iter().all(|e| e.t.is_finite()) {
         plots.push(("pareto.svg", pareto_chart(fit)?));
     }
-    plots.push(("predicted_vs_actual.svg", predicted_vs_actual(fit)?));
+    plots.push((
+        "predicted_vs_actual.svg",
+        predicted_vs_actual(fit, &labels)?,
+    ));
     if fit.studentized.iter().any(|r| r.is_finite()) {
-        plots.push(("residuals_vs_predicted.svg", residuals_vs_predicted(fit)?));
+        plots.push((
+            "residuals_vs_predicted.svg",
+            residuals_vs_predicted(fit, &labels)?,
+        ));
         plots.push(("normal_plot.svg", normal_plot(fit)?));
     }
     if let Some((fx, fy)) = two_main_factors(fit) {
         let k = fit.experiment.factor_names.len();
-        let held = vec![0.0; k];
-        plots.push((
-            "contour.svg",
-            contour_plot(fit, fx, fy, &held, (-1.0, 1.0))?,
-        ));
-        plots.push((
-            "surface.svg",
-            surface_plot(fit, fx, fy, &held, (-1.0, 1.0))?,
-        ));
+        let marks = ContourMarks::centre(k);
+        plots.push(("contour.svg", contour_plot(fit, &labels, fx, fy, &marks)?));
+        plots.push(("surface.svg", surface_plot(fit, &labels, fx, fy, &marks)?));
     }
     let mut written = Vec::new();
     for (name, svg) in plots {
@@ -625,5 +710,25 @@ pub fn two_main_factors(fit: &Fit) -> Option<(usize, usize)> {
         Some((a.min(b), a.max(b)))
     } else {
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_and_units_read_plainly() {
+        assert_eq!(tick(&0.15000000000000002), "0.15");
+        assert_eq!(tick(&20.0), "20");
+        assert_eq!(tick(&-2.5), "−2.5");
+        assert_eq!(tick(&2.5e-5), "2.5e-5");
+        assert_eq!(
+            with_unit("angle_of_repose_deg", "deg"),
+            "angle_of_repose (deg)"
+        );
+        assert_eq!(with_unit("static_friction", "-"), "static_friction (–)");
+        assert_eq!(with_unit("density", "kg/m³"), "density (kg/m³)");
+        assert_eq!(with_unit("y", ""), "y");
     }
 }

@@ -27,16 +27,23 @@ fn pareto_chart_has_one_bar_per_effect_sorted_with_both_limits() {
     let f = fit(PB, ModelOrder::Linear, 8);
     let svg = plots::pareto_chart(&f).unwrap();
     let doc = roxmltree::Document::parse(&svg).unwrap();
-    let bars: Vec<_> = elements(&doc, "rect")
+    let coloured: Vec<_> = elements(&doc, "rect")
         .into_iter()
         .filter(|r| matches!(r.attribute("fill"), Some("#E67814") | Some("#2864C8")))
         .collect();
-    assert_eq!(bars.len(), 8);
-    let heights: Vec<f64> = bars
+    // The legend's two swatches come first, then a horizontal bar per effect, top down.
+    assert_eq!(coloured.len(), 2 + 8);
+    let bars = &coloured[2..];
+    let widths: Vec<f64> = bars
         .iter()
-        .map(|r| r.attribute("height").unwrap().parse().unwrap())
+        .map(|r| r.attribute("width").unwrap().parse().unwrap())
         .collect();
-    assert!(heights.windows(2).all(|w| w[0] >= w[1]), "{heights:?}");
+    let tops: Vec<f64> = bars
+        .iter()
+        .map(|r| r.attribute("y").unwrap().parse().unwrap())
+        .collect();
+    assert!(widths.windows(2).all(|w| w[0] >= w[1]), "{widths:?}");
+    assert!(tops.windows(2).all(|w| w[0] < w[1]), "{tops:?}");
     let positive = bars
         .iter()
         .filter(|r| r.attribute("fill") == Some("#E67814"))
@@ -46,45 +53,122 @@ fn pareto_chart_has_one_bar_per_effect_sorted_with_both_limits() {
     for name in ["A", "B", "C", "D", "E", "F", "G", "H"] {
         assert!(t.iter().any(|s| s == name), "label {name}");
     }
-    assert!(t.iter().any(|s| s.starts_with("t-value limit 3.182")));
+    for legend in ["positive effect", "negative effect", "t limit 3.182"] {
+        assert!(t.iter().any(|s| s == legend), "{legend}: {t:?}");
+    }
     assert!(t.iter().any(|s| s.starts_with("Bonferroni limit")));
+    assert!(t.iter().any(|s| s == "|t| of the effect"));
 }
 
 #[test]
 fn scatter_plots_show_every_run() {
     let f = fit(CCD, ModelOrder::Quadratic, 3);
+    let labels = plots::Labels::with_units(&f, "deg", &["-".into(), "-".into(), "-".into()]);
     let finite = f.studentized.iter().filter(|v| v.is_finite()).count();
+    let runs: Vec<usize> = (1..=23).collect();
     for (svg, n) in [
-        (plots::predicted_vs_actual(&f).unwrap(), 23),
-        (plots::residuals_vs_predicted(&f).unwrap(), finite),
+        (plots::predicted_vs_actual(&f, &labels).unwrap(), 23),
+        (plots::residuals_vs_predicted(&f, &labels).unwrap(), finite),
         (plots::normal_plot(&f).unwrap(), finite),
+        (plots::residuals_vs_run(&f, &runs).unwrap(), finite),
     ] {
         let doc = roxmltree::Document::parse(&svg).unwrap();
         assert_eq!(elements(&doc, "circle").len(), n);
     }
     assert_eq!(finite, 23, "no run of a CCD has leverage 1");
+    let svg = plots::predicted_vs_actual(&f, &labels).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    assert!(texts(&doc).iter().any(|s| s == "actual angle (deg)"));
+    // Cook's distance: a stem and a dot per run, and the legend's dot.
+    let svg = plots::cooks_distance_plot(&f, &runs).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    assert_eq!(elements(&doc, "circle").len(), 23 + 1);
+    assert!(texts(&doc).iter().any(|s| s == "D = 1"));
+}
+
+/// The black design-run dots of a contour plot (each on a white disc), without the legend's.
+fn run_dots(doc: &roxmltree::Document) -> usize {
+    elements(doc, "circle")
+        .iter()
+        .filter(|c| c.attribute("fill") == Some("#000000") && c.attribute("r") == Some("6"))
+        .count()
+        - 1
 }
 
 #[test]
 fn contour_and_surface_cover_the_grid() {
     let f = fit(CCD, ModelOrder::Quadratic, 3);
-    let held = [0.0, 0.0, 0.0];
-    let svg = plots::contour_plot(&f, 0, 2, &held, (-1.0, 1.0)).unwrap();
+    let labels = plots::Labels::of(&f);
+    let centre = plots::ContourMarks::centre(3);
+    let svg = plots::contour_plot(&f, &labels, 0, 2, &centre).unwrap();
     let doc = roxmltree::Document::parse(&svg).unwrap();
-    // 41 x 41 coloured cells (plus the background).
-    assert_eq!(elements(&doc, "rect").len(), 41 * 41 + 1);
-    assert!(elements(&doc, "polyline").len() > 50, "contour lines");
+    // 41 x 41 coloured cells, the background, the colour bar's slices.
+    assert!(elements(&doc, "rect").len() > 41 * 41 + 1 + 90);
+    assert!(elements(&doc, "polyline").len() > 3, "contour lines");
     // Design points in the E = 0 plane and inside the plotted square: the 9 centre points. The
-    // axial points of D and G (at +-1.68179) show once the square reaches alpha.
-    assert_eq!(elements(&doc, "circle").len(), 9);
-    let wide = plots::contour_plot(&f, 0, 2, &held, (-1.68179, 1.68179)).unwrap();
-    let wide = roxmltree::Document::parse(&wide).unwrap();
-    assert_eq!(elements(&wide, "circle").len(), 9 + 4);
+    // axial points of D and G (at +-1.68179) show once the square reaches alpha, which is the
+    // range `covering` gives.
+    assert_eq!(run_dots(&doc), 9);
+    let range = plots::ContourMarks::covering(&f, 0, 2, &[0.0; 3]);
+    assert!((range.1 - 1.06 * 1.68179).abs() < 1e-4, "{range:?}");
+    let wide = plots::ContourMarks {
+        range,
+        ..centre.clone()
+    };
+    let svg = plots::contour_plot(&f, &labels, 0, 2, &wide).unwrap();
+    let wide = roxmltree::Document::parse(&svg).unwrap();
+    assert_eq!(run_dots(&wide), 9 + 4);
     let t = texts(&doc);
     assert!(t.iter().any(|s| s == "held: E = 0"));
-    let svg = plots::surface_plot(&f, 0, 2, &held, (-1.0, 1.0)).unwrap();
+    assert!(t.iter().any(|s| s == "design runs"));
+    let svg = plots::surface_plot(&f, &labels, 0, 2, &centre).unwrap();
     let doc = roxmltree::Document::parse(&svg).unwrap();
     assert!(elements(&doc, "polygon").len() >= 24 * 24);
+}
+
+#[test]
+fn the_contour_plot_marks_the_target_and_the_optimum_and_has_a_colour_bar() {
+    let f = fit(CCD, ModelOrder::Quadratic, 3);
+    let labels = plots::Labels::with_units(&f, "deg", &[]);
+    let g = plots::grid(&f, 0, 2, &[0.0; 3], (-1.0, 1.0), 41);
+    let (lo, hi) = plots::min_max(g.values.iter().flatten().copied());
+    let marks = plots::ContourMarks {
+        target: Some((0.5 * (lo + hi), "lab value".into())),
+        optimum: Some((vec![0.2, 0.0, -0.3], "optimum".into())),
+        ..plots::ContourMarks::centre(3)
+    };
+    let svg = plots::contour_plot(&f, &labels, 0, 2, &marks).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let t = texts(&doc);
+    for legend in ["lab value", "optimum", "angle (deg)"] {
+        assert!(t.iter().any(|s| s == legend), "{legend}: {t:?}");
+    }
+    // The colour bar's ticks are the contour levels: round numbers between lo and hi.
+    for level in plots::nice_ticks(lo, hi, 6) {
+        assert!(
+            t.iter().any(|s| *s == plots::tick(&level)),
+            "{level}: {t:?}"
+        );
+    }
+}
+
+#[test]
+fn the_perturbation_plot_has_a_trace_per_factor() {
+    let f = fit(CCD, ModelOrder::Quadratic, 3);
+    let labels = plots::Labels::of(&f);
+    let svg = plots::perturbation_plot(&f, &labels, &[0.0; 3], 1.0).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let traces = elements(&doc, "polyline")
+        .iter()
+        .filter(|p| p.attribute("stroke-width") == Some("3"))
+        .count();
+    // A trace per factor and its legend's line.
+    assert_eq!(traces, 2 * 3);
+    let t = texts(&doc);
+    for (letter, name) in ["A", "B", "C"].iter().zip(&labels.factors) {
+        assert!(t.iter().any(|s| s == letter));
+        assert!(t.iter().any(|s| *s == format!("{letter}: {name}")), "{t:?}");
+    }
 }
 
 #[test]
@@ -121,5 +205,5 @@ fn an_exact_fit_still_plots() {
         names,
         ["predicted_vs_actual.svg", "contour.svg", "surface.svg"]
     );
-    assert!(plots::residuals_vs_predicted(&f).is_ok());
+    assert!(plots::residuals_vs_predicted(&f, &plots::Labels::of(&f)).is_ok());
 }

@@ -163,15 +163,17 @@ fn plot(
         let mut chart = ChartBuilder::on(root)
             .caption(
                 format!("Lab and simulated curves ({})", study.target.response),
-                ("sans-serif", 22),
+                ("sans-serif", 24),
             )
             .margin(14)
-            .x_label_area_size(44)
-            .y_label_area_size(70)
+            .x_label_area_size(66)
+            .y_label_area_size(92)
             .build_cartesian_2d((x0 - px)..(x1 + px), (y0 - py)..(y1 + py))
             .map_err(plots::err)?;
         chart
             .configure_mesh()
+            .label_style((plots::FONT, plots::TEXT))
+            .axis_desc_style((plots::FONT, plots::DESC))
             .x_desc(format!("{xn} ({xu})"))
             .y_desc(format!("{yn} ({yu})"))
             .draw()
@@ -204,7 +206,7 @@ fn plot(
             .configure_series_labels()
             .background_style(WHITE.mix(0.9))
             .border_style(BLACK)
-            .label_font(("sans-serif", 13))
+            .label_font((plots::FONT, plots::TEXT))
             .position(SeriesLabelPosition::LowerRight)
             .draw()
             .map_err(plots::err)?;

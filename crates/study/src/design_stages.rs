@@ -146,6 +146,7 @@ pub(crate) fn plan_stage(
                         let mut h = 0.5 * (hi - lo);
                         let mut c = 0.5 * (hi + lo);
                         if c - a * h < lim_lo - 1e-12 || c + a * h > lim_hi + 1e-12 {
+                            let a_text = sig(a);
                             h = h.min((lim_hi - lim_lo) / (2.0 * a));
                             // When the region fills the whole range the two bounds for the
                             // centre meet, and rounding can leave them a hair crossed.
@@ -156,9 +157,8 @@ pub(crate) fn plan_stage(
                                 0.5 * (lim_lo + lim_hi)
                             };
                             st.notes.push(format!(
-                                "{}: the design's ±{} points would leave {} .. {}; its ±1 range is now {} .. {}",
+                                "{}: the design's axial points (coded −{a_text} and +{a_text}) would leave {} .. {}; its coded range −1 to +1 is now {} .. {}",
                                 p.name,
-                                sig(a),
                                 sig(p.min),
                                 sig(p.max),
                                 sig(p.actual(c - h)),
@@ -489,7 +489,7 @@ pub(crate) fn conclude(
             let desirability = study.combine == Some(Combine::Desirability)
                 && ctx.model_targets.len() == rows
                 && rows > 0;
-            let found = if desirability {
+            let (found, equally_good) = if desirability {
                 // Design-Expert's numerical optimisation: each response its own model, their
                 // desirabilities combined.
                 let fits = target_fits(
@@ -517,11 +517,18 @@ pub(crate) fn conclude(
                 };
                 let found =
                     problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
+                let ranges = equally_good(&problem, &found);
+                drop(problem);
                 st.target_fits = fits;
-                found
+                (found, ranges)
             } else {
-                single_response_solutions(study, &fit, active.len(), st.index, *solutions, *starts)?
+                let problem = single_response_problem(study, &fit, active.len());
+                let found =
+                    problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
+                let ranges = equally_good(&problem, &found);
+                (found, ranges)
             };
+            st.equally_good = equally_good;
 
             let best = found.first().ok_or("the search found no solution")?.clone();
             let mut point = ctx.values.clone();
@@ -580,16 +587,9 @@ fn point_label(d: &Design, run: &[f64]) -> String {
     label.to_string()
 }
 
-/// The optimum of the model of the study's one response (or combined objective): on target, or
-/// minimised.
-fn single_response_solutions(
-    study: &Study,
-    fit: &Fit,
-    factors: usize,
-    stage: usize,
-    solutions: usize,
-    starts: usize,
-) -> Result<Vec<doe::optimize::Solution>, String> {
+/// The search for the optimum of the model of the study's one response (or combined
+/// objective): on target, or minimised.
+fn single_response_problem<'a>(study: &Study, fit: &'a Fit, factors: usize) -> Problem<'a> {
     let target = study.target.value;
     let observed = &fit.experiment.response;
     let (goal, lo, hi) = if study.target.minimised() {
@@ -611,7 +611,7 @@ fn single_response_solutions(
         let hi = observed.iter().copied().fold(target, f64::max);
         (Goal::Target(target), lo, hi)
     };
-    let problem = Problem {
+    Problem {
         fits: vec![fit],
         criteria: vec![(
             Subject::Response(0),
@@ -626,8 +626,25 @@ fn single_response_solutions(
             },
         )],
         bounds: vec![(-1.0, 1.0); factors],
+    }
+}
+
+/// Each factor's equally good stretch around the first solution ([`StageResult::equally_good`]).
+fn equally_good(problem: &Problem, found: &[doe::optimize::Solution]) -> Vec<(f64, f64)> {
+    let Some(best) = found.first() else {
+        return Vec::new();
     };
-    problem.solve(starts, run_seed(study.seed, stage, 0), solutions)
+    (0..best.coded.len())
+        .map(|j| {
+            doe::diagnostics::equally_good_range(
+                |x| problem.desirability(x).0,
+                &best.coded,
+                j,
+                problem.bounds[j],
+                crate::stages::EQUALLY_GOOD,
+            )
+        })
+        .collect()
 }
 
 /// One model per target on the runs of `exp` (each run's target values in `values`): a full

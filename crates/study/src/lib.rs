@@ -19,6 +19,9 @@ pub mod paths;
 pub mod plan;
 pub mod report;
 mod report_data;
+mod report_figures;
+mod report_model;
+mod report_settings;
 pub mod run_error;
 pub mod runner;
 pub mod slurm;
@@ -295,7 +298,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
                     t.response,
                     stages::sig(v.mean),
                     v.std
-                        .map(|d| format!(" ± {}", stages::sig(d)))
+                        .map(|d| format!(" ± {} (SD)", stages::sig(d)))
                         .unwrap_or_default(),
                     v.runs,
                     v.relative_error_percent

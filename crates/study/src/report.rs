@@ -1,17 +1,23 @@
-//! The report: `index.html` (self-contained: SVG inline, pictures as data URLs), `results.csv`
-//! (every stored run) and `summary.json` (the calibrated values and the validation, for scripts).
+//! The report: `index.html` (self-contained: figures inline as SVG, pictures as data URLs),
+//! `figures/` (every figure of the page as its own SVG and PNG, numbered as the page numbers
+//! them), `results.csv` (every stored run) and `summary.json` (the calibrated values and the
+//! validation, for scripts).
+//!
+//! The page: the summary (lab value, validation, each parameter calibrated, held at a value or
+//! left undetermined), the test's fixed settings ([`crate::report_settings`]), then each stage
+//! with its runs, models ([`crate::report_model`]) and figures ([`crate::report_figures`]).
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
-use doe::fit::{fmt_p, AnovaRow};
-use doe::{plots, Fit};
-use plotters::prelude::*;
 
 use crate::report_data;
+use crate::report_figures::{self as figures, mean_sd, Figures, Heap};
+use crate::report_model;
+use crate::report_settings;
 use crate::spec::Study;
-use crate::stages::{self, sig, Replay, StageResult, State};
+use crate::stages::{sig, Replay, StageResult, State};
 use crate::store::{RunRecord, Status};
 use crate::targets_report;
 
@@ -38,50 +44,57 @@ pub fn write(
         "summary.json",
         &serde_json::to_string_pretty(&report_data::summary_json(study, r, stored)).unwrap(),
     )?;
-    put("index.html", &html(study, r, stored))?;
+    let (page, figs) = html(study, r, stored);
+    figs.write(&dir.join("figures"))?;
+    put("index.html", &page)?;
     Ok(dir)
 }
 
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
 }
 
+/// Body text is 16 px; figures are drawn for 90-100 % of their 640-unit width, so their text
+/// (18.5 units) shows at least as large. Wide tables scroll inside their own box.
 const STYLE: &str = "
-body { font-family: system-ui, -apple-system, 'Segoe UI', Roboto, sans-serif; margin: 0; color: #1d2330; background: #f4f6f9; }
-main { max-width: 1220px; margin: 0 auto; padding: 24px 28px 60px; background: #fff; }
-h1 { font-size: 1.7em; margin-bottom: 0.2em; }
+body { font-family: system-ui, -apple-system, 'Segoe UI', Roboto, 'DejaVu Sans', sans-serif; font-size: 16px; line-height: 1.45; margin: 0; color: #1d2330; background: #f4f6f9; }
+main { max-width: 1220px; margin: 0 auto; padding: 24px 28px 60px; background: #fff; box-sizing: border-box; }
+h1 { font-size: 1.7em; margin-bottom: 0.2em; line-height: 1.2; }
 h2 { border-bottom: 2px solid #d6dde8; padding-bottom: 4px; margin-top: 2.2em; }
 h3 { margin-top: 1.6em; color: #34405a; }
 .sub { color: #5b6478; margin-top: 0; }
-table { border-collapse: collapse; margin: 0.6em 0 1em; font-size: 0.9em; }
-th, td { border: 1px solid #d6dde8; padding: 4px 9px; text-align: right; white-space: nowrap; }
-td.wrap { white-space: normal; min-width: 16em; }
-th { white-space: normal; }
-th { background: #eef2f7; }
+.scroll { overflow-x: auto; max-width: 100%; margin: 0.6em 0 1em; }
+table { border-collapse: collapse; font-size: 0.9em; }
+th, td { border: 1px solid #d6dde8; padding: 4px 9px; text-align: right; white-space: nowrap; vertical-align: top; }
+td.wrap { white-space: normal; min-width: 11em; max-width: 34em; }
+td.name { white-space: normal; min-width: 10em; }
+.path { font-size: 0.85em; overflow-wrap: anywhere; color: #5b6478; }
+th { white-space: normal; background: #eef2f7; }
 td.l, th.l { text-align: left; }
 tr.failed td { color: #a12a2a; background: #fff4f4; }
 tr.best td { background: #eefaf0; font-weight: 600; }
+tr.flag td { background: #fff6dd; }
 .cards { display: flex; flex-wrap: wrap; gap: 14px; margin: 1em 0; }
 .card { border: 1px solid #d6dde8; border-radius: 8px; padding: 10px 16px; min-width: 180px; background: #fafbfd; }
 .card .v { font-size: 1.5em; font-weight: 600; }
-.card .k { color: #5b6478; font-size: 0.85em; }
+.card .k { color: #5b6478; font-size: 0.9em; }
 .note { background: #fff8e6; border-left: 4px solid #e0a800; padding: 6px 12px; margin: 0.5em 0; }
 .stop { background: #fdecec; border-left: 4px solid #c62828; padding: 6px 12px; }
-.plots { display: flex; flex-wrap: wrap; gap: 12px; }
-.plots > div { flex: 1 1 480px; max-width: 540px; }
-.plots svg, .plots img { width: 100%; height: auto; border: 1px solid #e3e8ef; }
-.heaps { display: flex; flex-wrap: wrap; gap: 12px; }
-.heaps figure { margin: 0; flex: 1 1 300px; max-width: 520px; }
-.heaps img { width: 100%; border: 1px solid #e3e8ef; }
-.mono { font-family: ui-monospace, Menlo, Consolas, monospace; font-size: 0.88em; }
-.scroll { overflow-x: auto; }
+.plots { display: grid; grid-template-columns: repeat(auto-fill, minmax(min(100%, 540px), 1fr)); gap: 18px 22px; align-items: start; margin: 1em 0; }
+figure { margin: 0; }
+figure .svg svg, figure img { display: block; width: 100%; max-width: 640px; height: auto; border: 1px solid #e3e8ef; }
+figcaption { margin-top: 6px; max-width: 640px; }
+figcaption .files { color: #5b6478; white-space: nowrap; }
+.mono { font-family: ui-monospace, Menlo, Consolas, 'DejaVu Sans Mono', monospace; font-size: 0.88em; }
+p, li { max-width: 62em; }
 ";
 
-fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
+fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> (String, Figures) {
     let mut h = String::new();
+    let mut figs = Figures::default();
     let t = &study.target;
     let unit = if t.unit.is_empty() {
         String::new()
@@ -90,10 +103,18 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
     };
     write!(
         h,
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>{} - demcal calibration report</title><style>{STYLE}</style></head><body><main>",
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{} - demcal calibration report</title><style>{STYLE}</style></head><body><main>",
         esc(&study.name)
     )
     .unwrap();
+    let lab = match t.std() {
+        Some(sd) => format!(
+            "{}{unit} (mean ± SD over {} replicates)",
+            mean_sd(t.value, sd),
+            t.replicates.len()
+        ),
+        None => format!("{}{unit}", sig(t.value)),
+    };
     let against = if let Some(c) = study.combine {
         format!(
             "calibrated against {} targets by minimising {}, {}",
@@ -107,11 +128,7 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
             esc(&t.response)
         )
     } else {
-        format!(
-            "calibrated against the lab's {} = {}{unit}",
-            esc(&t.response),
-            sig(t.value)
-        )
+        format!("calibrated against the lab's {} = {lab}", esc(&t.response))
     };
     write!(
         h,
@@ -155,10 +172,6 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
     let failed = stored.iter().filter(|x| x.status == Status::Failed).count();
     let wall: f64 = stored.iter().map(|x| x.wall_s).sum();
     h.push_str("<div class=\"cards\">");
-    let lab = match t.std() {
-        Some(sd) => format!("{} ± {}{unit}", sig(t.value), sig(sd)),
-        None => format!("{}{unit}", sig(t.value)),
-    };
     match &t.curve {
         _ if study.combine.is_some() => card(
             &mut h,
@@ -170,18 +183,31 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
             &format!("{} curve(s)", c.lab.replicates.len()),
             &format!("lab replicates of {}", c.curve),
         ),
-        _ => card(
-            &mut h,
-            &lab,
-            &format!("lab value ({} replicates)", t.replicates.len()),
-        ),
+        _ => match t.std() {
+            Some(sd) => card(
+                &mut h,
+                &format!("{}{unit}", mean_sd(t.value, sd)),
+                &format!(
+                    "lab value: mean ± SD over {} replicates",
+                    t.replicates.len()
+                ),
+            ),
+            None => card(&mut h, &format!("{}{unit}", sig(t.value)), "lab value"),
+        },
     }
     if let Some(v) = &validation {
-        let s = match v.std {
-            Some(sd) => format!("{} ± {}{unit}", sig(v.mean), sig(sd)),
-            None => format!("{}{unit}", sig(v.mean)),
-        };
-        card(&mut h, &s, &format!("validation mean ({} runs)", v.runs));
+        match v.std {
+            Some(sd) => card(
+                &mut h,
+                &format!("{}{unit}", mean_sd(v.mean, sd)),
+                &format!("validation: mean ± SD over {} runs", v.runs),
+            ),
+            None => card(
+                &mut h,
+                &format!("{}{unit}", sig(v.mean)),
+                &format!("validation ({} run)", v.runs),
+            ),
+        }
         if let Some(e) = v.relative_error_percent {
             card(
                 &mut h,
@@ -202,23 +228,8 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
     );
     h.push_str("</div>");
     targets_report::targets_section(&mut h, study, validation.as_ref());
-    let calibrated = stages::calibrated(study, &r.stages);
-    h.push_str("<table><tr><th>Factor</th><th class=\"l\">Parameter</th><th class=\"l\">Where in the test</th><th>Range</th><th class=\"l\">Scale</th><th>Calibrated value</th></tr>");
-    for (i, p) in study.parameters.iter().enumerate() {
-        write!(
-            h,
-            "<tr><td>{}</td><td class=\"l\">{}</td><td class=\"l mono\">{}</td><td>{} .. {}</td><td class=\"l\">{}</td><td>{}</td></tr>",
-            letter(i),
-            esc(&p.name),
-            esc(&p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>().join(", ")),
-            sig(p.min),
-            sig(p.max),
-            if p.scale == doe::Scale::Log { "log" } else { "linear" },
-            calibrated.as_ref().map(|v| sig(v[i])).unwrap_or_else(|| "-".into())
-        )
-        .unwrap();
-    }
-    h.push_str("</table>");
+    h.push_str("<h3>Parameters</h3>");
+    report_settings::parameters_table(&mut h, study, r);
     for i in &study.imports {
         write!(
             h,
@@ -230,7 +241,9 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
         )
         .unwrap();
     }
-    if !r.stages.iter().any(|s| s.calibrated.is_some()) && calibrated.is_some() {
+    if !r.stages.iter().any(|s| s.calibrated.is_some())
+        && crate::stages::calibrated(study, &r.stages).is_some()
+    {
         h.push_str("<p class=\"note\">No optimisation has run yet: the values shown are those of the run nearest the lab value.</p>");
     }
     write!(
@@ -245,32 +258,37 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> String {
             .join(", ")
     )
     .unwrap();
+    report_settings::fixed_settings(&mut h, study, r, stored);
 
     if let Some(c) = crate::curve_report::section(study, r) {
         h.push_str("<h2>Curves</h2>");
         for p in &c.paragraphs {
             write!(h, "<p>{}</p>", esc(p)).unwrap();
         }
-        match c.svg {
-            Ok(svg) => plots_div(&mut h, &[svg]),
-            Err(e) => write!(h, "<p class=\"note\">No curve plot: {}</p>", esc(&e)).unwrap(),
-        }
+        figs.row(
+            &mut h,
+            vec![(
+                "curves".into(),
+                c.svg,
+                "The lab's mean curve with its band against the simulated curves.".into(),
+            )],
+        );
     }
     for st in &r.stages {
-        stage_html(&mut h, study, st);
+        stage_html(&mut h, &mut figs, study, &r.stages, st);
     }
-    h.push_str("<h2>Files</h2><p><a href=\"results.csv\">results.csv</a> (every stored run) and <a href=\"summary.json\">summary.json</a> (calibrated values and validation) lie beside this page.</p>");
+    h.push_str("<h2>Files</h2><p><a href=\"results.csv\">results.csv</a> (every stored run), <a href=\"summary.json\">summary.json</a> (calibrated values and validation) and <a href=\"figures/\">figures/</a> (each figure as SVG and as PNG at twice the size, named by its number) lie beside this page.</p>");
     h.push_str("</main></body></html>\n");
-    h
+    (h, figs)
 }
 
 /// A name for a narrow column heading: it may break after its underscores.
-fn breakable(name: &str) -> String {
+pub(crate) fn breakable(name: &str) -> String {
     esc(name).replace('_', "_<wbr>")
 }
 
 /// The letter a parameter goes by in tables (A, B, ... without I, as Design-Expert names factors).
-fn letter(i: usize) -> String {
+pub(crate) fn letter(i: usize) -> String {
     doe::design::factor_letter(i)
 }
 
@@ -284,7 +302,13 @@ fn card(h: &mut String, value: &str, key: &str) {
     .unwrap();
 }
 
-fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
+fn stage_html(
+    h: &mut String,
+    figs: &mut Figures,
+    study: &Study,
+    stages: &[StageResult],
+    st: &StageResult,
+) {
     write!(
         h,
         "<h2>Stage {}: {}</h2><p class=\"sub\">{}</p>",
@@ -302,15 +326,7 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
     match st.kind {
         "screening" => {
             if let Some(fit) = &st.fit {
-                anova_html(h, fit, "First-order model with curvature");
-                let mut plots_row = Vec::new();
-                if let Ok(svg) = plots::pareto_chart(fit) {
-                    plots_row.push(svg);
-                }
-                if let Ok(svg) = plots::predicted_vs_actual(fit) {
-                    plots_row.push(svg);
-                }
-                plots_div(h, &plots_row);
+                report_model::screening(h, figs, study, st, fit);
                 if !st.selected.is_empty() {
                     write!(
                         h,
@@ -325,128 +341,115 @@ fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
                 }
             }
         }
-        "steepest" => {
-            if let Ok(svg) = steepest_plot(study, st) {
-                plots_div(h, &[svg]);
-            }
-        }
-        "rsm" => {
-            if let Some(full) = &st.full_fit {
-                anova_html(h, full, "Full quadratic model");
-            }
-            if let (Some(fit), Some(full)) = (&st.fit, &st.full_fit) {
-                if fit.terms != full.terms {
-                    anova_html(h, fit, "Reduced model (backward elimination)");
-                }
-            }
-            if let Some(fit) = &st.fit {
-                let mut row = Vec::new();
-                // Every pair of the design's factors, also those the reduction dropped: flat
-                // contours show as plainly as curved ones that a factor does not matter.
-                let k = fit.experiment.factor_names.len();
-                let mains: Vec<usize> = (0..k).collect();
-                for a in 0..mains.len() {
-                    for b in a + 1..mains.len() {
-                        if row.len() < 3 {
-                            if let Ok(svg) = plots::contour_plot(
-                                fit,
-                                mains[a],
-                                mains[b],
-                                &vec![0.0; k],
-                                (-1.0, 1.0),
-                            ) {
-                                row.push(svg);
-                            }
-                        }
-                    }
-                }
-                if let Ok(svg) = plots::predicted_vs_actual(fit) {
-                    row.push(svg);
-                }
-                plots_div(h, &row);
-            }
-        }
+        "steepest" => figs.row(
+            h,
+            vec![(
+                format!("stage{}-steepest-path", st.index + 1),
+                figures::steepest_plot(study, st),
+                format!(
+                    "Steepest path (stage {}): {} at each step along the path, against the lab value; the ringed step is the nearest, and the next stage centres on it.",
+                    st.index + 1,
+                    esc(&figures::response_label(study))
+                ),
+            )],
+        ),
+        "rsm" => report_model::rsm(h, figs, study, stages, st),
         "optimize" if !st.target_fits.is_empty() => {
             crate::targets_report::optimize_table(h, study, st)
         }
         "optimize" => {
             if let Some(fit) = &st.fit {
-                let goal = if study.target.minimised() {
-                    "minimised (lower limit: below the model's least value)".to_string()
-                } else {
-                    format!(
-                        "on target {} (limits: the observed range)",
-                        sig(study.target.value)
-                    )
-                };
-                write!(
-                    h,
-                    "<p>Goal: {} {goal}, factors within their ±1 ranges. The first solution is validated.</p>",
-                    esc(&fit.experiment.response_name),
-                )
-                .unwrap();
-                h.push_str("<table><tr><th>#</th>");
-                for f in &st.factors {
-                    write!(h, "<th>{}</th>", breakable(&f.name)).unwrap();
-                }
-                write!(
-                    h,
-                    "<th>predicted {}</th><th>desirability</th></tr>",
-                    breakable(&fit.experiment.response_name)
-                )
-                .unwrap();
-                for (i, s) in st.solutions.iter().enumerate() {
-                    write!(
-                        h,
-                        "<tr{}><td>{}</td>",
-                        if i == 0 { " class=\"best\"" } else { "" },
-                        i + 1
-                    )
-                    .unwrap();
-                    for v in s.actual.clone().unwrap_or_default() {
-                        write!(h, "<td>{}</td>", sig(v)).unwrap();
-                    }
-                    write!(
-                        h,
-                        "<td>{}</td><td>{:.3}</td></tr>",
-                        sig(s.responses[0]),
-                        s.desirability
-                    )
-                    .unwrap();
-                }
-                h.push_str("</table>");
+                report_model::optimize(h, study, st, fit);
             }
         }
-        "validate" => {
-            if let Some(v) = &st.validation {
-                write!(
-                    h,
-                    "<p>Simulated {} = <b>{}</b>{} over {} runs{}.</p>",
-                    esc(&study.target.response),
-                    sig(v.mean),
-                    v.std.map(|d| format!(" ± {}", sig(d))).unwrap_or_default(),
-                    v.runs,
-                    match v.relative_error_percent {
-                        Some(e) => format!(
-                            " against the lab's {}: relative error <b>{e:.2} %</b>",
-                            sig(study.target.value)
-                        ),
-                        None if study.combine.is_some() => {
-                            " (0 would match every target; the targets' own validation is in the summary)".into()
-                        }
-                        None => " (minimised: 0 would be the lab curve itself)".into(),
-                    }
-                )
-                .unwrap();
-            }
-            if let Some(Ok(svg)) = study.combine.is_none().then(|| validation_plot(study, st)) {
-                plots_div(h, &[svg]);
-            }
-            heap_pictures(h, study, st);
-        }
-        "bayesopt" | "ga_bp" | "smc" => crate::surrogate_report::stage_html(h, study, st),
+        "validate" => validation_html(h, figs, study, stages, st),
+        "bayesopt" | "ga_bp" | "smc" => crate::surrogate_report::stage_html(h, figs, study, st),
         _ => {}
     }
+}
+
+/// The validation: the runs' mean and spread against the lab's, the model's prediction
+/// interval at the optimum, the figure, and the heaps.
+fn validation_html(
+    h: &mut String,
+    figs: &mut Figures,
+    study: &Study,
+    stages: &[StageResult],
+    st: &StageResult,
+) {
+    let t = &study.target;
+    let unit = if t.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {}", t.unit)
+    };
+    if let Some(v) = &st.validation {
+        let sim = match v.std {
+            Some(sd) => format!(
+                "<b>{}{unit}</b> (mean ± SD over {} runs)",
+                mean_sd(v.mean, sd),
+                v.runs
+            ),
+            None => format!("<b>{}{unit}</b> ({} run)", sig(v.mean), v.runs),
+        };
+        let lab = match t.std() {
+            Some(sd) => format!(
+                "{}{unit} (mean ± SD over {} replicates)",
+                mean_sd(t.value, sd),
+                t.replicates.len()
+            ),
+            None => format!("{}{unit}", sig(t.value)),
+        };
+        write!(
+            h,
+            "<p>Simulated {} = {sim}{}.</p>",
+            esc(&t.response),
+            match v.relative_error_percent {
+                Some(e) => format!(" against the lab's {lab}: relative error <b>{e:.2} %</b>"),
+                None if study.combine.is_some() => {
+                    " (0 would match every target; the targets' own validation is in the summary)"
+                        .into()
+                }
+                None => " (minimised: 0 would be the lab curve itself)".into(),
+            }
+        )
+        .unwrap();
+    }
+    let interval = (study.combine.is_none())
+        .then(|| report_model::interval_at_optimum(stages))
+        .flatten();
+    if let Some((pi, _)) = &interval {
+        let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
+        let inside = ys
+            .iter()
+            .filter(|y| **y >= pi.low && **y <= pi.high)
+            .count();
+        write!(
+            h,
+            "<p>The model of the response surface predicted {}{unit} at the optimum, with a 95 % prediction interval for one new run of {} to {}{unit}: {inside} of the {} validation runs fall inside it.</p>",
+            sig(pi.predicted),
+            sig(pi.low),
+            sig(pi.high),
+            ys.len()
+        )
+        .unwrap();
+    }
+    if study.combine.is_none() {
+        figs.row(
+            h,
+            vec![(
+                format!("stage{}-validation", st.index + 1),
+                figures::validation_plot(study, st, interval.map(|i| i.0)),
+                format!(
+                    "Validation (stage {}): {} of each lab replicate and each validation run at the calibrated point (a run's whisker: the standard deviation over the flanks it measured), each column's mean with one standard deviation{}.",
+                    st.index + 1,
+                    esc(&figures::response_label(study)),
+                    if interval.is_some() { ", and the model's prediction at the optimum with its 95 % prediction interval" } else { "" }
+                ),
+            )],
+        );
+    }
+    heap_pictures(h, figs, study, st);
 }
 
 fn stage_title(kind: &str) -> &'static str {
@@ -463,23 +466,25 @@ fn stage_title(kind: &str) -> &'static str {
     }
 }
 
-fn plots_div(h: &mut String, svgs: &[String]) {
-    if svgs.is_empty() {
-        return;
-    }
-    h.push_str("<div class=\"plots\">");
-    for s in svgs {
-        write!(h, "<div>{s}</div>").unwrap();
-    }
-    h.push_str("</div>");
-}
-
 fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
     let best = if st.kind == "steepest" {
         st.best_step
     } else {
         None
     };
+    let counts: Vec<usize> = st
+        .records
+        .iter()
+        .flatten()
+        .filter_map(|r| figures::flank_spread(&r.outputs).map(|s| s.1))
+        .collect();
+    let spread = !counts.is_empty();
+    // One count for every run goes in the heading.
+    let one_count = counts
+        .windows(2)
+        .all(|w| w[0] == w[1])
+        .then(|| counts.first().copied())
+        .flatten();
     h.push_str("<div class=\"scroll\"><table><tr><th>Run</th><th class=\"l\">Point</th>");
     if st.kind != "validate" {
         write!(
@@ -506,8 +511,13 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
     }
     write!(
         h,
-        "<th>Seed</th><th>{}</th><th>Rel. error %</th><th>Wall s</th><th class=\"l\">Status</th></tr>",
-        breakable(&study.target.response)
+        "<th>Seed</th><th>{}</th>{}<th>Rel. error %</th><th>Wall s</th><th class=\"l\">Status</th></tr>",
+        breakable(&figures::response_label(study)),
+        match (spread, one_count) {
+            (true, Some(n)) => format!("<th>Flank SD over {n} flanks (deg)</th>"),
+            (true, None) => "<th>Flank SD (deg)</th>".to_string(),
+            _ => String::new(),
+        }
     )
     .unwrap();
     for (spec, rec) in st.runs.iter().zip(&st.records) {
@@ -551,6 +561,20 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
                     .and_then(|y| study.target.relative_error_percent(y))
                     .map(|e| format!("{e:.2}"))
                     .unwrap_or_default();
+                let s = if spread {
+                    format!(
+                        "<td>{}</td>",
+                        figures::flank_spread(&r.outputs)
+                            .map(|(sd, n)| if one_count.is_some() {
+                                sig(sd)
+                            } else {
+                                format!("{} ({n} flanks)", sig(sd))
+                            })
+                            .unwrap_or_default()
+                    )
+                } else {
+                    String::new()
+                };
                 let status = match r.status {
                     Status::Done => "done".to_string(),
                     Status::Failed => format!(
@@ -561,383 +585,86 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
                 };
                 write!(
                     h,
-                    "<td>{y}</td><td>{e}</td><td>{:.1}</td><td class=\"l wrap\">{}</td></tr>",
+                    "<td>{y}</td>{s}<td>{e}</td><td>{:.1}</td><td class=\"l wrap\">{}</td></tr>",
                     r.wall_s,
                     esc(&status)
                 )
                 .unwrap();
             }
-            None => h.push_str("<td></td><td></td><td></td><td class=\"l\">pending</td></tr>"),
+            None => {
+                let blank = if spread { "<td></td>" } else { "" };
+                write!(
+                    h,
+                    "<td></td>{blank}<td></td><td></td><td class=\"l\">pending</td></tr>"
+                )
+                .unwrap()
+            }
         }
     }
     h.push_str("</table></div>");
 }
 
-fn anova_html(h: &mut String, fit: &Fit, title: &str) {
-    write!(
-        h,
-        "<h3>{title}: ANOVA for {}</h3><div class=\"scroll\"><table><tr><th class=\"l\">Source</th><th>Sum of squares</th><th>df</th><th>Mean square</th><th>F-value</th><th>p-value</th><th class=\"l\"></th></tr>",
-        esc(&fit.experiment.response_name)
-    )
-    .unwrap();
-    // Pure error on one or two degrees of freedom (a 12-run Plackett-Burman repeating a point)
-    // makes any lack-of-fit test meaningless: said instead of a verdict.
-    let thin_pure_error = fit
-        .pure_error
-        .as_ref()
-        .map(|p| p.df)
-        .filter(|df| (1..=2).contains(df));
-    let row = |h: &mut String, r: &AnovaRow, verdict: bool| {
-        let lack_of_fit = fit.lack_of_fit.as_ref().is_some_and(|l| std::ptr::eq(l, r));
-        let thin = thin_pure_error.filter(|_| lack_of_fit).map(|df| {
-            format!(
-                "not judged: pure error has only {df} degree{} of freedom",
-                if df == 1 { "" } else { "s" }
-            )
-        });
-        let note = match (verdict, r.p, thin) {
-            (_, _, Some(t)) => t,
-            (true, Some(p), _) if p < 0.05 => "significant".to_string(),
-            (true, Some(_), _) => "not significant".to_string(),
-            _ => String::new(),
-        };
-        write!(
-            h,
-            "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{note}</td></tr>",
-            esc(&r.name),
-            sig(r.sum_sq),
-            r.df,
-            if r.df > 0 { sig(r.mean_sq) } else { String::new() },
-            r.f.map(sig).unwrap_or_default(),
-            r.p.map(fmt_p).unwrap_or_default()
-        )
-        .unwrap();
-    };
-    row(h, &fit.model, true);
-    for r in &fit.anova_terms {
-        row(h, r, false);
-    }
-    if let Some(c) = &fit.curvature {
-        row(h, c, true);
-    }
-    row(h, &fit.residual, false);
-    if let Some(l) = &fit.lack_of_fit {
-        row(h, l, true);
-    }
-    if let Some(p) = &fit.pure_error {
-        row(h, p, false);
-    }
-    write!(
-        h,
-        "<tr><td class=\"l\">Cor Total</td><td>{}</td><td>{}</td><td></td><td></td><td></td><td></td></tr></table></div>",
-        sig(fit.total_sum_sq),
-        fit.total_df
-    )
-    .unwrap();
-    write!(
-        h,
-        "<table><tr><th>Std. Dev.</th><th>Mean</th><th>C.V. %</th><th>R²</th><th>Adjusted R²</th><th>Predicted R²</th><th>Adeq. precision</th></tr><tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{}</td></tr></table>",
-        sig(fit.std_dev),
-        sig(fit.mean),
-        fit.cv_percent,
-        fit.r2,
-        fit.adj_r2,
-        fit.pred_r2.map(|v| format!("{v:.4}")).unwrap_or_default(),
-        fit.adeq_precision.map(|v| format!("{v:.3}")).unwrap_or_default()
-    )
-    .unwrap();
-    let coded: Vec<String> = fit
-        .coefficients
-        .iter()
-        .enumerate()
-        .map(|(i, c)| {
-            if i == 0 {
-                sig(c.estimate)
-            } else {
-                format!(
-                    "{} {} {}",
-                    if c.estimate < 0.0 { "−" } else { "+" },
-                    sig(c.estimate.abs()),
-                    c.name
-                )
-            }
-        })
-        .collect();
-    write!(
-        h,
-        "<p>Coded equation: <span class=\"mono\">{} = {}</span></p>",
-        esc(&fit.experiment.response_name),
-        esc(&coded.join(" "))
-    )
-    .unwrap();
-    if let Some(eq) = fit.actual_equation() {
-        let vars = fit.actual_variable_names();
-        let parts: Vec<String> = eq
-            .iter()
-            .enumerate()
-            .map(|(i, (t, v))| {
-                let name = t.name(&vars);
-                if i == 0 && t.is_intercept() {
-                    sig(*v)
-                } else {
-                    format!(
-                        "{} {} × {}",
-                        if *v < 0.0 { "−" } else { "+" },
-                        sig(v.abs()),
-                        name
-                    )
-                }
-            })
-            .collect();
-        write!(
-            h,
-            "<p>Actual equation: <span class=\"mono\">{} = {}</span></p>",
-            esc(&fit.experiment.response_name),
-            esc(&parts.join(" "))
-        )
-        .unwrap();
-    }
-}
-
-fn heap_pictures(h: &mut String, study: &Study, st: &StageResult) {
-    let mut figs = Vec::new();
+/// The validation heaps: one figure at one scale when the runs wrote `heap.json`, else the
+/// pictures as they are (runs from an older demcal).
+fn heap_pictures(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult) {
+    let mut heaps = Vec::new();
+    let mut plain = Vec::new();
     for (spec, rec) in st.runs.iter().zip(&st.records) {
         let Some(r) = rec else { continue };
-        // A run of several tests keeps each test's pictures in the test's own folder.
-        let run = Path::new(&r.out_dir);
-        let mut dirs =
-            std::iter::once(run.to_path_buf()).chain(study.tests.iter().map(|t| run.join(&t.name)));
-        if let Some(bytes) = dirs.find_map(|d| std::fs::read(d.join("heap.png")).ok()) {
-            figs.push(format!(
-                "<figure><img alt=\"heap of run {}\" src=\"data:image/png;base64,{}\"><figcaption>Run {} (seed {}): {}</figcaption></figure>",
-                spec.index + 1,
-                base64::engine::general_purpose::STANDARD.encode(bytes),
-                spec.index + 1,
-                spec.seed,
-                r.response.map(sig).unwrap_or_else(|| "failed".into())
-            ));
+        let spread = figures::flank_spread(&r.outputs);
+        let label = format!(
+            "Run {}: {}{}",
+            spec.index + 1,
+            r.response.map(sig).unwrap_or_else(|| "failed".into()),
+            match spread {
+                Some((sd, n)) => format!(
+                    " {}, flank SD {} {} over {n} flanks",
+                    study.target.unit,
+                    sig(sd),
+                    study.target.unit
+                ),
+                None => format!(" {}", study.target.unit),
+            }
+        );
+        match Heap::read(study, &r.out_dir, label.clone()) {
+            Some(heap) => heaps.push(heap),
+            None => {
+                let run = Path::new(&r.out_dir);
+                let mut dirs = std::iter::once(run.to_path_buf())
+                    .chain(study.tests.iter().map(|t| run.join(&t.name)));
+                if let Some(bytes) = dirs.find_map(|d| std::fs::read(d.join("heap.png")).ok()) {
+                    plain.push(format!(
+                        "<figure><img alt=\"heap of run {}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
+                        spec.index + 1,
+                        base64::engine::general_purpose::STANDARD.encode(bytes),
+                        esc(&label)
+                    ));
+                }
+            }
         }
     }
-    if !figs.is_empty() {
-        h.push_str("<h3>Heaps</h3><div class=\"heaps\">");
-        for f in figs {
+    if heaps.is_empty() && plain.is_empty() {
+        return;
+    }
+    h.push_str("<h3>Heaps</h3>");
+    if !heaps.is_empty() {
+        figs.row(
+            h,
+            vec![(
+                format!("stage{}-heaps", st.index + 1),
+                figures::heaps_figure(&heaps),
+                format!(
+                    "Validation heaps (stage {}): side views of each run's heap, cropped to one frame around the axis at one scale (scale bar), with the two flank lines fitted in the vertical plane across the view; the reported angle is the mean over every plane's flanks.",
+                    st.index + 1
+                ),
+            )],
+        );
+    }
+    if !plain.is_empty() {
+        h.push_str("<p class=\"note\">These runs were made by an older demcal that did not record the pictures' scale: shown as they are, without scale bar or flank lines.</p><div class=\"plots\">");
+        for f in plain {
             h.push_str(&f);
         }
         h.push_str("</div>");
-    }
-}
-
-const FONT: &str = "sans-serif";
-
-/// Response along the steepest path with the lab value, the best step marked.
-fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, String> {
-    let pts: Vec<(f64, f64)> = st
-        .runs
-        .iter()
-        .zip(&st.records)
-        .filter_map(|(s, r)| r.as_ref()?.response.map(|y| ((s.index + 1) as f64, y)))
-        .collect();
-    if pts.is_empty() {
-        return Err("no finished runs".into());
-    }
-    let target = study.target.value;
-    let (lo, hi) = pts
-        .iter()
-        .map(|p| p.1)
-        .chain([target])
-        .fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
-    let pad = 0.1 * (hi - lo).max(1e-9 * hi.abs().max(1.0));
-    let n = st.runs.len() as f64;
-    plots::render(|root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(
-                format!("Steepest path: {}", study.target.response),
-                (FONT, 22),
-            )
-            .margin(14)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(0.5..n + 0.5, (lo - pad)..(hi + pad))
-            .map_err(plots::err)?;
-        chart
-            .configure_mesh()
-            .x_desc("step")
-            .y_desc(study.target.response.as_str())
-            .x_labels(st.runs.len() + 2)
-            .x_label_formatter(&|x: &f64| {
-                if (x - x.round()).abs() < 1e-9 && *x >= 1.0 {
-                    format!("{}", x.round() as i64)
-                } else {
-                    String::new()
-                }
-            })
-            .draw()
-            .map_err(plots::err)?;
-        chart
-            .draw_series(LineSeries::new(
-                [(0.5, target), (n + 0.5, target)],
-                RGBColor(200, 30, 30).stroke_width(2),
-            ))
-            .map_err(plots::err)?
-            .label(format!("lab value {}", sig(target)))
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RGBColor(200, 30, 30)));
-        chart
-            .draw_series(LineSeries::new(
-                pts.clone(),
-                RGBColor(40, 100, 200).stroke_width(2),
-            ))
-            .map_err(plots::err)?
-            .label("simulated")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RGBColor(40, 100, 200)));
-        chart
-            .draw_series(
-                pts.iter()
-                    .map(|p| Circle::new(*p, 5, RGBColor(40, 100, 200).filled())),
-            )
-            .map_err(plots::err)?;
-        if let Some(b) = st.best_step {
-            if let Some(p) = pts.iter().find(|p| p.0 == (b + 1) as f64) {
-                chart
-                    .draw_series([Circle::new(*p, 9, RGBColor(30, 150, 60).stroke_width(3))])
-                    .map_err(plots::err)?;
-            }
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font((FONT, 14))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(plots::err)?;
-        Ok(())
-    })
-}
-
-/// Validation runs against the lab value and its replicates' spread.
-fn validation_plot(study: &Study, st: &StageResult) -> Result<String, String> {
-    let sims: Vec<f64> = st
-        .records
-        .iter()
-        .filter_map(|r| r.as_ref()?.response)
-        .collect();
-    if sims.is_empty() {
-        return Err("no finished runs".into());
-    }
-    let t = &study.target;
-    let labs: Vec<f64> = if t.replicates.is_empty() {
-        vec![t.value]
-    } else {
-        t.replicates.clone()
-    };
-    let (lo, hi) = sims
-        .iter()
-        .chain(&labs)
-        .fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(*y), b.max(*y)));
-    let pad = 0.15 * (hi - lo).max(0.02 * hi.abs().max(1e-9));
-    let mean = sims.iter().sum::<f64>() / sims.len() as f64;
-    plots::render(|root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(format!("Validation: {}", t.response), (FONT, 22))
-            .margin(14)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(0.0..3.0, (lo - pad)..(hi + pad))
-            .map_err(plots::err)?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_labels(4)
-            .x_label_formatter(&|x: &f64| {
-                if (x - 1.0).abs() < 0.01 {
-                    "lab".into()
-                } else if (x - 2.0).abs() < 0.01 {
-                    "simulation".into()
-                } else {
-                    String::new()
-                }
-            })
-            .y_desc(t.response.as_str())
-            .draw()
-            .map_err(plots::err)?;
-        let red = RGBColor(200, 30, 30);
-        let blue = RGBColor(40, 100, 200);
-        let spread = |v: &[f64], i: usize| 0.9 + 0.2 * (i as f64 + 0.5) / v.len() as f64;
-        chart
-            .draw_series(
-                labs.iter()
-                    .enumerate()
-                    .map(|(i, y)| Circle::new((spread(&labs, i), *y), 5, red.filled())),
-            )
-            .map_err(plots::err)?;
-        chart
-            .draw_series(
-                sims.iter()
-                    .enumerate()
-                    .map(|(i, y)| Circle::new((1.0 + spread(&sims, i), *y), 5, blue.filled())),
-            )
-            .map_err(plots::err)?;
-        for (x, y, c) in [(1.0, t.value, red), (2.0, mean, blue)] {
-            chart
-                .draw_series(LineSeries::new(
-                    [(x - 0.25, y), (x + 0.25, y)],
-                    c.stroke_width(3),
-                ))
-                .map_err(plots::err)?;
-        }
-        Ok(())
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A two-factor square with its centre twice and one more point: pure error on one degree
-    /// of freedom, and a lack of fit that a verdict would call significant.
-    #[test]
-    fn lack_of_fit_on_thin_pure_error_is_not_judged() {
-        let coded = vec![
-            vec![-1.0, -1.0],
-            vec![1.0, -1.0],
-            vec![-1.0, 1.0],
-            vec![1.0, 1.0],
-            vec![0.0, 0.0],
-            vec![0.0, 0.0],
-            vec![0.5, 0.5],
-        ];
-        let response = coded
-            .iter()
-            .map(|x: &Vec<f64>| 10.0 + 2.0 * x[0] + 3.0 * x[0] * x[0] + 5.0 * x[1] * x[1])
-            .zip([0.0, 0.0, 0.0, 0.0, 0.001, -0.001, 0.0])
-            .map(|(y, e)| y + e)
-            .collect();
-        let exp = doe::experiment::Experiment {
-            response_name: "y".into(),
-            factor_names: vec!["A".into(), "B".into()],
-            factors: None,
-            coded,
-            response,
-        };
-        let fit = Fit::new(
-            &exp,
-            &doe::model::ModelOrder::Linear.terms(2),
-            doe::fit::Curvature::Off,
-        )
-        .unwrap();
-        let (l, p) = (
-            fit.lack_of_fit.as_ref().unwrap(),
-            fit.pure_error.as_ref().unwrap(),
-        );
-        assert_eq!(p.df, 1);
-        assert!(l.p.unwrap() < 0.05, "{:?}", l.p);
-        let mut h = String::new();
-        anova_html(&mut h, &fit, "Screening");
-        let row = h.split("<tr>").find(|r| r.contains("Lack of Fit")).unwrap();
-        assert!(
-            row.contains("not judged: pure error has only 1 degree of freedom")
-                && !row.contains(">significant<"),
-            "{row}"
-        );
     }
 }

@@ -1,6 +1,7 @@
 //! The report's machine-readable files: `results.csv` (every stored run) and `summary.json`
 //! (the calibrated values, the validation, the targets and every stage with its model).
 
+use crate::report_settings::Fate;
 use crate::spec::Study;
 use crate::stages::{self, Replay, State};
 use crate::store::{RunRecord, Status};
@@ -156,13 +157,24 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             "replicates": study.target.replicates,
             "std": study.target.std(),
         },
-        "parameters": study.parameters.iter().map(|p| json!({
-            "name": p.name,
-            "paths": p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>(),
-            "min": p.min,
-            "max": p.max,
-            "scale": if p.scale == doe::Scale::Log { "log" } else { "linear" },
-        })).collect::<Vec<_>>(),
+        "parameters": study.parameters.iter().zip(crate::report_settings::fates(study, r)).map(|(p, fate)| {
+            let (status, why, range) = match fate {
+                Fate::Calibrated => ("calibrated", None, None),
+                Fate::Held(why) => ("held", Some(why), None),
+                Fate::Undetermined(why, (lo, hi)) => ("undetermined", Some(why), Some(json!([lo, hi]))),
+            };
+            json!({
+                "name": p.name,
+                "paths": p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>(),
+                "min": p.min,
+                "max": p.max,
+                "scale": if p.scale == doe::Scale::Log { "log" } else { "linear" },
+                "unit": crate::report_settings::parameter_unit(p),
+                "status": status,
+                "why": why,
+                "equally_good": range,
+            })
+        }).collect::<Vec<_>>(),
         "calibrated": calibrated,
         "validation_mean": validation.as_ref().map(|v| v.mean),
         "validation_std": validation.as_ref().and_then(|v| v.std),

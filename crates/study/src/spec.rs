@@ -27,7 +27,8 @@ pub(crate) const STUDY_KEYS: &[&str] = &[
     "executor",
 ];
 /// The keys of a `[[parameter]]`.
-pub(crate) const PARAMETER_KEYS: &[&str] = &["name", "path", "paths", "min", "max", "scale"];
+pub(crate) const PARAMETER_KEYS: &[&str] =
+    &["name", "path", "paths", "min", "max", "scale", "unit"];
 /// The keys of an `[[import]]`.
 pub(crate) const IMPORT_KEYS: &[&str] = &["study", "parameter", "path", "paths"];
 /// The keys of a `[[test]]` beside the test's own content given inline.
@@ -73,7 +74,10 @@ pub struct Parameter {
     /// The dimension of `min` and `max` when they were given with a unit (`"1 MPa"`): values are
     /// then written into the tests with the dimension's base unit, so that the test's reader
     /// checks that the key takes that dimension.
-    pub unit: Option<dem::units::Dimension>,
+    pub dimension: Option<dem::units::Dimension>,
+    /// The unit the report's tables and axes give (`unit`, else the base unit of a range given
+    /// with a unit); None: told from the path's last key (a friction has none, a density kg/m³).
+    pub unit: Option<String>,
 }
 
 impl Parameter {
@@ -308,7 +312,7 @@ impl Study {
                 if !PARAMETER_KEYS.contains(&k.as_str()) {
                     return Err(err(
                         &format!("{key}.{k}"),
-                        "unknown key (expected name, path or paths, min, max, scale)".into(),
+                        "unknown key (expected name, path or paths, min, max, scale, unit)".into(),
                     ));
                 }
             }
@@ -389,13 +393,24 @@ impl Study {
                     format!("a log-scale parameter needs min > 0, got {min}"),
                 ));
             }
+            let unit = match t.get("unit") {
+                None => None,
+                Some(toml::Value::String(u)) => Some(u.clone()),
+                Some(_) => {
+                    return Err(err(
+                        &format!("{key}.unit"),
+                        "expected a string, e.g. \"kg/m³\" or \"-\" for none".into(),
+                    ))
+                }
+            };
             parameters.push(Parameter {
                 name,
                 paths,
                 min,
                 max,
                 scale,
-                unit: min_unit,
+                dimension: min_unit,
+                unit: unit.or_else(|| min_unit.map(|d| d.symbol().to_string())),
             });
         }
 
@@ -512,7 +527,7 @@ impl Study {
         // A range given with a unit must fit each key it is written to; checked one parameter
         // at a time so that the error names the parameter.
         for (i, p) in study.parameters.iter().enumerate() {
-            let Some(unit) = p.unit else { continue };
+            let Some(unit) = p.dimension else { continue };
             for (path, ks) in &p.paths {
                 for &k in ks {
                     let mut table = study.tests[k].table.clone();
@@ -595,7 +610,7 @@ impl Study {
         let mut t = self.tests[k].table.clone();
         for (p, v) in self.parameters.iter().zip(values) {
             for (path, _) in p.paths.iter().filter(|(_, ks)| ks.contains(&k)) {
-                path.set_quantity(&mut t, *v, p.unit)
+                path.set_quantity(&mut t, *v, p.dimension)
                     .expect("paths checked when the study was read");
             }
         }

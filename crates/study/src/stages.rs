@@ -20,6 +20,9 @@ const CURVE_LINE: &str = "# curve comparison = ";
 /// Where a combined objective's terms start in a fingerprint.
 const OBJECTIVE_LINE: &str = "# objective = ";
 
+/// How much lower a desirability may be and still count as equally good as the optimum's.
+pub const EQUALLY_GOOD: f64 = 1e-3;
+
 /// One simulation the plan asks for.
 #[derive(Clone, Debug)]
 pub struct RunSpec {
@@ -138,6 +141,10 @@ pub struct StageResult {
     /// Steepest: the step nearest the lab value.
     pub best_step: Option<usize>,
     pub solutions: Vec<Solution>,
+    /// Optimize: for each factor (coded, in `active` order), the stretch around the first
+    /// solution over which the desirability stays within [`EQUALLY_GOOD`] of its best, the
+    /// other factors held: the whole range for a factor the model does not determine.
+    pub equally_good: Vec<(f64, f64)>,
     /// Optimize in a desirability study: each target's model, in the study's order (the
     /// solutions' predicted responses follow it).
     pub target_fits: Vec<Fit>,
@@ -166,6 +173,7 @@ impl StageResult {
             selected: Vec::new(),
             best_step: None,
             solutions: Vec::new(),
+            equally_good: Vec::new(),
             target_fits: Vec::new(),
             calibrated: None,
             validation: None,

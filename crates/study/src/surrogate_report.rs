@@ -6,6 +6,8 @@
 use std::fmt::Write;
 
 use doe::plots::{self, colour_map, padded, FONT};
+
+use crate::report_figures::Figures;
 use plotters::prelude::*;
 use serde_json::json;
 
@@ -92,23 +94,29 @@ pub fn stage_json(study: &Study, st: &StageResult) -> Option<(&'static str, serd
     }
 }
 
-fn plots_row(h: &mut String, svgs: Vec<String>) {
-    if svgs.is_empty() {
-        return;
-    }
-    h.push_str("<div class=\"plots\">");
-    for s in svgs {
-        write!(h, "<div>{s}</div>").unwrap();
-    }
-    h.push_str("</div>");
+/// A row of the stage's figures, each captioned with the stage (its title is drawn inside).
+fn plots_row(h: &mut String, figs: &mut Figures, st: &StageResult, svgs: Vec<String>) {
+    let stage = st.index + 1;
+    let items = svgs
+        .into_iter()
+        .enumerate()
+        .map(|(i, svg)| {
+            (
+                format!("stage{stage}-{}-{}", st.kind.replace('_', "-"), i + 1),
+                Ok(svg),
+                format!("Stage {stage} ({}), as titled in the figure.", st.kind),
+            )
+        })
+        .collect();
+    figs.row(h, items);
 }
 
 /// The stage's own section of the report, after its runs table.
-pub fn stage_html(h: &mut String, study: &Study, st: &StageResult) {
+pub(crate) fn stage_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult) {
     match &st.surrogate {
-        Some(SurrogateOutcome::BayesOpt(o)) => bo_html(h, study, st, o),
-        Some(SurrogateOutcome::GaBp(o)) => ga_bp_html(h, study, st, o),
-        Some(SurrogateOutcome::Smc(o)) => smc_html(h, study, st, o),
+        Some(SurrogateOutcome::BayesOpt(o)) => bo_html(h, figs, study, st, o),
+        Some(SurrogateOutcome::GaBp(o)) => ga_bp_html(h, figs, study, st, o),
+        Some(SurrogateOutcome::Smc(o)) => smc_html(h, figs, study, st, o),
         None => {}
     }
 }
@@ -121,7 +129,7 @@ fn objective_name(study: &Study) -> String {
     }
 }
 
-fn bo_html(h: &mut String, study: &Study, st: &StageResult, o: &BoOutcome) {
+fn bo_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult, o: &BoOutcome) {
     if let Some(g) = &o.gp {
         write!(
             h,
@@ -212,10 +220,16 @@ fn bo_html(h: &mut String, study: &Study, st: &StageResult, o: &BoOutcome) {
             }
         }
     }
-    plots_row(h, row);
+    plots_row(h, figs, st, row);
 }
 
-fn ga_bp_html(h: &mut String, study: &Study, _st: &StageResult, o: &GaBpOutcome) {
+fn ga_bp_html(
+    h: &mut String,
+    figs: &mut Figures,
+    study: &Study,
+    st: &StageResult,
+    o: &GaBpOutcome,
+) {
     let t = &o.trained;
     write!(
         h,
@@ -305,10 +319,10 @@ fn ga_bp_html(h: &mut String, study: &Study, _st: &StageResult, o: &GaBpOutcome)
     ) {
         row.push(svg);
     }
-    plots_row(h, row);
+    plots_row(h, figs, st, row);
 }
 
-fn smc_html(h: &mut String, study: &Study, st: &StageResult, o: &SmcOutcome) {
+fn smc_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult, o: &SmcOutcome) {
     let Some(last) = o.rounds.iter().rev().find(|r| !r.weights.is_empty()) else {
         return;
     };
@@ -378,7 +392,7 @@ fn smc_html(h: &mut String, study: &Study, st: &StageResult, o: &SmcOutcome) {
             }
         }
     }
-    plots_row(h, row);
+    plots_row(h, figs, st, row);
 }
 
 type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64)>);
@@ -397,14 +411,16 @@ fn convergence_plot(
     }
     plots::render(|root| {
         let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 22))
+            .caption(title, (FONT, 24))
             .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(70)
+            .x_label_area_size(66)
+            .y_label_area_size(92)
             .build_cartesian_2d(padded(x0, x1), padded(y0, y1))
             .map_err(plots::err)?;
         chart
             .configure_mesh()
+            .label_style((plots::FONT, plots::TEXT))
+            .axis_desc_style((plots::FONT, plots::DESC))
             .x_desc(x_desc)
             .y_desc(y_desc)
             .draw()
@@ -424,7 +440,7 @@ fn convergence_plot(
             .configure_series_labels()
             .background_style(WHITE.mix(0.9))
             .border_style(BLACK)
-            .label_font((FONT, 14))
+            .label_font((plots::FONT, plots::TEXT))
             .position(SeriesLabelPosition::UpperRight)
             .draw()
             .map_err(plots::err)?;
@@ -437,12 +453,12 @@ fn regression_plot(title: &str, response: &str, pts: &[(f64, f64)]) -> Result<St
         return Err("no points".into());
     }
     let (lo, hi) = plots::min_max(pts.iter().flat_map(|p| [p.0, p.1]));
+    let _ = title;
     plots::scatter(
-        title,
         &format!("simulated {response}"),
         &format!("network {response}"),
         pts,
-        Some([(lo, lo), (hi, hi)]),
+        Some(([(lo, lo), (hi, hi)], "network = simulated")),
         &[],
         true,
     )
@@ -471,14 +487,16 @@ fn heat_map(
     let span = (hi - lo).max(1e-300);
     plots::render(|root| {
         let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 20))
+            .caption(title, (FONT, 24))
             .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(60)
+            .x_label_area_size(66)
+            .y_label_area_size(92)
             .build_cartesian_2d(-1.0..1.0, -1.0..1.0)
             .map_err(plots::err)?;
         chart
             .configure_mesh()
+            .label_style((plots::FONT, plots::TEXT))
+            .axis_desc_style((plots::FONT, plots::DESC))
             .disable_mesh()
             .x_desc(format!(
                 "{} (coded; -1 = {}, +1 = {})",
@@ -516,7 +534,7 @@ fn heat_map(
         root.draw(&Text::new(
             format!("blue {} .. red {}", sig(lo), sig(hi)),
             (80, 515),
-            (FONT, 14).into_font(),
+            (FONT, plots::TEXT).into_font(),
         ))
         .map_err(plots::err)?;
         Ok(())
@@ -545,14 +563,16 @@ fn marginal_plot(
     let top = bins.iter().copied().fold(0.0, f64::max).max(1e-12);
     plots::render(|root| {
         let mut chart = ChartBuilder::on(root)
-            .caption(format!("Posterior of {name}"), (FONT, 22))
+            .caption(format!("Posterior of {name}"), (FONT, 24))
             .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(60)
+            .x_label_area_size(66)
+            .y_label_area_size(92)
             .build_cartesian_2d(padded(x0, x1), 0.0..top * 1.1)
             .map_err(plots::err)?;
         chart
             .configure_mesh()
+            .label_style((plots::FONT, plots::TEXT))
+            .axis_desc_style((plots::FONT, plots::DESC))
             .x_desc(name)
             .y_desc("posterior weight")
             .draw()
@@ -591,7 +611,7 @@ fn marginal_plot(
             .configure_series_labels()
             .background_style(WHITE.mix(0.9))
             .border_style(BLACK)
-            .label_font((FONT, 14))
+            .label_font((plots::FONT, plots::TEXT))
             .position(SeriesLabelPosition::UpperRight)
             .draw()
             .map_err(plots::err)?;
@@ -611,14 +631,16 @@ fn pair_plot(
     let wmax = pts.iter().map(|p| p.2).fold(0.0, f64::max).max(1e-300);
     plots::render(|root| {
         let mut chart = ChartBuilder::on(root)
-            .caption(format!("Posterior samples: {a} x {b}"), (FONT, 20))
+            .caption(format!("Posterior samples: {a} x {b}"), (FONT, 24))
             .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(60)
+            .x_label_area_size(66)
+            .y_label_area_size(92)
             .build_cartesian_2d(padded(x0, x1), padded(y0, y1))
             .map_err(plots::err)?;
         chart
             .configure_mesh()
+            .label_style((plots::FONT, plots::TEXT))
+            .axis_desc_style((plots::FONT, plots::DESC))
             .x_desc(a)
             .y_desc(b)
             .draw()

@@ -50,7 +50,7 @@ pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<
     };
     write!(
         h,
-        "<table><tr><th class=\"l\">test</th><th class=\"l\">response</th><th>lab (± std over replicates)</th><th>{wcol}</th>{lcol}<th>validation (± std over runs)</th><th>relative error</th></tr>"
+        "<table><tr><th class=\"l\">test</th><th class=\"l\">response</th><th>lab</th><th>{wcol}</th>{lcol}<th>validation</th><th>relative error</th></tr>"
     )
     .unwrap();
     for (i, t) in study.targets.iter().enumerate() {
@@ -63,9 +63,8 @@ pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<
             match t.std() {
                 Some(sd) => with_unit(
                     format!(
-                        "{} ± {} (n = {})",
-                        sig(t.value),
-                        sig(sd),
+                        "{} (mean ± SD over {} replicates)",
+                        crate::report_figures::mean_sd(t.value, sd),
                         t.replicates.len()
                     ),
                     &t.unit,
@@ -87,7 +86,11 @@ pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<
         let val = v
             .map(|v| {
                 let m = match v.std {
-                    Some(sd) => format!("{} ± {} (N = {})", sig(v.mean), sig(sd), v.runs),
+                    Some(sd) => format!(
+                        "{} (mean ± SD over {} runs)",
+                        crate::report_figures::mean_sd(v.mean, sd),
+                        v.runs
+                    ),
                     None => format!("{} (N = {})", sig(v.mean), v.runs),
                 };
                 with_unit(m, &t.unit)

@@ -408,7 +408,7 @@ fn rsm_first_shrinks_the_region_to_keep_axial_points_inside() {
     assert_eq!(st.notes.len(), 4, "{:?}", st.notes);
     assert_eq!(
         st.notes[0],
-        "static_friction: the design's ±2.000 points would leave 0.2000 .. 0.8000; its ±1 range is now 0.3500 .. 0.6500"
+        "static_friction: the design's axial points (coded −2.000 and +2.000) would leave 0.2000 .. 0.8000; its coded range −1 to +1 is now 0.3500 .. 0.6500"
     );
 }
 

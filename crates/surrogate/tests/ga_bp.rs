@@ -15,8 +15,8 @@ const LAB_ANGLE: f64 = 38.65;
 /// The 23 runs of the published silage CCD (`crates/doe/tests/data/silage-repose-ccd.csv`, the
 /// reference data of docs/calibration.md): coded D, E, G and the angle (deg).
 fn silage() -> (Vec<Vec<f64>>, Vec<f64>) {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../doe/tests/data/silage-repose-ccd.csv");
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../doe/tests/data/silage-repose-ccd.csv");
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
     let mut lines = text.lines();

@@ -127,6 +127,10 @@ pub struct Outcome {
     pub particles: usize,
     pub spheres: usize,
     pub time_step_s: f64,
+    /// The Rayleigh time step of the smallest particle: the time step is this share of it.
+    pub rayleigh_time_step_s: f64,
+    /// Mass of all the particles.
+    pub particle_mass_kg: f64,
     pub settle_time_s: f64,
     pub simulated_time_s: f64,
     pub final_rms_speed_m_s: f64,
@@ -342,6 +346,10 @@ impl VirtualTest for AngleOfRepose {
         check(file, s)
     }
 
+    fn settings_value(&self, s: &Settings) -> Option<toml::Value> {
+        toml::Value::try_from(s).ok()
+    }
+
     fn check_scene(&self, file: &TestFile, s: &Settings, seed: u64) -> Result<(), String> {
         file.build(&scene(file, s, seed)?, "angle_of_repose.fill")
             .map(|_| ())
@@ -353,6 +361,7 @@ impl VirtualTest for AngleOfRepose {
         let seed = run.seed;
         let description = scene(file, s, seed)?;
         let scene = file.build(&description, "angle_of_repose.fill")?;
+        let rayleigh = scene.rayleigh_time_step;
         let wall = Instant::now();
         let mut sim = scene.simulation;
         let dt = sim.params.time_step;
@@ -451,6 +460,8 @@ impl VirtualTest for AngleOfRepose {
             particles: sim.particle_count(),
             spheres: positions.len(),
             time_step_s: dt,
+            rayleigh_time_step_s: rayleigh,
+            particle_mass_kg: sim.total_mass(),
             settle_time_s: settle_time,
             simulated_time_s: sim.time,
             final_rms_speed_m_s: final_rms,
@@ -488,14 +499,22 @@ impl VirtualTest for AngleOfRepose {
     }
 
     fn pictures(&self, o: &Outcome) -> Result<Vec<Picture>, String> {
+        let view = crate::render::side_view(&o.positions, &o.radii, 900)?;
+        let json = crate::render::heap_json(&view, &o.measurement);
         Ok(vec![
             Picture {
                 file_name: "profiles.svg".into(),
                 bytes: crate::render::profiles_svg(&o.measurement)?.into_bytes(),
             },
             Picture {
+                file_name: "heap.json".into(),
+                bytes: serde_json::to_string_pretty(&json)
+                    .map_err(|e| e.to_string())?
+                    .into_bytes(),
+            },
+            Picture {
                 file_name: "heap.png".into(),
-                bytes: crate::render::side_view_png_bytes(&o.positions, &o.radii, 900)?,
+                bytes: view.png,
             },
         ])
     }

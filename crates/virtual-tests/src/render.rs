@@ -98,6 +98,24 @@ pub fn side_view_png_bytes(
     radii: &[f64],
     width: u32,
 ) -> Result<Vec<u8>, String> {
+    side_view(positions, radii, width).map(|v| v.png)
+}
+
+/// A side view and where it lies: the picture's left edge is at x = `x_left_m`, its top at
+/// z = `z_top_m`, and a pixel is `m_per_px` wide and high; x grows to the right, z upwards.
+#[derive(Clone, Debug)]
+pub struct SideView {
+    pub png: Vec<u8>,
+    pub width_px: u32,
+    pub height_px: u32,
+    pub x_left_m: f64,
+    pub z_top_m: f64,
+    pub m_per_px: f64,
+}
+
+/// The side view of [`side_view_png`] with its scale and position, so that a report can put a
+/// scale bar on it and draw the measured flank lines over it.
+pub fn side_view(positions: &[DVec3], radii: &[f64], width: u32) -> Result<SideView, String> {
     if positions.is_empty() {
         return Err("side view: no particles".into());
     }
@@ -159,7 +177,54 @@ pub fn side_view_png_bytes(
         image::ImageFormat::Png,
     )
     .map_err(|e| format!("side view: {e}"))?;
-    Ok(bytes)
+    Ok(SideView {
+        png: bytes,
+        width_px: width,
+        height_px: height,
+        x_left_m: x0,
+        z_top_m: z1,
+        m_per_px: 1.0 / scale,
+    })
+}
+
+/// `heap.json`: where the side view lies (as [`SideView`]) and the flank lines fitted in the
+/// vertical plane the side view looks across (plane 0, through the axis along x): for each,
+/// the side (+1 right, -1 left), the line z = intercept + slope s with s the distance from the
+/// axis, the stretch of s its points covered, and its angle.
+pub fn heap_json(view: &SideView, res: &ReposeResult) -> serde_json::Value {
+    let flanks: Vec<serde_json::Value> = res
+        .flanks
+        .iter()
+        .filter(|f| f.plane_angle.abs() < 1e-9)
+        .map(|f| {
+            let (s0, s1) = f
+                .fitted
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+            serde_json::json!({
+                "side": f.side,
+                "slope": f.slope,
+                "intercept_m": f.intercept,
+                "fitted_from_m": s0,
+                "fitted_to_m": s1,
+                "angle_deg": f.angle_deg,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "picture": "heap.png",
+        "width_px": view.width_px,
+        "height_px": view.height_px,
+        "x_left_m": view.x_left_m,
+        "z_top_m": view.z_top_m,
+        "m_per_px": view.m_per_px,
+        "heap_height_m": res.heap_height,
+        "heap_radius_m": res.heap_radius,
+        "flanks_measured": res.flanks.len(),
+        "angle_deg": res.angle_deg,
+        "angle_std_deg": res.angle_std_deg,
+        "flanks": flanks,
+    })
 }
 
 /// A force-displacement curve (displacement in mm, force in N).

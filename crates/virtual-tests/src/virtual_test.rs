@@ -172,6 +172,11 @@ pub trait VirtualTest: Sync {
             dem::keys::of::<Self::Settings>(),
         )]
     }
+    /// The settings with every default filled in, as TOML, for a report's table of what a study
+    /// holds fixed; None for a test that does not give them (the file's own table is shown).
+    fn settings_value(&self, _settings: &Self::Settings) -> Option<toml::Value> {
+        None
+    }
 }
 
 /// A finished run, whatever the test.
@@ -199,6 +204,8 @@ pub trait Registered: Sync {
     fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError>;
     /// See [`VirtualTest::reference_sections`].
     fn reference_sections(&self) -> Vec<(String, Vec<&'static str>)>;
+    /// The file's settings with the test's defaults filled in ([`VirtualTest::settings_value`]).
+    fn full_settings(&self, file: &TestFile) -> Option<toml::Value>;
 }
 
 impl<T: VirtualTest> Registered for T {
@@ -231,6 +238,11 @@ impl<T: VirtualTest> Registered for T {
         let settings: T::Settings = file.settings()?;
         self.check(file, &settings)?;
         self.check_scene(file, &settings, seed)
+    }
+
+    fn full_settings(&self, file: &TestFile) -> Option<toml::Value> {
+        let settings: T::Settings = file.settings().ok()?;
+        self.settings_value(&settings)
     }
 
     fn run_file(&self, file: &TestFile, run: &mut Run) -> Result<Finished, TestError> {

@@ -72,6 +72,29 @@ fn same_seed_same_angle_and_pictures_are_written() {
     assert_eq!(lines, 8, "one fitted line per flank (4 planes)");
     let png = std::fs::read(out.join("heap.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // The time step's share of the Rayleigh step is the file's (default) 20 %; the mass is
+    // 500 beads of the file's size and density.
+    let share = a["time_step_s"].as_f64().unwrap() / a["rayleigh_time_step_s"].as_f64().unwrap();
+    assert!((share - 0.2).abs() < 1e-9, "{share}");
+    assert!(a["particle_mass_kg"].as_f64().unwrap() > 0.0);
+    // Where the side view lies, and the two flanks of the plane it looks across.
+    let heap: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("heap.json")).unwrap()).unwrap();
+    let flanks = heap["flanks"].as_array().unwrap();
+    assert_eq!(flanks.len(), 2);
+    for fl in flanks {
+        let slope = fl["slope"].as_f64().unwrap();
+        let angle = fl["angle_deg"].as_f64().unwrap();
+        assert!(((-slope).atan().to_degrees() - angle).abs() < 1e-9);
+    }
+    let (w, m) = (
+        heap["width_px"].as_f64().unwrap(),
+        heap["m_per_px"].as_f64().unwrap(),
+    );
+    let x_left = heap["x_left_m"].as_f64().unwrap();
+    assert_eq!(w, 900.0);
+    // The picture spans the heap: its left edge lies left of the axis, its right edge right.
+    assert!(x_left < 0.0 && x_left + w * m > 0.0, "{x_left} {m}");
     // Another seed gives another heap.
     let c = run_file(&f, Some(4), None, &mut |_, _| Ok(()))
         .unwrap()

@@ -501,6 +501,10 @@ macro_rules! mechanical_test {
                 check($kind, file, s)
             }
 
+            fn settings_value(&self, s: &Settings) -> Option<toml::Value> {
+                toml::Value::try_from(s).ok()
+            }
+
             fn check_scene(&self, file: &TestFile, s: &Settings, seed: u64) -> Result<(), String> {
                 let t = $kind.name();
                 file.build(&scene($kind, file, s, seed)?, &format!("{t}.specimen"))

@@ -403,6 +403,20 @@ impl Study {
                     ))
                 }
             };
+            // Values are kept (and shown) in the base unit of a range given with a unit; a
+            // label of another unit would show 1e6 as "1e6 MPa".
+            if let (Some(d), Some(u)) = (min_unit, unit.as_deref()) {
+                if u.trim() != d.symbol() {
+                    return Err(err(
+                        &format!("{key}.unit"),
+                        format!(
+                            "min and max are given with units, so the values are kept and shown in {}; leave unit out or give unit = \"{}\"",
+                            d.symbol(),
+                            d.symbol()
+                        ),
+                    ));
+                }
+            }
             parameters.push(Parameter {
                 name,
                 paths,

@@ -124,6 +124,14 @@ fn a_range_whose_unit_does_not_fit_is_refused_in_one_line() {
         e.contains("parameter[0].min: bead_modulus is given in units of a length (m), which \"material[bead].shear_modulus\" does not take: material[0].shear_modulus: \"5.5e-3 m\" is a length (m), expected a stress"),
         "{e}"
     );
+    let text = STUDY
+        .replace("MIN", "\"1 MPa\"")
+        .replace("MAX", "\"10 MPa\"\nunit = \"MPa\"");
+    let e = Study::parse(&dir.join("study.toml"), &text).err().unwrap();
+    assert!(
+        e.contains("parameter[0].unit: min and max are given with units, so the values are kept and shown in Pa"),
+        "{e}"
+    );
     let e = study(&dir, "\"1 furlong\"", "\"10 MPa\"").err().unwrap();
     assert!(
         e.contains("parameter[0].min: \"1 furlong\": unknown unit"),

@@ -220,24 +220,34 @@ impl ClumpTemplate {
                 cov[p][q] = (s2[p][q] / count as f64 - c[p] * c[q]) * volume;
             }
         }
-        let trace = cov[0][0] + cov[1][1] + cov[2][2];
-        let inertia =
-            nalgebra::Matrix3::from_fn(|p, q| (if p == q { trace } else { 0.0 }) - cov[p][q]);
-        let eig = nalgebra::SymmetricEigen::new(inertia);
-        let mut pairs: Vec<(f64, DVec3)> = (0..3)
-            .map(|i| {
-                let v = eig.eigenvectors.column(i);
-                (eig.eigenvalues[i], DVec3::new(v[0], v[1], v[2]).normalize())
-            })
-            .collect();
-        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
-        MassProperties {
-            volume,
-            centroid,
-            principal_inertia: DVec3::new(pairs[0].0, pairs[1].0, pairs[2].0),
-            axes: right_handed(pairs[0].1, pairs[1].1, pairs[2].1),
-            exact: false,
-        }
+        from_second_moments(volume, centroid, cov, false)
+    }
+}
+
+/// Mass properties (per unit density) from the volume, the centroid and the second moments
+/// `cov[p][q]` = integral of (x_p - c_p)(x_q - c_q) dV about the centroid.
+pub(crate) fn from_second_moments(
+    volume: f64,
+    centroid: DVec3,
+    cov: [[f64; 3]; 3],
+    exact: bool,
+) -> MassProperties {
+    let trace = cov[0][0] + cov[1][1] + cov[2][2];
+    let inertia = nalgebra::Matrix3::from_fn(|p, q| (if p == q { trace } else { 0.0 }) - cov[p][q]);
+    let eig = nalgebra::SymmetricEigen::new(inertia);
+    let mut pairs: Vec<(f64, DVec3)> = (0..3)
+        .map(|i| {
+            let v = eig.eigenvectors.column(i);
+            (eig.eigenvalues[i], DVec3::new(v[0], v[1], v[2]).normalize())
+        })
+        .collect();
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    MassProperties {
+        volume,
+        centroid,
+        principal_inertia: DVec3::new(pairs[0].0, pairs[1].0, pairs[2].0),
+        axes: right_handed(pairs[0].1, pairs[1].1, pairs[2].1),
+        exact,
     }
 }
 
@@ -316,6 +326,9 @@ pub struct Bodies {
     pub force: Vec<DVec3>,
     pub torque: Vec<DVec3>,
     pub rolling_limit: Vec<f64>,
+    /// Which bodies are convex polyhedra (with one member, the proxy sphere that bounds the
+    /// polyhedron), their shapes and world frames.
+    pub polyhedra: crate::polyhedron::PolyFrames,
 }
 
 impl Bodies {
@@ -375,7 +388,48 @@ impl Bodies {
         self.force.push(DVec3::ZERO);
         self.torque.push(DVec3::ZERO);
         self.rolling_limit.push(0.0);
+        self.polyhedra.push(None);
         b
+    }
+
+    /// Adds a convex polyhedron of material density `density`, centre of mass at `position`, body
+    /// axes rotated by `orientation`: a body with one member sphere centred on the centre of mass
+    /// and holding the polyhedron, which the neighbour search sees (see [`crate::polyhedron`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_polyhedron(
+        &mut self,
+        particles: &mut crate::particles::Particles,
+        shape: &std::sync::Arc<crate::polyhedron::ConvexPolyhedron>,
+        density: f64,
+        material: usize,
+        position: DVec3,
+        orientation: DQuat,
+        velocity: DVec3,
+    ) -> usize {
+        let proxy = ClumpTemplate {
+            spheres: vec![(DVec3::ZERO, shape.bounding_radius)],
+        };
+        let b = self.add(
+            particles,
+            &proxy,
+            &shape.mass_properties(),
+            density,
+            material,
+            position,
+            orientation,
+            velocity,
+        );
+        self.polyhedra.set_last(shape);
+        b
+    }
+
+    /// Refreshes the polyhedra's world vertices and planes from the bodies' poses.
+    pub fn update_polyhedra(&mut self) {
+        if self.polyhedra.any() {
+            let rotation = &self.rotation;
+            self.polyhedra
+                .update(&self.position, |b| rotation[b].orientation);
+        }
     }
 
     pub fn kinetic_energy(&self) -> f64 {

@@ -20,6 +20,7 @@ pub mod mixture;
 pub mod neighbour;
 pub mod output;
 pub mod particles;
+pub mod polyhedron;
 pub mod scene;
 pub mod sim;
 pub mod specimen;

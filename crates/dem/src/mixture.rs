@@ -17,10 +17,14 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::f64::consts::PI;
 
-/// A sphere, or a rigid clump of spheres.
+/// A sphere, a rigid clump of spheres, or a convex polyhedron.
 #[derive(Clone, Debug)]
 pub enum Shape {
     Sphere,
+    /// A convex polyhedron at scale 1 (in its principal frame); placed as its bounding sphere.
+    Polyhedron {
+        polyhedron: std::sync::Arc<crate::polyhedron::ConvexPolyhedron>,
+    },
     Clump {
         template: ClumpTemplate,
         props: MassProperties,
@@ -77,17 +81,42 @@ impl ParticleType {
         }
     }
 
+    /// A convex polyhedron scaled by a factor that follows `scale`.
+    pub fn polyhedron(
+        name: &str,
+        material: usize,
+        density: f64,
+        polyhedron: crate::polyhedron::ConvexPolyhedron,
+        scale: SizeDistribution,
+    ) -> Self {
+        ParticleType {
+            name: name.into(),
+            material,
+            density,
+            shape: Shape::Polyhedron {
+                polyhedron: std::sync::Arc::new(polyhedron),
+            },
+            size: scale,
+        }
+    }
+
     /// Mass of one particle drawn with size value `s`.
     pub fn mass(&self, s: f64) -> f64 {
         match &self.shape {
             Shape::Sphere => self.density * 4.0 / 3.0 * PI * s.powi(3),
             Shape::Clump { props, .. } => self.density * props.volume * s.powi(3),
+            Shape::Polyhedron { polyhedron } => self.density * polyhedron.volume * s.powi(3),
         }
     }
 
     fn member_radius_range(&self) -> (f64, f64) {
         match &self.shape {
             Shape::Sphere => (1.0, 1.0),
+            // Half the thinnest width bounds the contact stiffness' length scale (time step);
+            // the bounding radius is what the neighbour search sees.
+            Shape::Polyhedron { polyhedron } => {
+                (0.5 * polyhedron.min_width, polyhedron.bounding_radius)
+            }
             Shape::Clump { members, .. } => members
                 .iter()
                 .fold((f64::INFINITY, 0.0), |(lo, hi), (_, r)| {
@@ -110,6 +139,7 @@ impl ParticleType {
     pub fn bounding_radius(&self) -> f64 {
         let unit = match &self.shape {
             Shape::Sphere => 1.0,
+            Shape::Polyhedron { polyhedron } => polyhedron.bounding_radius,
             Shape::Clump { members, .. } => members
                 .iter()
                 .map(|(c, r)| c.length() + r)
@@ -123,6 +153,9 @@ impl ParticleType {
         out.clear();
         match &self.shape {
             Shape::Sphere => out.push((item.position, item.size)),
+            Shape::Polyhedron { polyhedron } => {
+                out.push((item.position, polyhedron.bounding_radius * item.size))
+            }
             Shape::Clump { members, .. } => out.extend(members.iter().map(|(c, r)| {
                 (
                     item.position + item.orientation * (*c * item.size),
@@ -135,7 +168,7 @@ impl ParticleType {
     /// The clump template and mass properties at scale `s` (None for a sphere).
     pub fn scaled_clump(&self, s: f64) -> Option<(ClumpTemplate, MassProperties)> {
         match &self.shape {
-            Shape::Sphere => None,
+            Shape::Sphere | Shape::Polyhedron { .. } => None,
             Shape::Clump {
                 template, props, ..
             } => {

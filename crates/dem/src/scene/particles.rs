@@ -403,7 +403,7 @@ impl SphereBudget<'_> {
             .types
             .iter()
             .map(|t| match &t.shape {
-                mixture::Shape::Sphere => 1,
+                mixture::Shape::Sphere | mixture::Shape::Polyhedron { .. } => 1,
                 mixture::Shape::Clump { members, .. } => members.len(),
             })
             .max()

@@ -32,6 +32,9 @@ pub struct StepInputs<'a> {
     /// Whether any pair attracts beyond touching (JKR): then candidates that do not touch must
     /// still be checked against the law's cut-off.
     pub cohesive: bool,
+    /// The polyhedral bodies' shapes and world frames, when there are any (their pairs and wall
+    /// contacts go to [`crate::polyhedron::contact`]).
+    pub polyhedra: Option<&'a crate::polyhedron::PolyFrames>,
 }
 
 /// The per-step arithmetic, in the order the pipeline calls it.

@@ -8,6 +8,10 @@ use super::{SimulationParams, BLOCK};
 use crate::contact::{evaluate, ContactLaw, ContactPoint, LawVisitor};
 use crate::neighbour::{NeighbourList, PairOutput};
 use crate::particles::{Particles, NO_BODY};
+use crate::polyhedron::contact::{
+    polyhedra_pair, polyhedron_sphere, polyhedron_wall_contacts, Kinematics,
+};
+use crate::polyhedron::PolyFrames;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -172,6 +176,7 @@ impl LawVisitor for PairStage<'_> {
         let rolling = self.inputs.params.rolling_model;
         let cohesive = self.inputs.cohesive;
         let clumps = self.inputs.clumps;
+        let polyhedra = self.inputs.polyhedra;
         let nl = self.nl;
         nl.pairs
             .par_chunks_mut(BLOCK * 4)
@@ -201,6 +206,22 @@ impl LawVisitor for PairStage<'_> {
                         pair.history = Default::default();
                         *out = PairOutput::default();
                         continue;
+                    }
+                    if let Some(frames) = polyhedra {
+                        if let Some(o) = polyhedral_pair(
+                            law,
+                            rolling,
+                            p,
+                            i,
+                            j,
+                            frames,
+                            materials,
+                            &mut pair.history,
+                            dt,
+                        ) {
+                            *out = o;
+                            continue;
+                        }
                     }
                     let dist = dist2.sqrt();
                     let n = delta / dist;
@@ -273,6 +294,23 @@ impl LawVisitor for WallStage<'_> {
                 // handled by exactly one task.
                 let cands = unsafe { std::slice::from_raw_parts_mut(cands.ptr().add(w0), w1 - w0) };
                 let outs = unsafe { std::slice::from_raw_parts_mut(outs.ptr().add(w0), w1 - w0) };
+                if let Some(frames) = inputs.polyhedra {
+                    if let Some(poly) = frames.placed(p.body[i], p.position[i]) {
+                        polyhedron_wall_contacts(
+                            law,
+                            rolling,
+                            &poly,
+                            &kinematics(p, i),
+                            p.material[i] as usize,
+                            cands,
+                            outs,
+                            inputs.geometries,
+                            inputs.materials,
+                            dt,
+                        );
+                        continue;
+                    }
+                }
                 let body = WallBody {
                     x: p.position[i],
                     v: p.velocity[i],
@@ -294,6 +332,72 @@ impl LawVisitor for WallStage<'_> {
             }
         });
     }
+}
+
+fn kinematics(p: &Particles, i: usize) -> Kinematics {
+    Kinematics {
+        x: p.position[i],
+        v: p.velocity[i],
+        w: p.angular_velocity[i],
+        m: p.mass[i],
+    }
+}
+
+/// The contact of a candidate pair of which one or both are polyhedra (their proxies): `Some`
+/// with its output (zero when they do not touch, history cleared), `None` when neither is a
+/// polyhedron.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn polyhedral_pair<L: ContactLaw>(
+    law: &L,
+    rolling: crate::contact::RollingModel,
+    p: &Particles,
+    i: usize,
+    j: usize,
+    frames: &PolyFrames,
+    materials: &crate::material::MaterialTable,
+    history: &mut crate::contact::ContactHistory,
+    dt: f64,
+) -> Option<PairOutput> {
+    let pi = frames.placed(p.body[i], p.position[i]);
+    let pj = frames.placed(p.body[j], p.position[j]);
+    if pi.is_none() && pj.is_none() {
+        return None;
+    }
+    let params = materials.pair(p.material[i] as usize, p.material[j] as usize);
+    let (ki, kj) = (kinematics(p, i), kinematics(p, j));
+    let out = match (pi, pj) {
+        (Some(a), Some(b)) => polyhedra_pair(law, rolling, params, &a, &ki, &b, &kj, history, dt),
+        (Some(a), None) => polyhedron_sphere(
+            law,
+            rolling,
+            params,
+            &a,
+            &ki,
+            &kj,
+            p.radius[j],
+            true,
+            history,
+            dt,
+        ),
+        (None, Some(b)) => polyhedron_sphere(
+            law,
+            rolling,
+            params,
+            &b,
+            &kj,
+            &ki,
+            p.radius[i],
+            false,
+            history,
+            dt,
+        ),
+        (None, None) => unreachable!(),
+    };
+    Some(out.unwrap_or_else(|| {
+        *history = Default::default();
+        PairOutput::default()
+    }))
 }
 
 /// Half kick of the spin with the constant-directional rolling torque applied implicitly: it opposes

@@ -169,6 +169,11 @@ impl Simulation {
             params: &self.params,
             clumps,
             cohesive: self.cohesive_reach > 0.0,
+            polyhedra: self
+                .bodies
+                .polyhedra
+                .any()
+                .then_some(&self.bodies.polyhedra),
         }
     }
 
@@ -252,6 +257,25 @@ impl Simulation {
                 Shape::Sphere => {
                     self.particles
                         .push(it.position, velocity, it.size, t.density, t.material);
+                }
+                Shape::Polyhedron { polyhedron } => {
+                    let scaled;
+                    let shape = if it.size == 1.0 {
+                        polyhedron
+                    } else {
+                        scaled = std::sync::Arc::new(polyhedron.scaled(it.size));
+                        &scaled
+                    };
+                    let b = self.bodies.add_polyhedron(
+                        &mut self.particles,
+                        shape,
+                        t.density,
+                        t.material,
+                        it.position,
+                        it.orientation,
+                        velocity,
+                    );
+                    self.bodies.force[b] = g * self.bodies.mass[b];
                 }
                 Shape::Clump { .. } => {
                     let (template, props) = t.scaled_clump(it.size).unwrap();
@@ -457,6 +481,11 @@ impl Simulation {
         let clumps = !self.bodies.is_empty();
         let force_hooks = self.extensions.iter().any(|e| e.adds_forces());
         let extension_before = self.timers.extension_forces;
+        if self.bodies.polyhedra.any() {
+            let t = Instant::now();
+            self.bodies.update_polyhedra();
+            self.timers.bodies += t.elapsed();
+        }
         // Field by field (not `self.inputs`): the stages borrow the lists mutably beside it.
         let inputs = StepInputs {
             materials: &self.materials,
@@ -464,6 +493,11 @@ impl Simulation {
             params: &self.params,
             clumps,
             cohesive: self.cohesive_reach > 0.0,
+            polyhedra: self
+                .bodies
+                .polyhedra
+                .any()
+                .then_some(&self.bodies.polyhedra),
         };
         let t0 = Instant::now();
         self.backend

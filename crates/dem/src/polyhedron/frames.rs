@@ -1,0 +1,120 @@
+//! World vertices and face planes of every polyhedral body, refreshed once per force evaluation so
+//! each contact reads them instead of rotating the shape again.
+
+use super::clip::{Placed, Plane};
+use super::ConvexPolyhedron;
+use glam::{DQuat, DVec3};
+use std::sync::Arc;
+
+/// `shape` of a body that is a clump, not a polyhedron.
+pub const NO_SHAPE: u32 = u32::MAX;
+
+/// Shapes of the polyhedral bodies and their world frames (ranges per body; empty for clumps).
+#[derive(Clone, Debug, Default)]
+pub struct PolyFrames {
+    pub shapes: Vec<Arc<ConvexPolyhedron>>,
+    /// Per body: index into `shapes`, or [`NO_SHAPE`].
+    pub shape: Vec<u32>,
+    vertex_start: Vec<u32>,
+    plane_start: Vec<u32>,
+    vertices: Vec<DVec3>,
+    planes: Vec<Plane>,
+}
+
+impl PolyFrames {
+    /// Whether any body is a polyhedron.
+    pub fn any(&self) -> bool {
+        !self.shapes.is_empty()
+    }
+
+    /// Registers the next body (`None`: a clump). Shapes are shared by pointer.
+    pub fn push(&mut self, shape: Option<&Arc<ConvexPolyhedron>>) {
+        if self.vertex_start.is_empty() {
+            self.vertex_start.push(0);
+            self.plane_start.push(0);
+        }
+        let index = match shape {
+            None => NO_SHAPE,
+            Some(s) => match self.shapes.iter().position(|t| Arc::ptr_eq(t, s)) {
+                Some(k) => k as u32,
+                None => {
+                    self.shapes.push(s.clone());
+                    (self.shapes.len() - 1) as u32
+                }
+            },
+        };
+        self.shape.push(index);
+        let (nv, nf) = shape.map_or((0, 0), |s| (s.vertices.len(), s.faces.len()));
+        self.vertices.resize(self.vertices.len() + nv, DVec3::ZERO);
+        self.planes.resize(self.planes.len() + nf, Plane::default());
+        self.vertex_start.push(self.vertices.len() as u32);
+        self.plane_start.push(self.planes.len() as u32);
+    }
+
+    /// Makes the last registered body (a clump so far) the polyhedron `shape`.
+    pub fn set_last(&mut self, shape: &Arc<ConvexPolyhedron>) {
+        self.shape.pop();
+        self.vertex_start.pop();
+        self.plane_start.pop();
+        let (v, p) = (
+            *self.vertex_start.last().unwrap() as usize,
+            *self.plane_start.last().unwrap() as usize,
+        );
+        self.vertices.truncate(v);
+        self.planes.truncate(p);
+        self.push(Some(shape));
+    }
+
+    /// The shape of body `b`, if it is a polyhedron.
+    #[inline(always)]
+    pub fn shape_of(&self, b: u32) -> Option<&ConvexPolyhedron> {
+        let s = *self.shape.get(b as usize)?;
+        (s != NO_SHAPE).then(|| &*self.shapes[s as usize])
+    }
+
+    /// Whether body `b` is a polyhedron.
+    #[inline(always)]
+    pub fn is_polyhedron(&self, b: u32) -> bool {
+        self.shape.get(b as usize).is_some_and(|&s| s != NO_SHAPE)
+    }
+
+    /// Recomputes the world frames from the bodies' poses.
+    pub fn update(&mut self, positions: &[DVec3], orientations: impl Fn(usize) -> DQuat) {
+        for b in 0..self.shape.len() {
+            let s = self.shape[b];
+            if s == NO_SHAPE {
+                continue;
+            }
+            let shape = &self.shapes[s as usize];
+            let (v0, v1) = (
+                self.vertex_start[b] as usize,
+                self.vertex_start[b + 1] as usize,
+            );
+            let (p0, p1) = (
+                self.plane_start[b] as usize,
+                self.plane_start[b + 1] as usize,
+            );
+            shape.place_into(
+                positions[b],
+                orientations(b),
+                &mut self.vertices[v0..v1],
+                &mut self.planes[p0..p1],
+            );
+        }
+    }
+
+    /// Body `b` placed in the world (as of the last [`Self::update`]); `centre` its centre of mass.
+    #[inline(always)]
+    pub fn placed(&self, b: u32, centre: DVec3) -> Option<Placed<'_>> {
+        let shape = self.shape_of(b)?;
+        let b = b as usize;
+        Some(Placed {
+            shape,
+            vertices: &self.vertices
+                [self.vertex_start[b] as usize..self.vertex_start[b + 1] as usize],
+            planes: &self.planes[self.plane_start[b] as usize..self.plane_start[b + 1] as usize],
+            centre,
+            radius: shape.bounding_radius,
+        })
+    }
+}

@@ -401,6 +401,12 @@ macro_rules! unit_module {
                 Option::<Vec<T>>::deserialize(d)
                     .map(|v| v.map(|v| v.into_iter().map(|v| v.0).collect()))
             }
+            pub fn opt_three_list<'de, D: Deserializer<'de>>(
+                d: D,
+            ) -> Result<Option<Vec<[f64; 3]>>, D::Error> {
+                Option::<Vec<[T; 3]>>::deserialize(d)
+                    .map(|v| v.map(|v| v.into_iter().map(|[a, b, c]| [a.0, b.0, c.0]).collect()))
+            }
             pub fn opt_four_list<'de, D: Deserializer<'de>>(
                 d: D,
             ) -> Result<Option<Vec<[f64; 4]>>, D::Error> {

@@ -258,3 +258,143 @@ fn head_on_impacts_give_the_input_restitution() {
         assert!(*got < e && *got > e - 0.15, "{e}: {got}");
     }
 }
+
+#[test]
+fn cube_on_a_triangle_mesh_and_in_a_box_carries_its_weight_once() {
+    use dem::geometry::{Element, Geometry};
+    // A square of two triangles under the cube, split along the diagonal the cube sits across.
+    let s = 0.02;
+    let (a, b, c, d) = (
+        DVec3::new(-s, -s, 0.0),
+        DVec3::new(s, -s, 0.0),
+        DVec3::new(s, s, 0.0),
+        DVec3::new(-s, s, 0.0),
+    );
+    let mesh = Geometry::new(
+        "mesh",
+        1,
+        vec![
+            Element::Triangle { a, b, c },
+            Element::Triangle { a, b: c, c: d },
+        ],
+    );
+    let g = 9.81;
+    let mut sim = scene(
+        &[(
+            cuboid(H, H, H),
+            DVec3::new(0.002, 0.001, H),
+            DQuat::IDENTITY,
+            DVec3::ZERO,
+        )],
+        0.5,
+        0.5,
+        DVec3::new(0.0, 0.0, -g),
+        false,
+    );
+    sim.geometries.push(mesh);
+    run(&mut sim, 0.3);
+    let weight = DENSITY * 8.0 * H * H * H * g;
+    let load = sim.geometries[0].load.force;
+    eprintln!(
+        "cube on two triangles: load {:.6e} N against weight {weight:.6e} N",
+        -load.z
+    );
+    assert!(rel_err(-load.z, weight) < 1e-6);
+    assert!(sim.bodies.velocity[0].length() < 1e-7);
+    // Pushed into the corner of an open box of rectangles (frictionless): floor and two walls.
+    let walls = Geometry::new(
+        "box",
+        1,
+        dem::geometry::shapes::box_walls(
+            DVec3::new(-0.02, -0.02, 0.0),
+            DVec3::new(0.02, 0.02, 0.04),
+            &["+z".to_string()],
+        ),
+    );
+    let mut sim = scene(
+        &[(
+            cuboid(H, H, H),
+            DVec3::new(-0.014, -0.014, H + 0.001),
+            DQuat::IDENTITY,
+            DVec3::ZERO,
+        )],
+        0.5,
+        0.0,
+        DVec3::new(-1.0, -1.0, -g),
+        false,
+    );
+    sim.geometries.push(walls);
+    run(&mut sim, 0.3);
+    let load = sim.geometries[0].load.force;
+    let m = DENSITY * 8.0 * H * H * H;
+    eprintln!(
+        "cube in a box corner: load {load} N against {:?}",
+        DVec3::new(-m, -m, -m * g)
+    );
+    assert!((load - DVec3::new(-m, -m, -m * g)).length() < 1e-6 * m * g);
+    let x = sim.bodies.position[0];
+    assert!(
+        (x - DVec3::new(-0.015, -0.015, H)).abs().max_element() < 1e-5,
+        "{x}"
+    );
+}
+
+#[test]
+fn a_sphere_rests_on_a_polyhedron() {
+    // A 2 mm sphere on top of a cube lying on the floor: the floor carries both weights, the
+    // sphere sits on the cube's top face at the Hertz overlap.
+    let g = 9.81;
+    let cube = cuboid(H, H, H);
+    let mut sim = {
+        let mut p = Particles::default();
+        let mut bodies = Bodies::default();
+        bodies.add_polyhedron(
+            &mut p,
+            &cube,
+            DENSITY,
+            0,
+            DVec3::new(0.0, 0.0, H),
+            DQuat::IDENTITY,
+            DVec3::ZERO,
+        );
+        p.push(
+            DVec3::new(0.001, 0.0, 2.0 * H + 0.002),
+            DVec3::ZERO,
+            0.002,
+            DENSITY,
+            0,
+        );
+        let t = table(
+            material("p", 1e7, 0.3, DENSITY),
+            material("w", 1e7, 0.3, 7800.0),
+            interaction(0.5, 0.5, 0.0),
+        );
+        let mut sim = simulation(
+            p,
+            t,
+            vec![floor(1)],
+            DT,
+            DVec3::new(0.0, 0.0, -g),
+            RollingModel::ConstantDirectionalTorque,
+        )
+        .with_bodies(bodies);
+        sim.params.skin = 0.2 * H;
+        sim
+    };
+    run(&mut sim, 0.4);
+    let sphere_mass = DENSITY * 4.0 / 3.0 * std::f64::consts::PI * 0.002f64.powi(3);
+    let weight = (DENSITY * 8.0 * H * H * H + sphere_mass) * g;
+    let load = sim.geometries[0].load.force;
+    let sphere = sim.particles.position[sim.particles.len() - 1];
+    let e_star = 1.0 / (2.0 * (1.0 - 0.09) / 1e7);
+    let want = resting_overlap(sphere_mass * g, e_star, 0.002);
+    let top = sim.bodies.position[0].z + H;
+    let overlap = 0.002 - (sphere.z - top);
+    eprintln!(
+        "sphere on cube: floor load {:.6e} N against {weight:.6e} N; overlap {overlap:.4e} m against Hertz {want:.4e} m",
+        -load.z
+    );
+    assert!(rel_err(-load.z, weight) < 1e-6);
+    assert!(rel_err(overlap, want) < 1e-3);
+    assert!((sphere.x - 0.001).abs() < 1e-6 && sphere.y.abs() < 1e-9);
+}

@@ -558,6 +558,7 @@ impl GpuStages {
     /// without JKR cohesion (the Hooke law runs on the CPU).
     pub fn runs_pairs(inputs: &StepInputs) -> bool {
         matches!(inputs.params.contact_model, ContactModel::HertzMindlin(_))
+            && inputs.polyhedra.is_none()
     }
 }
 
@@ -571,7 +572,9 @@ impl Backend for GpuStages {
         if inputs.clumps {
             r.push("clumps run stage by stage, with the particles copied to the device and back at every stage (slower than the CPU); only scenes without clumps keep their state on the device".to_string());
         }
-        if !Self::runs_pairs(inputs) {
+        if inputs.polyhedra.is_some() {
+            r.push("polyhedral particles' contacts run on the CPU".to_string());
+        } else if !Self::runs_pairs(inputs) {
             r.push(format!(
                 "the {} contact law runs on the CPU (the GPU stages run hertz_mindlin)",
                 inputs.params.contact_model.name()

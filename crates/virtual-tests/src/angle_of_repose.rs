@@ -13,8 +13,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::file::TestFile;
 use crate::harness::{self, Quiet};
-use crate::repose::{measure, ReposeMeasurement, ReposeResult};
+use crate::repose::{measure_particles, HeapParticle, ReposeMeasurement, ReposeResult};
 use crate::virtual_test::{Picture, Response, Run, TestError, VirtualTest};
+use dem::sim::Simulation;
 
 /// The lifted-cylinder test.
 pub struct AngleOfRepose;
@@ -436,13 +437,13 @@ impl VirtualTest for AngleOfRepose {
         .map_err(fail)?;
         let final_rms = harness::rms_speed(&sim);
         let positions = sim.particles.position.clone();
-        let radii = sim.particles.radius.clone();
+        let (heap, radii) = heap_particles(&sim);
         let m = ReposeMeasurement {
             planes: s.planes,
             fit_band: (s.fit_band[0], s.fit_band[1]),
             ..Default::default()
         };
-        let res = measure(&positions, &radii, &m).map_err(|e| {
+        let res = measure_particles(&heap, &m).map_err(|e| {
             let picture = run.out.and_then(|dir| {
                 std::fs::create_dir_all(dir).ok()?;
                 let png = dir.join("heap.png");
@@ -518,4 +519,41 @@ impl VirtualTest for AngleOfRepose {
             },
         ])
     }
+}
+
+/// The heap's particles for the measurement (a polyhedron by its vertices and edges), and a
+/// radius per particle for pictures (a polyhedron's equal-volume sphere).
+pub fn heap_particles(sim: &Simulation) -> (Vec<HeapParticle>, Vec<f64>) {
+    let p = &sim.particles;
+    let frames = &sim.bodies.polyhedra;
+    let mut heap = Vec::with_capacity(p.len());
+    let mut radii = Vec::with_capacity(p.len());
+    for k in 0..p.len() {
+        let b = p.body[k];
+        match frames.shape_of(b) {
+            Some(shape) => {
+                let body = b as usize;
+                let placed = shape.placed_frame(
+                    sim.bodies.position[body],
+                    sim.bodies.rotation[body].orientation,
+                );
+                let r = shape.equal_volume_radius();
+                heap.push(HeapParticle::Convex {
+                    centre: p.position[k],
+                    vertices: placed.vertices,
+                    edges: shape.edges.clone(),
+                    equal_volume_radius: r,
+                });
+                radii.push(r);
+            }
+            None => {
+                heap.push(HeapParticle::Sphere {
+                    centre: p.position[k],
+                    radius: p.radius[k],
+                });
+                radii.push(p.radius[k]);
+            }
+        }
+    }
+    (heap, radii)
 }

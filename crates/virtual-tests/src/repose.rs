@@ -63,24 +63,109 @@ pub struct ReposeResult {
     pub flanks: Vec<Flank>,
 }
 
+/// A particle of the heap as the measurement sees it.
+#[derive(Clone, Debug)]
+pub enum HeapParticle {
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
+    /// A convex polyhedron: its world vertices and edges, and the radius of its equal-volume
+    /// sphere (for the default bin width).
+    Convex {
+        centre: DVec3,
+        vertices: Vec<DVec3>,
+        edges: Vec<[u16; 2]>,
+        equal_volume_radius: f64,
+    },
+}
+
+impl HeapParticle {
+    fn size(&self) -> f64 {
+        match self {
+            HeapParticle::Sphere { radius, .. } => *radius,
+            HeapParticle::Convex {
+                equal_volume_radius,
+                ..
+            } => *equal_volume_radius,
+        }
+    }
+
+    fn top(&self) -> f64 {
+        match self {
+            HeapParticle::Sphere { centre, radius } => centre.z + radius,
+            HeapParticle::Convex { vertices, .. } => {
+                vertices.iter().map(|v| v.z).fold(f64::MIN, f64::max)
+            }
+        }
+    }
+
+    /// Where the vertical plane through (ax, ay) with direction (dx, dy) cuts the particle: the
+    /// particle centre's distance along the plane and the highest point of the cut.
+    fn section_top(&self, ax: f64, ay: f64, dx: f64, dy: f64) -> Option<(f64, f64)> {
+        let across = |p: DVec3| -(p.x - ax) * dy + (p.y - ay) * dx;
+        let along = |p: DVec3| (p.x - ax) * dx + (p.y - ay) * dy;
+        match self {
+            HeapParticle::Sphere { centre, radius } => {
+                let a = across(*centre);
+                (a.abs() < *radius)
+                    .then(|| (along(*centre), centre.z + (radius * radius - a * a).sqrt()))
+            }
+            HeapParticle::Convex {
+                centre,
+                vertices,
+                edges,
+                ..
+            } => {
+                let mut top = f64::MIN;
+                for [u, v] in edges {
+                    let (p, q) = (vertices[*u as usize], vertices[*v as usize]);
+                    let (a, b) = (across(p), across(q));
+                    if (a <= 0.0) != (b <= 0.0) {
+                        top = top.max(p.z + (q.z - p.z) * (a / (a - b)));
+                    } else if a == 0.0 {
+                        top = top.max(p.z);
+                    }
+                }
+                (top > f64::MIN).then(|| (along(*centre), top))
+            }
+        }
+    }
+}
+
 /// Measures the heap formed by spheres at `positions` with `radii`.
 pub fn measure(
     positions: &[DVec3],
     radii: &[f64],
     m: &ReposeMeasurement,
 ) -> Result<ReposeResult, String> {
-    if positions.is_empty() {
+    let particles: Vec<HeapParticle> = positions
+        .iter()
+        .zip(radii)
+        .map(|(c, r)| HeapParticle::Sphere {
+            centre: *c,
+            radius: *r,
+        })
+        .collect();
+    measure_particles(&particles, m)
+}
+
+/// Measures the heap formed by `particles` (spheres and polyhedra).
+pub fn measure_particles(
+    particles: &[HeapParticle],
+    m: &ReposeMeasurement,
+) -> Result<ReposeResult, String> {
+    if particles.is_empty() {
         return Err("repose measurement: no particles".into());
     }
     if m.planes == 0 {
         return Err("repose measurement: planes must be at least 1".into());
     }
-    let mean_d = 2.0 * radii.iter().sum::<f64>() / radii.len() as f64;
+    let mean_d = 2.0 * particles.iter().map(|p| p.size()).sum::<f64>() / particles.len() as f64;
     let bin = m.bin_width.unwrap_or(mean_d);
-    let heap_height = positions
+    let heap_height = particles
         .iter()
-        .zip(radii)
-        .map(|(p, r)| p.z + r - m.base_z)
+        .map(|p| p.top() - m.base_z)
         .fold(f64::MIN, f64::max);
     if heap_height <= 2.0 * mean_d {
         return Err(format!(
@@ -94,15 +179,12 @@ pub fn measure(
         let (dir_x, dir_y) = (phi.cos(), phi.sin());
         // Highest sphere surface in the plane, per signed radial bin.
         let mut bins: std::collections::BTreeMap<i64, f64> = std::collections::BTreeMap::new();
-        for (p, &r) in positions.iter().zip(radii) {
-            let (dx, dy) = (p.x - m.axis.0, p.y - m.axis.1);
-            let along = dx * dir_x + dy * dir_y;
-            let across = -dx * dir_y + dy * dir_x;
-            if across.abs() >= r {
+        for p in particles {
+            // Where the plane cuts the particle, its top is this high.
+            let Some((along, top)) = p.section_top(m.axis.0, m.axis.1, dir_x, dir_y) else {
                 continue;
-            }
-            // Where the plane cuts the sphere, its top is this high.
-            let top = p.z + (r * r - across * across).sqrt() - m.base_z;
+            };
+            let top = top - m.base_z;
             let b = (along / bin).floor() as i64;
             let e = bins.entry(b).or_insert(f64::MIN);
             if top > *e {

@@ -11,9 +11,10 @@
 use super::ConvexPolyhedron;
 use glam::DVec3;
 
-/// Most vertices a clipped polygon can have: a face of at most
-/// [`super::MAX_FACE_VERTICES`] vertices gains at most one per clipping plane.
-const POLY_CAP: usize = super::MAX_FACE_VERTICES + super::MAX_FACES + 8;
+/// Most vertices a clipped polygon keeps: a convex face of at most [`super::MAX_FACE_VERTICES`]
+/// gains at most one per clipping plane, and in practice keeps about a dozen; a vertex beyond the
+/// cap would be dropped (the polygon stays inside the overlap).
+const POLY_CAP: usize = super::MAX_FACE_VERTICES + 16;
 
 /// A half-space `normal . x <= offset` (normal: unit, outward).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -164,11 +165,15 @@ fn involved(
         if s < -b.radius {
             continue;
         }
+        // Separating (all of b outside), or cutting b: stop as soon as both sides are seen.
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for v in b.vertices {
             let d = plane.distance(*v);
             lo = lo.min(d);
             hi = hi.max(d);
+            if lo <= 0.0 && hi > cut {
+                break;
+            }
         }
         if lo > 0.0 {
             return None;
@@ -181,6 +186,19 @@ fn involved(
     Some(n)
 }
 
+/// Orders `faces` of `a` by how squarely they face the point `toward` (most facing first).
+fn facing_first(a: &Placed, toward: DVec3, faces: &mut [u8]) {
+    let d = toward - a.centre;
+    let key = |f: u8| -a.planes[f as usize].normal.dot(d);
+    for k in 1..faces.len() {
+        let mut j = k;
+        while j > 0 && key(faces[j]) < key(faces[j - 1]) {
+            faces.swap(j, j - 1);
+            j -= 1;
+        }
+    }
+}
+
 /// Adds the faces `faces` of `a`, each clipped by the planes `clip_by` of `b`; returns their area.
 fn add_clipped_faces(
     sums: &mut Sums,
@@ -190,8 +208,10 @@ fn add_clipped_faces(
     clip_by: &[u8],
 ) -> DVec3 {
     let mut area = DVec3::ZERO;
-    let (mut p, mut q) = (Polygon::new(), Polygon::new());
+    let (mut buf_p, mut buf_q) = (Polygon::new(), Polygon::new());
     for &f in faces {
+        // Swap references, not the buffers (each is a few kilobytes).
+        let (mut p, mut q) = (&mut buf_p, &mut buf_q);
         let face = &a.shape.faces[f as usize];
         let idx = &a.shape.face_vertices[face.first as usize..(face.first + face.count) as usize];
         p.n = idx.len();
@@ -199,14 +219,14 @@ fn add_clipped_faces(
             p.pts[k] = a.vertices[i as usize];
         }
         for &g in clip_by {
-            p.clip(&b.planes[g as usize], &mut q);
+            p.clip(&b.planes[g as usize], q);
             std::mem::swap(&mut p, &mut q);
             if p.n < 3 {
                 break;
             }
         }
         if p.n >= 3 {
-            area += sums.add(&p);
+            area += sums.add(p);
         }
     }
     area
@@ -232,6 +252,9 @@ pub fn polyhedra_overlap(a: &Placed, b: &Placed) -> Option<Overlap> {
     let mut fb = [0u8; super::MAX_FACES];
     let na = involved(a, b, true, &mut fa)?;
     let nb = involved(b, a, false, &mut fb)?;
+    // Planes facing the other body first: they cut most of its faces away at the first clip.
+    facing_first(a, b.centre, &mut fa[..na]);
+    facing_first(b, a.centre, &mut fb[..nb]);
     let mut sums = Sums {
         origin: 0.5 * (a.centre + b.centre),
         ..Default::default()
@@ -292,9 +315,10 @@ pub fn wall_overlap(a: &Placed, wall: &Plane, sides: &[Plane]) -> Option<Overlap
     );
     // The region's own faces: a square on each plane, large enough to hold the particle's
     // section, clipped by the other region planes and the particle's planes.
-    let (mut p, mut q) = (Polygon::new(), Polygon::new());
+    let (mut buf_p, mut buf_q) = (Polygon::new(), Polygon::new());
     let mut area_wall = DVec3::ZERO;
     for k in 0..count {
+        let (mut p, mut q) = (&mut buf_p, &mut buf_q);
         let plane = planes[k];
         let n = plane.normal;
         let centre = a.centre - plane.distance(a.centre) * n;
@@ -308,7 +332,7 @@ pub fn wall_overlap(a: &Placed, wall: &Plane, sides: &[Plane]) -> Option<Overlap
         p.pts[3] = centre - l * e1 + l * e2;
         for (j, other) in planes[..count].iter().enumerate() {
             if j != k {
-                p.clip(other, &mut q);
+                p.clip(other, q);
                 std::mem::swap(&mut p, &mut q);
             }
         }
@@ -316,11 +340,11 @@ pub fn wall_overlap(a: &Placed, wall: &Plane, sides: &[Plane]) -> Option<Overlap
             if p.n < 3 {
                 break;
             }
-            p.clip(other, &mut q);
+            p.clip(other, q);
             std::mem::swap(&mut p, &mut q);
         }
         if p.n >= 3 {
-            let area = sums.add(&p);
+            let area = sums.add(p);
             if k == 0 {
                 area_wall = area;
             }

@@ -36,7 +36,24 @@ pub fn equivalent_contact(volume: f64, area: f64) -> (f64, f64) {
     (overlap, area * area / (1.5 * PI * volume))
 }
 
-/// A contact between bodies i and j at `point` with normal `n` (from j toward i).
+/// The damping moment of a contact spread over `area`: the law damps the normal velocity at the
+/// contact point, which a rocking motion about that point does not have; spread over the area, the
+/// same damping per unit area resists rocking with the moment -gamma_n (a^2 / 4) w (a disc of radius
+/// a, gamma_n the Hertz-Mindlin normal damping at this contact). `rel_spin` is this body's spin
+/// minus the other's.
+#[inline(always)]
+fn rocking_damping(params: &PairParams, area: f64, m_eff: f64, n: DVec3, rel_spin: DVec3) -> DVec3 {
+    if area <= 0.0 {
+        return DVec3::ZERO;
+    }
+    let a = (area / PI).sqrt();
+    let gamma_n = params.hertz_damping * (2.0 * params.e_star * a * m_eff).sqrt();
+    let rocking = rel_spin - rel_spin.dot(n) * n;
+    -gamma_n * 0.25 * a * a * rocking
+}
+
+/// A contact between bodies i and j at `point` with normal `n` (from j toward i) and contact area
+/// `area` (0 for a sphere's point contact, which has no rocking damping).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn pair_contact<L: ContactLaw>(
@@ -47,6 +64,7 @@ fn pair_contact<L: ContactLaw>(
     point: DVec3,
     overlap: f64,
     r_eff: f64,
+    area: f64,
     i: &Kinematics,
     j: &Kinematics,
     history: &mut ContactHistory,
@@ -67,10 +85,11 @@ fn pair_contact<L: ContactLaw>(
         1.4 * a * b / (a + b)
     };
     let c = evaluate(law, rolling, params, &cp, i.w - j.w, inertia, history, dt);
+    let rocking = rocking_damping(params, area, cp.m_eff, n, i.w - j.w);
     PairOutput {
         force: c.force,
-        torque_i: arm_i.cross(c.force) + c.rolling_torque,
-        torque_j: -arm_j.cross(c.force) - c.rolling_torque,
+        torque_i: arm_i.cross(c.force) + c.rolling_torque + rocking,
+        torque_j: -arm_j.cross(c.force) - c.rolling_torque - rocking,
         rolling_i: c.rolling_resistance * li,
         rolling_j: c.rolling_resistance * lj,
     }
@@ -94,7 +113,7 @@ pub fn polyhedra_pair<L: ContactLaw>(
     let (n, area) = o.normal_and_area()?;
     let (overlap, r_eff) = equivalent_contact(o.volume, area);
     Some(pair_contact(
-        law, rolling, params, n, o.centroid, overlap, r_eff, i, j, history, dt,
+        law, rolling, params, n, o.centroid, overlap, r_eff, area, i, j, history, dt,
     ))
 }
 
@@ -180,11 +199,11 @@ pub fn polyhedron_sphere<L: ContactLaw>(
     let _ = q;
     Some(if poly_is_i {
         pair_contact(
-            law, rolling, params, -n, point, overlap, r, pk, sphere, history, dt,
+            law, rolling, params, -n, point, overlap, r, 0.0, pk, sphere, history, dt,
         )
     } else {
         pair_contact(
-            law, rolling, params, n, point, overlap, r, sphere, pk, history, dt,
+            law, rolling, params, n, point, overlap, r, 0.0, sphere, pk, history, dt,
         )
     })
 }
@@ -350,8 +369,9 @@ pub fn polyhedron_wall_contacts<L: ContactLaw>(
             &mut cand.history,
             dt,
         );
+        let rocking = rocking_damping(params, area, body.m, n, body.w - g.velocity.angular);
         let rolling_limit = c.rolling_resistance * lever;
-        let mut reaction_rolling = -c.rolling_torque;
+        let mut reaction_rolling = -c.rolling_torque - rocking;
         if rolling_limit > 0.0 {
             let s = body.w.length();
             if s > 0.0 {
@@ -361,7 +381,7 @@ pub fn polyhedron_wall_contacts<L: ContactLaw>(
         *out = WallOutput {
             force: -c.force,
             torque: point.cross(-c.force) + reaction_rolling,
-            particle_torque: arm.cross(c.force) + c.rolling_torque,
+            particle_torque: arm.cross(c.force) + c.rolling_torque + rocking,
             rolling: rolling_limit,
         };
     }

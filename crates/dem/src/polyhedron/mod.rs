@@ -20,6 +20,11 @@
 //! force: overlap 1.5 V/A and effective radius A^2/(1.5 pi V). With Hertz-Mindlin this gives
 //! normal force F, normal stiffness 2 E* a, Mindlin tangential stiffness 8 G* a, Coulomb friction,
 //! Hertz-Mindlin damping from the restitution, and rolling friction: the same inputs as EDEM.
+//! The law damps the normal velocity at the contact point, which a rocking motion about that point
+//! does not have, so the normal damping is also spread over the contact area: a moment
+//! -gamma_n (a^2/4) w against the relative spin about axes in the contact plane (what the same
+//! damping per unit area gives on a disc of radius a). Without it a frictionless cube in a corner
+//! rocks for ever.
 //! Limits: the force is not derived from a potential, so it conserves energy only for contacts
 //! whose area does not change with the overlap (faces); torque comes from the force at the
 //! overlap's centroid.

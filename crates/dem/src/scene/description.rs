@@ -269,9 +269,21 @@ pub enum ParticleShape {
         kernel: KernelShape,
         count: usize,
     },
+    /// A convex polyhedron: a maize kernel class as the hull of its dimensions, or the hull of
+    /// the given vertices (m, at scale 1).
+    Polyhedron {
+        source: PolyhedronSource,
+    },
     /// A shape built before (a fitted kernel, a clump with its mass properties), so that many
     /// scenes can share one fit; see [`crate::scene::prepare_shapes`].
     Prepared(Shape),
+}
+
+/// Where a polyhedral particle's shape comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PolyhedronSource {
+    Kernel(KernelShape),
+    Vertices(Vec<DVec3>),
 }
 
 /// Which particles a group holds.

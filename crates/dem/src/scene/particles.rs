@@ -7,6 +7,7 @@ use crate::clump::ClumpTemplate;
 use crate::factory::{perpendicular_axes, FactoryShape, Rate};
 use crate::fill::{self, FillRegion, Lattice, SizeDistribution};
 use crate::mixture::{self, FillTarget, Mixture, ParticleType, Shape};
+use crate::polyhedron::{kernels::kernel_polyhedron, ConvexPolyhedron};
 use crate::specimen::{Packing, SpecimenSphere, StalkSpecimen};
 use glam::DVec3;
 
@@ -106,7 +107,9 @@ fn clump_template(
     let key = |n: &str| format!("{prefix}.{n}");
     let sk = |n: &str| format!("{prefix}.shape.{n}");
     Ok(Some(match shape {
-        ParticleShape::Sphere | ParticleShape::Prepared(_) => return Ok(None),
+        ParticleShape::Sphere | ParticleShape::Prepared(_) | ParticleShape::Polyhedron { .. } => {
+            return Ok(None)
+        }
         ParticleShape::Rod {
             length,
             diameter,
@@ -141,6 +144,48 @@ fn clump_template(
     }))
 }
 
+/// The polyhedron of a polyhedral shape (None for other shapes), with a note on how it was made.
+fn polyhedron_shape(
+    ctx: &Ctx,
+    prefix: &str,
+    name: &str,
+    shape: &ParticleShape,
+    notes: &mut Vec<String>,
+) -> Result<Option<ConvexPolyhedron>, SceneError> {
+    let ParticleShape::Polyhedron { source } = shape else {
+        return Ok(None);
+    };
+    let key = |n: &str| format!("{prefix}.{n}");
+    let sk = |n: &str| format!("{prefix}.shape.{n}");
+    Ok(Some(match source {
+        PolyhedronSource::Kernel(kernel) => {
+            let mut kernel = *kernel;
+            for (dimension, v) in kernel.dimensions_mut() {
+                ctx.positive(*v, sk(dimension))?;
+            }
+            let k = kernel_polyhedron(&kernel).map_err(|m| ctx.err(key("shape"), m))?;
+            notes.push(format!(
+                "{prefix} (\"{name}\"): {} maize kernel as a convex polyhedron of {} vertices and {} faces, volume {:.4e} m^3 (the hull of the dimensions held {:.1} % of the target solid and was scaled by {:.4} to its volume)",
+                kernel.class(),
+                k.polyhedron.vertices.len(),
+                k.polyhedron.faces.len(),
+                k.polyhedron.volume,
+                100.0 * k.hull_volume_ratio,
+                k.scale
+            ));
+            k.polyhedron
+        }
+        PolyhedronSource::Vertices(points) => {
+            let (p, _, note) = ConvexPolyhedron::from_points_noted(points)
+                .map_err(|m| ctx.err(sk("vertices"), m))?;
+            if let Some(note) = note {
+                notes.push(format!("{prefix} (\"{name}\"): {note}"));
+            }
+            p
+        }
+    }))
+}
+
 /// Builds a particle type; `prefix` is its key in messages.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn particle_type(
@@ -161,6 +206,14 @@ pub(super) fn particle_type(
             density,
             size(ctx, &key("size"), sizes)?,
         )),
+        ParticleShape::Polyhedron { .. } => {
+            let scale = size(ctx, &key("scale"), sizes)?;
+            let poly = polyhedron_shape(ctx, prefix, name, shape, notes)?
+                .expect("a polyhedral shape has a polyhedron");
+            Ok(ParticleType::polyhedron(
+                name, material, density, poly, scale,
+            ))
+        }
         ParticleShape::Prepared(shape) => Ok(ParticleType {
             name: name.into(),
             material,
@@ -197,6 +250,15 @@ pub fn prepare_shapes(
                     0,
                     1.0,
                     template,
+                    SizeDistribution::Fixed { radius: 1.0 },
+                );
+                *shape = ParticleShape::Prepared(built.shape);
+            } else if let Some(poly) = polyhedron_shape(&ctx, prefix, name, shape, &mut notes)? {
+                let built = ParticleType::polyhedron(
+                    name,
+                    0,
+                    1.0,
+                    poly,
                     SizeDistribution::Fixed { radius: 1.0 },
                 );
                 *shape = ParticleShape::Prepared(built.shape);

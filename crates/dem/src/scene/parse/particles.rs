@@ -52,6 +52,9 @@ struct ShapeEntry {
     upper_thickness: Option<f64>,
     #[serde(deserialize_with = "crate::units::length::opt", default)]
     lower_thickness: Option<f64>,
+    // polyhedron: [x, y, z] rows
+    #[serde(deserialize_with = "crate::units::length::opt_three_list", default)]
+    vertices: Option<Vec<[f64; 3]>>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -367,31 +370,30 @@ fn shape_and_size(
                     .collect(),
             }
         }
-        "maize_kernel" => {
-            let class = sh.class.as_deref().ok_or_else(|| {
-                ctx.err(
-                    sk("class"),
-                    format!("missing; expected one of {}", KernelShape::KINDS.join(", ")),
-                )
-            })?;
-            let mut kernel = KernelShape::published(class).ok_or_else(|| {
-                ctx.err(
-                    sk("class"),
-                    format!(
-                        "unknown kernel class \"{class}\" (expected {})",
-                        KernelShape::KINDS.join(", ")
+        "polyhedron" => match (&sh.class, &sh.vertices) {
+            (Some(_), None) => ParticleShape::Polyhedron {
+                source: PolyhedronSource::Kernel(kernel_class(ctx, prefix, &sh, &[])?),
+            },
+            (None, Some(rows)) => {
+                shape_keys(ctx, &key("shape"), &sh, &["vertices"])?;
+                ParticleShape::Polyhedron {
+                    source: PolyhedronSource::Vertices(
+                        rows.iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect(),
                     ),
-                )
-            })?;
-            let mut allowed = vec!["class", "count"];
-            allowed.extend(kernel.dimensions_mut().into_iter().map(|(n, _)| n));
-            shape_keys(ctx, &key("shape"), &sh, &allowed)?;
-            let given = shape_values(&sh);
-            for (name, v) in kernel.dimensions_mut() {
-                if let Some(g) = given.iter().find(|(n, _)| *n == name).and_then(|(_, g)| *g) {
-                    *v = g;
                 }
             }
+            _ => {
+                return Err(ctx.err(
+                    key("shape"),
+                    format!(
+                        "a polyhedron takes either class (one of {}) or vertices (rows [x, y, z] in m)",
+                        KernelShape::KINDS.join(", ")
+                    ),
+                ))
+            }
+        },
+        "maize_kernel" => {
+            let kernel = kernel_class(ctx, prefix, &sh, &["count"])?;
             let count = ctx.require(sh.count, sk("count"), "the number of spheres")?;
             ParticleShape::MaizeKernel { kernel, count }
         }
@@ -399,12 +401,50 @@ fn shape_and_size(
             return Err(ctx.err(
                 sk("type"),
                 format!(
-                    "unknown shape \"{other}\" (expected sphere, rod, spheres or maize_kernel)"
+                    "unknown shape \"{other}\" (expected sphere, rod, spheres, maize_kernel or polyhedron)"
                 ),
             ))
         }
     };
     Ok((shape, scale))
+}
+
+/// The kernel class of a shape entry with its dimensions overridden by the entry's keys; `extra`
+/// are the other keys the shape type takes.
+fn kernel_class(
+    ctx: &Ctx,
+    prefix: &str,
+    sh: &ShapeEntry,
+    extra: &[&'static str],
+) -> Result<KernelShape, SceneError> {
+    let key = |n: &str| format!("{prefix}.{n}");
+    let sk = |n: &str| format!("{prefix}.shape.{n}");
+    let class = sh.class.as_deref().ok_or_else(|| {
+        ctx.err(
+            sk("class"),
+            format!("missing; expected one of {}", KernelShape::KINDS.join(", ")),
+        )
+    })?;
+    let mut kernel = KernelShape::published(class).ok_or_else(|| {
+        ctx.err(
+            sk("class"),
+            format!(
+                "unknown kernel class \"{class}\" (expected {})",
+                KernelShape::KINDS.join(", ")
+            ),
+        )
+    })?;
+    let mut allowed = vec!["class"];
+    allowed.extend_from_slice(extra);
+    allowed.extend(kernel.dimensions_mut().into_iter().map(|(n, _)| n));
+    shape_keys(ctx, &key("shape"), sh, &allowed)?;
+    let given = shape_values(sh);
+    for (name, v) in kernel.dimensions_mut() {
+        if let Some(g) = given.iter().find(|(n, _)| *n == name).and_then(|(_, g)| *g) {
+            *v = g;
+        }
+    }
+    Ok(kernel)
 }
 
 /// The numeric keys of a shape entry, by name.
@@ -432,6 +472,7 @@ fn shape_keys(ctx: &Ctx, prefix: &str, s: &ShapeEntry, allowed: &[&str]) -> Resu
         ("count", s.count.is_some()),
         ("spheres", s.spheres.is_some()),
         ("class", s.class.is_some()),
+        ("vertices", s.vertices.is_some()),
     ]);
     ctx.only(prefix, &s.kind, &given, allowed)
 }

@@ -9,6 +9,7 @@
 //! | `geometry.pvd` | `geometry_static_NNNNNNNN.vtp`, `geometry_NNNNNNNN.vtp` | walls and meshes as surfaces ([`geometry`]) |
 //! | `contacts.pvd` | `contacts_NNNNNNNN.vtp` | the contact force network, when asked for ([`contacts`]) |
 //! | `bonds.pvd` | `bonds_NNNNNNNN.vtp` | bonds as lines, in a scene with bonds ([`crate::bond::output`]) |
+//! | `polyhedra.pvd` | `polyhedra_NNNNNNNN.vtp` | polyhedral particles as surfaces, in a scene with polyhedra ([`polyhedra`]) |
 //!
 //! One collection per kind rather than one with a part per kind: ParaView opens each as its own
 //! source, so the particles can take a Glyph filter without first being extracted from a
@@ -32,6 +33,7 @@ pub mod contacts;
 pub mod geometry;
 mod loads;
 pub mod particles;
+pub mod polyhedra;
 pub mod pvd;
 mod series;
 pub mod vtp;

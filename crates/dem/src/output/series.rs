@@ -3,7 +3,7 @@
 
 use super::pvd::Collection;
 use super::vtp::{Encoding, PolyData};
-use super::{contacts, geometry, particles, write_atomically};
+use super::{contacts, geometry, particles, polyhedra, write_atomically};
 use crate::sim::Simulation;
 use glam::{DMat3, DVec3};
 use std::io;
@@ -27,6 +27,7 @@ pub struct Snapshots {
     geometry: Collection,
     contacts: Collection,
     bonds: Collection,
+    polyhedra: Collection,
     geometry_state: Option<GeometryState>,
     last_step: Option<u64>,
     written: usize,
@@ -54,6 +55,7 @@ impl Snapshots {
             geometry: Collection::new(&dir.join("geometry.pvd")),
             contacts: Collection::new(&dir.join("contacts.pvd")),
             bonds: Collection::new(&dir.join("bonds.pvd")),
+            polyhedra: Collection::new(&dir.join("polyhedra.pvd")),
             geometry_state: None,
             last_step: None,
             written: 0,
@@ -98,6 +100,11 @@ impl Snapshots {
             self.write_file(&file, &contacts::polydata(&sim.particles, &pairs), time)?;
             self.contacts.add(time, 0, &file);
         }
+        if let Some(data) = polyhedra::polydata(&sim.particles, &sim.bodies) {
+            let file = name("polyhedra");
+            self.write_file(&file, &data, time)?;
+            self.polyhedra.add(time, 0, &file);
+        }
         if let Some(bonds) = sim.bonds() {
             let file = name("bonds");
             let data = crate::bond::output::bonds_polydata(bonds, &sim.particles);
@@ -105,7 +112,13 @@ impl Snapshots {
             self.bonds.add(time, 0, &file);
         }
         // Last, so that every file a collection lists is already complete.
-        for c in [&self.particles, &self.geometry, &self.contacts, &self.bonds] {
+        for c in [
+            &self.particles,
+            &self.geometry,
+            &self.contacts,
+            &self.bonds,
+            &self.polyhedra,
+        ] {
             if !c.entries().is_empty() {
                 c.write()?;
             }
@@ -113,12 +126,13 @@ impl Snapshots {
         Ok(())
     }
 
-    fn collections_mut(&mut self) -> [&mut Collection; 4] {
+    fn collections_mut(&mut self) -> [&mut Collection; 5] {
         [
             &mut self.particles,
             &mut self.geometry,
             &mut self.contacts,
             &mut self.bonds,
+            &mut self.polyhedra,
         ]
     }
 

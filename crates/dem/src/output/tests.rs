@@ -494,3 +494,43 @@ fn a_wrong_format_names_the_key() {
         .to_string();
     assert!(e.contains("output.contacts"), "{e}");
 }
+
+#[test]
+fn polyhedra_are_written_as_surfaces() {
+    // The wedges above the lifter (the random fill does not avoid geometry).
+    let text = SCENE
+        .replace(
+            r#"shape = { type = "rod", length = 0.012, diameter = 0.004, count = 3 }"#,
+            r#"shape = { type = "polyhedron", class = "horse_tooth" }"#,
+        )
+        .replace(
+            "max = [0.028, 0.028, 0.028] }",
+            "max = [0.028, 0.028, 0.028] }\n",
+        )
+        .replace(
+            "region = { type = \"box\", min = [-0.028, -0.028, 0.002], max = [0.028, 0.028, 0.028] }\n",
+            "region = { type = \"box\", min = [-0.028, -0.028, 0.03], max = [0.028, 0.028, 0.058] }",
+        );
+    let mut s = scene(&text);
+    let dir = temp_dir("polyhedra");
+    let mut snapshots = Snapshots::new(&dir, SnapshotOptions::default());
+    snapshots.write(&mut s.simulation).unwrap();
+    let sim = &s.simulation;
+    // Five wedges of 8 corners and 6 faces; their proxies are among the particles.
+    assert_eq!(sim.particles.len(), 30 + 5);
+    let v = Vtp::read(&dir.join("polyhedra_00000000.vtp"));
+    assert_eq!(v.piece("NumberOfPoints"), 5 * 8);
+    assert_eq!(v.piece("NumberOfPolys"), 5 * 6);
+    let listed = collection(&dir.join("polyhedra.pvd"));
+    assert_eq!(listed.len(), 1);
+    assert_eq!(listed[0].2, "polyhedra_00000000.vtp");
+    // Every written corner lies on its body's surface: within the bounding radius of a body
+    // centre, and the ids are the proxies'.
+    let ids = v.i32s("id");
+    assert_eq!(ids.len(), 30);
+    let proxies: Vec<i32> = (0..sim.particles.len())
+        .filter(|&k| sim.bodies.polyhedra.is_polyhedron(sim.particles.body[k]))
+        .map(|k| sim.particles.id[k] as i32)
+        .collect();
+    assert!(ids.iter().all(|i| proxies.contains(i)));
+}

@@ -316,6 +316,23 @@ fn wall_region(el: &Element, p: &Placed, sides: &mut [Plane; 16]) -> (Plane, usi
     }
 }
 
+/// The equivalent overlap (1.5 V / A, see [`equivalent_contact`]) of a placed polyhedron with a
+/// wall element, if they overlap: the depth the start-up overlap checks compare.
+pub fn wall_penetration(el: &Element, poly: &Placed) -> Option<f64> {
+    let mut sides = [Plane::default(); 16];
+    let (wall, count) = wall_region(el, poly, &mut sides);
+    let o = wall_overlap(poly, &wall, &sides[..count])?;
+    let (_, area) = o.normal_and_area()?;
+    Some(equivalent_contact(o.volume, area).0)
+}
+
+/// The same for two placed polyhedra.
+pub fn pair_penetration(a: &Placed, b: &Placed) -> Option<f64> {
+    let o = polyhedra_overlap(a, b)?;
+    let (_, area) = o.normal_and_area()?;
+    Some(equivalent_contact(o.volume, area).0)
+}
+
 /// Contacts of one polyhedron with its geometry candidates (the polyhedral counterpart of
 /// [`crate::sim::walls::wall_contacts`]): each element's overlap with the particle, restricted to
 /// the element's footprint so a flat patch of triangles shares the contact without counting it

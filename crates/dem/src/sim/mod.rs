@@ -309,15 +309,39 @@ impl Simulation {
     /// Largest overlap between two particles divided by the smaller radius, and the pair's stable ids.
     pub fn largest_relative_overlap(&mut self) -> Option<(f64, u32, u32)> {
         self.ensure_lists();
+        self.bodies.update_polyhedra();
         let p = &self.particles;
+        let frames = &self.bodies.polyhedra;
         let mut worst: Option<(f64, u32, u32)> = None;
         for pair in &self.neighbours.pairs {
             let (i, j) = (pair.i as usize, pair.j as usize);
             if p.body[i] != NO_BODY && p.body[i] == p.body[j] {
                 continue; // Members of one clump overlap by design.
             }
-            let d = p.radius[i] + p.radius[j] - (p.position[i] - p.position[j]).length();
-            let rel = d / p.radius[i].min(p.radius[j]);
+            let rel = match (
+                frames.placed(p.body[i], p.position[i]),
+                frames.placed(p.body[j], p.position[j]),
+            ) {
+                (None, None) => {
+                    let d = p.radius[i] + p.radius[j] - (p.position[i] - p.position[j]).length();
+                    d / p.radius[i].min(p.radius[j])
+                }
+                // A polyhedron: its overlap depth over its inscribed radius.
+                (Some(a), Some(b)) => crate::polyhedron::contact::pair_penetration(&a, &b)
+                    .map_or(0.0, |d| {
+                        d / (0.5 * a.shape.min_width.min(b.shape.min_width))
+                    }),
+                (Some(a), None) | (None, Some(a)) => {
+                    let s = if frames.is_polyhedron(p.body[i]) {
+                        j
+                    } else {
+                        i
+                    };
+                    let (_, _, dist) =
+                        crate::polyhedron::contact::closest_on_polyhedron(&a, p.position[s]);
+                    (p.radius[s] - dist) / p.radius[s].min(0.5 * a.shape.min_width)
+                }
+            };
             if rel > 0.0 && worst.is_none_or(|w| rel > w.0) {
                 worst = Some((rel, p.id[i], p.id[j]));
             }
@@ -328,14 +352,24 @@ impl Simulation {
     /// Largest particle-geometry overlap divided by the particle radius: (value, particle id, geometry name).
     pub fn largest_wall_overlap(&mut self) -> Option<(f64, u32, String)> {
         self.ensure_lists();
+        self.bodies.update_polyhedra();
         let p = &self.particles;
+        let frames = &self.bodies.polyhedra;
         let mut worst: Option<(f64, u32, String)> = None;
         for k in 0..p.len() {
+            let poly = frames.placed(p.body[k], p.position[k]);
             for c in &self.walls.candidates[self.walls.row(k)] {
                 let g = &self.geometries[c.geometry as usize];
-                if let Some(cl) = g.elements[c.element as usize].closest(p.position[k], p.radius[k])
-                {
-                    let rel = (p.radius[k] - cl.distance) / p.radius[k];
+                let el = &g.elements[c.element as usize];
+                // A polyhedron: its overlap depth over its inscribed radius.
+                let rel = match &poly {
+                    Some(poly) => crate::polyhedron::contact::wall_penetration(el, poly)
+                        .map(|d| d / (0.5 * poly.shape.min_width)),
+                    None => el
+                        .closest(p.position[k], p.radius[k])
+                        .map(|cl| (p.radius[k] - cl.distance) / p.radius[k]),
+                };
+                if let Some(rel) = rel {
                     if rel > 0.0 && worst.as_ref().is_none_or(|w| rel > w.0) {
                         worst = Some((rel, p.id[k], g.name.clone()));
                     }

@@ -561,3 +561,49 @@ fn unknown_backend_is_refused_and_a_missing_one_falls_back_to_the_cpu() {
         ["backend \"gpu\": this program was built without it; running on the CPU"]
     );
 }
+
+#[test]
+fn polyhedron_shapes() {
+    let shape = |s: &str| {
+        format!(
+            "shape = {{ type = \"polyhedron\", {s} }}\nscale = {{ type = \"fixed\", value = 1.0 }}"
+        )
+    };
+    let fill = "fill = { type = \"lattice\", lattice = \"sc\", spacing = 0.01 }";
+    let random = "fill = { type = \"random\", count = 20, seed = 2 }";
+    let size = "size = { type = \"fixed\", radius = 0.004 }";
+    // Neither a class nor vertices, or both.
+    let text = GOOD
+        .replacen(size, &shape("thickness = 0.004"), 1)
+        .replacen(fill, random, 1);
+    let e = load(&text).err().expect("refused");
+    assert_has(&e, &["particles[0].shape", "either class", "or vertices"]);
+    // Vertices in one plane.
+    let flat = "vertices = [[0, 0, 0], [0.004, 0, 0], [0, 0.004, 0], [0.004, 0.004, 0]]";
+    let text = GOOD
+        .replacen(size, &shape(flat), 1)
+        .replacen(fill, random, 1);
+    let e = load(&text).err().expect("refused");
+    assert_has(&e, &["particles[0].shape.vertices", "one plane"]);
+    // A box from its corners, and a kernel class with one dimension changed, both load.
+    let corners = "vertices = [[0, 0, 0], [0.006, 0, 0], [0, 0.004, 0], [0.006, 0.004, 0], [0, 0, 0.003], [0.006, 0, 0.003], [0, 0.004, 0.003], [0.006, 0.004, 0.003]]";
+    for s in [corners, "class = \"flat\", diameter = \"8 mm\""] {
+        let text = GOOD.replacen(size, &shape(s), 1).replacen(fill, random, 1);
+        let scene = load(&text).unwrap();
+        let sim = &scene.simulation;
+        assert_eq!(sim.bodies.len(), 20);
+        assert!((0..20u32).all(|b| sim.bodies.polyhedra.is_polyhedron(b)));
+        let poly = sim.bodies.polyhedra.shape_of(0).unwrap();
+        let want = if s == corners {
+            0.006 * 0.004 * 0.003
+        } else {
+            // The 12-sided prism of an 8 mm x 5 mm disc, scaled to the disc's volume.
+            std::f64::consts::PI * 0.25 * 0.008 * 0.008 * 0.005
+        };
+        assert!(
+            (poly.volume / want - 1.0).abs() < 1e-9,
+            "{s}: {}",
+            poly.volume
+        );
+    }
+}

@@ -23,6 +23,7 @@ pub mod particles;
 pub mod scene;
 pub mod sim;
 pub mod specimen;
+pub mod sphere_fit;
 pub mod timestep;
 pub mod units;
 

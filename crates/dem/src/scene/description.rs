@@ -14,6 +14,7 @@ use crate::maize_kernel::KernelShape;
 use crate::mixture::{FillTarget, Shape};
 use crate::sim::SimulationParams;
 use crate::specimen::StalkSpecimen;
+use crate::sphere_fit::FitOptions;
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -268,6 +269,19 @@ pub enum ParticleShape {
     MaizeKernel {
         kernel: KernelShape,
         count: usize,
+    },
+    /// A maize kernel class with its dimensions, fitted with spheres to a volume error (see
+    /// [`crate::sphere_fit`]).
+    MaizeKernelFit {
+        kernel: KernelShape,
+        options: FitOptions,
+    },
+    /// A closed STL solid (`file`, its coordinates times `scale` in metres) fitted with spheres to
+    /// a volume error.
+    MultiSphere {
+        file: PathBuf,
+        scale: f64,
+        options: FitOptions,
     },
     /// A shape built before (a fitted kernel, a clump with its mass properties), so that many
     /// scenes can share one fit; see [`crate::scene::prepare_shapes`].

@@ -24,6 +24,7 @@ pub mod polyhedron;
 pub mod scene;
 pub mod sim;
 pub mod specimen;
+pub mod sphere_fit;
 pub mod timestep;
 pub mod units;
 

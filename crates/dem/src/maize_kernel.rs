@@ -152,7 +152,7 @@ impl KernelShape {
     }
 
     /// Half extents of the bounding box, centred on the origin of [`Self::inside`]'s frame.
-    fn half_extents(&self) -> DVec3 {
+    pub fn half_extents(&self) -> DVec3 {
         match *self {
             KernelShape::HorseTooth {
                 upper_width,

@@ -398,3 +398,106 @@ fn a_sphere_rests_on_a_polyhedron() {
     assert!(rel_err(overlap, want) < 1e-3);
     assert!((sphere.x - 0.001).abs() < 1e-6 && sphere.y.abs() < 1e-9);
 }
+
+/// An ASCII STL of the prism of a polygon (counter-clockwise, star-shaped from its first vertex)
+/// from z = 0 to `h`, in millimetres.
+fn prism_stl(polygon: &[(f64, f64)], h: f64) -> String {
+    let mut tris: Vec<[DVec3; 3]> = Vec::new();
+    let p = |k: usize, z: f64| DVec3::new(polygon[k].0, polygon[k].1, z);
+    let n = polygon.len();
+    for k in 1..n - 1 {
+        tris.push([p(0, h), p(k, h), p(k + 1, h)]);
+        tris.push([p(0, 0.0), p(k + 1, 0.0), p(k, 0.0)]);
+    }
+    for k in 0..n {
+        let j = (k + 1) % n;
+        tris.push([p(k, 0.0), p(j, 0.0), p(j, h)]);
+        tris.push([p(k, 0.0), p(j, h), p(k, h)]);
+    }
+    let mut s = String::from("solid prism\n");
+    for t in tris {
+        let nn = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+        s += &format!("facet normal {} {} {}\nouter loop\n", nn.x, nn.y, nn.z);
+        for v in t {
+            s += &format!("vertex {} {} {}\n", v.x, v.y, v.z);
+        }
+        s += "endloop\nendfacet\n";
+    }
+    s + "endsolid prism\n"
+}
+
+#[test]
+fn polyhedra_from_stl_files_take_the_convex_hull() {
+    let dir = std::env::temp_dir().join(format!("demcal-poly-stl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A 6 x 4 x 3 mm box, and an L of 2 x 2 mm with a 1 mm notch (area 3 of its hull's 3.5), 3 mm high.
+    std::fs::write(
+        dir.join("box.stl"),
+        prism_stl(&[(0.0, 0.0), (6.0, 0.0), (6.0, 4.0), (0.0, 4.0)], 3.0),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("ell.stl"),
+        prism_stl(
+            &[
+                (1.0, 1.0),
+                (1.0, 2.0),
+                (0.0, 2.0),
+                (0.0, 0.0),
+                (2.0, 0.0),
+                (2.0, 1.0),
+            ],
+            3.0,
+        ),
+    )
+    .unwrap();
+    let scene = |file: &str| {
+        format!(
+            r#"
+[simulation]
+duration = 0.001
+[[material]]
+name = "seed"
+density = 1100
+poisson_ratio = 0.3
+shear_modulus = 1e7
+[[interaction]]
+materials = ["seed", "seed"]
+restitution = 0.5
+static_friction = 0.5
+rolling_friction = 0.0
+[[particles]]
+material = "seed"
+shape = {{ type = "polyhedron", file = "{file}", file_scale = 0.001 }}
+region = {{ type = "box", min = [0, 0, 0], max = [0.05, 0.05, 0.05] }}
+fill = {{ type = "random", count = 10, seed = 1 }}
+"#
+        )
+    };
+    let load = |file: &str| dem::scene::Scene::from_toml(&scene(file), "s.toml", &dir);
+    let boxed = load("box.stl").ok().expect("box loads");
+    let v = boxed
+        .simulation
+        .bodies
+        .polyhedra
+        .shape_of(0)
+        .unwrap()
+        .volume;
+    assert!((v / (6e-3 * 4e-3 * 3e-3) - 1.0).abs() < 1e-9, "{v}");
+    assert!(boxed.warnings.is_empty(), "{:?}", boxed.warnings);
+    let ell = load("ell.stl").ok().expect("L loads");
+    let v = ell.simulation.bodies.polyhedra.shape_of(0).unwrap().volume;
+    assert!((v / (3.5e-6 * 3e-3) - 1.0).abs() < 1e-9, "{v}");
+    let warned = ell
+        .warnings
+        .iter()
+        .find(|w| w.contains("not convex"))
+        .unwrap();
+    assert!(warned.contains("85.7 %"), "{warned}");
+    let e = load("missing.stl").err().expect("refused").to_string();
+    assert!(
+        e.contains("particles[0].shape.file") && e.contains("does not exist"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -577,7 +577,10 @@ fn polyhedron_shapes() {
         .replacen(size, &shape("thickness = 0.004"), 1)
         .replacen(fill, random, 1);
     let e = load(&text).err().expect("refused");
-    assert_has(&e, &["particles[0].shape", "either class", "or vertices"]);
+    assert_has(
+        &e,
+        &["particles[0].shape", "one of class", "vertices", "file"],
+    );
     // Vertices in one plane.
     let flat = "vertices = [[0, 0, 0], [0.004, 0, 0], [0, 0.004, 0], [0.004, 0.004, 0]]";
     let text = GOOD

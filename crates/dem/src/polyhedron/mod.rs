@@ -343,6 +343,9 @@ fn farthest_points(points: &[DVec3], k: usize) -> Vec<DVec3> {
     chosen
 }
 
+/// The words that start the note on a non-convex STL solid (scenes turn it into a warning).
+pub const NOT_CONVEX: &str = "the solid is not convex";
+
 /// Reads a closed STL solid (scaled, e.g. 0.001 for millimetres) and returns its convex hull, with
 /// a note when the solid is not convex (its volume below the hull's) or the hull was reduced.
 pub fn from_stl(
@@ -370,7 +373,7 @@ pub fn from_stl(
     let full = convex_hull(&points).map(|h| hull_volume(&h))?;
     if solid.abs() < (1.0 - 0.01) * full {
         notes.push(format!(
-            "the solid is not convex: its volume is {:.1} % of its convex hull's, which the particle takes",
+            "{NOT_CONVEX}: its volume is {:.1} % of its convex hull's, which the particle takes",
             100.0 * solid.abs() / full
         ));
     }

@@ -537,8 +537,22 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
         },
         rayleigh_time_step: rayleigh,
         collision_time: collision,
-        warnings,
-        notes,
+        warnings: {
+            // A polyhedron made from a non-convex STL solid takes its hull: the user should see
+            // that among the warnings, not only the notes.
+            let mut warnings = warnings;
+            warnings.extend(
+                notes
+                    .iter()
+                    .filter(|n| n.contains(crate::polyhedron::NOT_CONVEX))
+                    .cloned(),
+            );
+            warnings
+        },
+        notes: notes
+            .into_iter()
+            .filter(|n| !n.contains(crate::polyhedron::NOT_CONVEX))
+            .collect(),
     })
 }
 

@@ -14,6 +14,7 @@ use crate::maize_kernel::KernelShape;
 use crate::mixture::{FillTarget, Shape};
 use crate::sim::SimulationParams;
 use crate::specimen::StalkSpecimen;
+use crate::sphere_fit::FitOptions;
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -269,10 +270,23 @@ pub enum ParticleShape {
         kernel: KernelShape,
         count: usize,
     },
-    /// A convex polyhedron: a maize kernel class as the hull of its dimensions, or the hull of
-    /// the given vertices (m, at scale 1).
+    /// A convex polyhedron: a maize kernel class as the hull of its dimensions, the hull of the
+    /// given vertices (m, at scale 1), or the hull of an STL solid.
     Polyhedron {
         source: PolyhedronSource,
+    },
+    /// A maize kernel class with its dimensions, fitted with spheres to a volume error (see
+    /// [`crate::sphere_fit`]).
+    MaizeKernelFit {
+        kernel: KernelShape,
+        options: FitOptions,
+    },
+    /// A closed STL solid (`file`, its coordinates times `scale` in metres) fitted with spheres to
+    /// a volume error.
+    MultiSphere {
+        file: PathBuf,
+        scale: f64,
+        options: FitOptions,
     },
     /// A shape built before (a fitted kernel, a clump with its mass properties), so that many
     /// scenes can share one fit; see [`crate::scene::prepare_shapes`].
@@ -284,6 +298,11 @@ pub enum ParticleShape {
 pub enum PolyhedronSource {
     Kernel(KernelShape),
     Vertices(Vec<DVec3>),
+    /// The convex hull of an STL solid, its coordinates times `scale` in metres.
+    Stl {
+        file: PathBuf,
+        scale: f64,
+    },
 }
 
 /// Which particles a group holds.

@@ -9,6 +9,7 @@ use crate::fill::{self, FillRegion, Lattice, SizeDistribution};
 use crate::mixture::{self, FillTarget, Mixture, ParticleType, Shape};
 use crate::polyhedron::{kernels::kernel_polyhedron, ConvexPolyhedron};
 use crate::specimen::{Packing, SpecimenSphere, StalkSpecimen};
+use crate::sphere_fit::{self, mesh::MeshSolid, FitOptions, SphereFit};
 use glam::DVec3;
 
 /// Checks a size (sphere radius) or scale (clump) distribution; `prefix` is its key.
@@ -141,6 +142,46 @@ fn clump_template(
             ));
             fit.template
         }
+        ParticleShape::MaizeKernelFit { kernel, options } => {
+            let mut kernel = *kernel;
+            for (dimension, v) in kernel.dimensions_mut() {
+                ctx.positive(*v, sk(dimension))?;
+            }
+            fit_knobs(ctx, prefix, options)?;
+            let fit = kernel
+                .fit_to(options)
+                .map_err(|m| ctx.err(sk("volume_error"), m))?;
+            notes.push(fit_note(
+                prefix,
+                name,
+                &format!("{} maize kernel", kernel.class()),
+                &fit,
+            ));
+            fit.template
+        }
+        ParticleShape::MultiSphere {
+            file,
+            scale,
+            options,
+        } => {
+            if !file.exists() {
+                return Err(ctx.err(
+                    sk("file"),
+                    format!("STL file {} does not exist", file.display()),
+                ));
+            }
+            let scale = ctx.positive(*scale, sk("file_scale"))?;
+            fit_knobs(ctx, prefix, options)?;
+            let solid = MeshSolid::read(file, scale).map_err(|m| ctx.err(sk("file"), m))?;
+            let fit = sphere_fit::fit(&solid, options)
+                .map_err(|m| ctx.err(sk("volume_error"), format!("{}: {m}", file.display())))?;
+            let what = format!(
+                "solid {}",
+                file.file_name().unwrap_or_default().to_string_lossy()
+            );
+            notes.push(fit_note(prefix, name, &what, &fit));
+            fit.template
+        }
     }))
 }
 
@@ -175,6 +216,21 @@ fn polyhedron_shape(
             ));
             k.polyhedron
         }
+        PolyhedronSource::Stl { file, scale } => {
+            if !file.exists() {
+                return Err(ctx.err(
+                    sk("file"),
+                    format!("STL file {} does not exist", file.display()),
+                ));
+            }
+            let scale = ctx.positive(*scale, sk("file_scale"))?;
+            let (p, stl_notes) = crate::polyhedron::from_stl(file, scale)
+                .map_err(|m| ctx.err(sk("file"), format!("{}: {m}", file.display())))?;
+            for note in stl_notes {
+                notes.push(format!("{prefix} (\"{name}\"): {}: {note}", file.display()));
+            }
+            p
+        }
         PolyhedronSource::Vertices(points) => {
             let (p, _, note) = ConvexPolyhedron::from_points_noted(points)
                 .map_err(|m| ctx.err(sk("vertices"), m))?;
@@ -184,6 +240,31 @@ fn polyhedron_shape(
             p
         }
     }))
+}
+
+/// Checks a fit's knobs, naming the key at fault.
+fn fit_knobs(ctx: &Ctx, prefix: &str, options: &FitOptions) -> Result<(), SceneError> {
+    options.validate().map_err(|m| {
+        let key = m.split(':').next().unwrap_or("volume_error").to_string();
+        ctx.err(format!("{prefix}.shape.{key}"), m)
+    })
+}
+
+/// The note on a fit: sphere count, volume error, surface error and smallest sphere.
+fn fit_note(prefix: &str, name: &str, what: &str, fit: &SphereFit) -> String {
+    let q = &fit.quality;
+    format!(
+        "{prefix} (\"{name}\"): {what} fitted with {} spheres, volume {:.4e} m^3, {:+.1} % against the solid ({:.4e} m^3), symmetric difference {:.1} %, surface error {:.2} mm RMS ({:.1} % of the equal-volume radius), {:.2} mm largest, smallest sphere radius {:.3} mm",
+        fit.template.spheres.len(),
+        q.clump_volume,
+        100.0 * q.volume_error,
+        q.solid_volume,
+        100.0 * q.symmetric_difference,
+        1e3 * q.surface_rms,
+        100.0 * q.surface_rms / q.equal_volume_radius,
+        1e3 * q.surface_max,
+        1e3 * q.smallest_radius
+    )
 }
 
 /// Builds a particle type; `prefix` is its key in messages.

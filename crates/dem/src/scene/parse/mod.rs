@@ -127,7 +127,7 @@ pub fn shared_parts(table: &toml::Table, file: &str) -> Result<SharedParts, Scen
         particle_types: types
             .into_iter()
             .enumerate()
-            .map(|(k, t)| particle_type(&ctx, k, t))
+            .map(|(k, t)| particle_type(&ctx, k, t, Path::new("")))
             .collect::<Result<_, _>>()?,
     })
 }
@@ -142,7 +142,7 @@ pub fn group_particles(
 ) -> Result<GroupParticles, SceneError> {
     let ctx = Ctx { file };
     let e: GroupParticlesEntry = from_value(&ctx, key, value)?;
-    particles::group_from_entry(&ctx, key, e)
+    particles::group_from_entry(&ctx, key, e, Path::new(""))
 }
 
 /// Every section of a scene file, as `docs/reference.md` heads it, with the keys its reader
@@ -330,13 +330,13 @@ fn describe(f: SceneFile, ctx: &Ctx, base: &Path) -> Result<SceneDescription, Sc
         .particle_types
         .into_iter()
         .enumerate()
-        .map(|(k, t)| particle_type(ctx, k, t))
+        .map(|(k, t)| particle_type(ctx, k, t, base))
         .collect::<Result<_, _>>()?;
     let particles = f
         .particles
         .into_iter()
         .enumerate()
-        .map(|(k, p)| particle_group(ctx, k, p))
+        .map(|(k, p)| particle_group(ctx, k, p, base))
         .collect::<Result<_, _>>()?;
     let bonds = bonds::bonds(ctx, f.bonds)?;
     let o = f.output;

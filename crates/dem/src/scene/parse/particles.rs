@@ -8,9 +8,11 @@ use crate::mixture::FillTarget;
 use crate::scene::description::*;
 use crate::scene::{Ctx, SceneError};
 use crate::specimen::{Core, Packing, StalkSpecimen};
+use crate::sphere_fit::FitOptions;
 use crate::units::{Dimension, Quantity};
 use glam::DVec3;
 use serde::Deserialize;
+use std::path::Path;
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
@@ -55,6 +57,13 @@ struct ShapeEntry {
     // polyhedron: [x, y, z] rows
     #[serde(deserialize_with = "crate::units::length::opt_three_list", default)]
     vertices: Option<Vec<[f64; 3]>>,
+    // fitted to a volume error: maize_kernel, multi_sphere
+    volume_error: Option<f64>,
+    min_radius_ratio: Option<f64>,
+    max_spheres: Option<usize>,
+    // multi_sphere
+    file: Option<String>,
+    file_scale: Option<f64>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -197,9 +206,10 @@ pub(super) fn particle_type(
     ctx: &Ctx,
     k: usize,
     t: ParticleTypeEntry,
+    base: &Path,
 ) -> Result<ParticleTypeDescription, SceneError> {
     let prefix = format!("particle_type[{k}]");
-    let (shape, size) = shape_and_size(ctx, &prefix, t.shape, t.size, t.scale)?;
+    let (shape, size) = shape_and_size(ctx, &prefix, t.shape, t.size, t.scale, base)?;
     Ok(ParticleTypeDescription {
         name: t.name,
         material: t.material,
@@ -213,10 +223,12 @@ pub(super) fn group_from_entry(
     ctx: &Ctx,
     key: &str,
     e: GroupParticlesEntry,
+    base: &Path,
 ) -> Result<GroupParticles, SceneError> {
     particles_of_group(
         ctx,
         key,
+        base,
         TypeKeys {
             material: e.material,
             size: e.size,
@@ -240,7 +252,12 @@ struct TypeKeys {
     basis: Option<String>,
 }
 
-fn particles_of_group(ctx: &Ctx, prefix: &str, p: TypeKeys) -> Result<GroupParticles, SceneError> {
+fn particles_of_group(
+    ctx: &Ctx,
+    prefix: &str,
+    base: &Path,
+    p: TypeKeys,
+) -> Result<GroupParticles, SceneError> {
     let key = |s: &str| format!("{prefix}.{s}");
     Ok(match (p.types, p.material) {
         (Some(types), None) => {
@@ -275,7 +292,7 @@ fn particles_of_group(ctx: &Ctx, prefix: &str, p: TypeKeys) -> Result<GroupParti
                     ));
                 }
             }
-            let (shape, size) = shape_and_size(ctx, prefix, p.shape, p.size, p.scale)?;
+            let (shape, size) = shape_and_size(ctx, prefix, p.shape, p.size, p.scale, base)?;
             GroupParticles::Inline {
                 material,
                 shape,
@@ -308,13 +325,15 @@ fn basis(ctx: &Ctx, key: String, basis: Option<&str>) -> Result<bool, SceneError
     }
 }
 
-/// A type's shape with its size (a sphere's radius) or scale (a clump's) distribution.
+/// A type's shape with its size (a sphere's radius) or scale (a clump's) distribution; `base`
+/// resolves a relative STL path.
 fn shape_and_size(
     ctx: &Ctx,
     prefix: &str,
     shape: Option<ShapeEntry>,
     size: Option<SizeEntry>,
     scale: Option<SizeEntry>,
+    base: &Path,
 ) -> Result<(ParticleShape, SizeDistribution), SceneError> {
     let key = |n: &str| format!("{prefix}.{n}");
     let sh = match shape {
@@ -370,11 +389,20 @@ fn shape_and_size(
                     .collect(),
             }
         }
-        "polyhedron" => match (&sh.class, &sh.vertices) {
-            (Some(_), None) => ParticleShape::Polyhedron {
+        "polyhedron" => match (&sh.class, &sh.vertices, &sh.file) {
+            (Some(_), None, None) => ParticleShape::Polyhedron {
                 source: PolyhedronSource::Kernel(kernel_class(ctx, prefix, &sh, &[])?),
             },
-            (None, Some(rows)) => {
+            (None, None, Some(file)) => {
+                shape_keys(ctx, &key("shape"), &sh, &["file", "file_scale"])?;
+                ParticleShape::Polyhedron {
+                    source: PolyhedronSource::Stl {
+                        file: base.join(file),
+                        scale: sh.file_scale.unwrap_or(1.0),
+                    },
+                }
+            }
+            (None, Some(rows), None) => {
                 shape_keys(ctx, &key("shape"), &sh, &["vertices"])?;
                 ParticleShape::Polyhedron {
                     source: PolyhedronSource::Vertices(
@@ -386,22 +414,81 @@ fn shape_and_size(
                 return Err(ctx.err(
                     key("shape"),
                     format!(
-                        "a polyhedron takes either class (one of {}) or vertices (rows [x, y, z] in m)",
+                        "a polyhedron takes one of class (one of {}), vertices (rows [x, y, z] in m) or file (an STL solid)",
                         KernelShape::KINDS.join(", ")
                     ),
                 ))
             }
         },
         "maize_kernel" => {
-            let kernel = kernel_class(ctx, prefix, &sh, &["count"])?;
-            let count = ctx.require(sh.count, sk("count"), "the number of spheres")?;
-            ParticleShape::MaizeKernel { kernel, count }
+            let kernel = kernel_class(
+                ctx,
+                prefix,
+                &sh,
+                &["count", "volume_error", "min_radius_ratio", "max_spheres"],
+            )?;
+            match (sh.count, sh.volume_error) {
+                (Some(count), None) => {
+                    for (name, given) in [
+                        ("min_radius_ratio", sh.min_radius_ratio.is_some()),
+                        ("max_spheres", sh.max_spheres.is_some()),
+                    ] {
+                        if given {
+                            return Err(ctx.err(
+                                sk(name),
+                                "only used with volume_error (a fit to a volume error)",
+                            ));
+                        }
+                    }
+                    ParticleShape::MaizeKernel { kernel, count }
+                }
+                (None, Some(_)) => ParticleShape::MaizeKernelFit {
+                    kernel,
+                    options: fit_options(&sh),
+                },
+                (Some(_), Some(_)) => {
+                    return Err(ctx.err(
+                        sk("volume_error"),
+                        "give count (inscribed spheres) or volume_error (a fit to that error), not both",
+                    ))
+                }
+                (None, None) => {
+                    return Err(ctx.err(
+                        sk("count"),
+                        "missing; expected count (the number of spheres) or volume_error (e.g. 0.05)",
+                    ))
+                }
+            }
+        }
+        "multi_sphere" => {
+            shape_keys(
+                ctx,
+                &key("shape"),
+                &sh,
+                &[
+                    "file",
+                    "file_scale",
+                    "volume_error",
+                    "min_radius_ratio",
+                    "max_spheres",
+                ],
+            )?;
+            let file = ctx.require(
+                sh.file.as_deref(),
+                sk("file"),
+                "the path of a closed STL solid",
+            )?;
+            ParticleShape::MultiSphere {
+                file: base.join(file),
+                scale: sh.file_scale.unwrap_or(1.0),
+                options: fit_options(&sh),
+            }
         }
         other => {
             return Err(ctx.err(
                 sk("type"),
                 format!(
-                    "unknown shape \"{other}\" (expected sphere, rod, spheres, maize_kernel or polyhedron)"
+                    "unknown shape \"{other}\" (expected sphere, rod, spheres, maize_kernel, multi_sphere or polyhedron)"
                 ),
             ))
         }
@@ -447,6 +534,16 @@ fn kernel_class(
     Ok(kernel)
 }
 
+/// The fit's knobs, defaults where not given (their ranges are checked when built).
+fn fit_options(s: &ShapeEntry) -> FitOptions {
+    let d = FitOptions::default();
+    FitOptions {
+        volume_error: s.volume_error.unwrap_or(d.volume_error),
+        min_radius_ratio: s.min_radius_ratio.unwrap_or(d.min_radius_ratio),
+        max_spheres: s.max_spheres.unwrap_or(d.max_spheres),
+    }
+}
+
 /// The numeric keys of a shape entry, by name.
 fn shape_values(s: &ShapeEntry) -> [(&'static str, Option<f64>); 9] {
     [
@@ -473,6 +570,11 @@ fn shape_keys(ctx: &Ctx, prefix: &str, s: &ShapeEntry, allowed: &[&str]) -> Resu
         ("spheres", s.spheres.is_some()),
         ("class", s.class.is_some()),
         ("vertices", s.vertices.is_some()),
+        ("volume_error", s.volume_error.is_some()),
+        ("min_radius_ratio", s.min_radius_ratio.is_some()),
+        ("max_spheres", s.max_spheres.is_some()),
+        ("file", s.file.is_some()),
+        ("file_scale", s.file_scale.is_some()),
     ]);
     ctx.only(prefix, &s.kind, &given, allowed)
 }
@@ -617,6 +719,7 @@ pub(super) fn particle_group(
     ctx: &Ctx,
     k: usize,
     p: ParticleEntry,
+    base: &Path,
 ) -> Result<ParticleGroup, SceneError> {
     let prefix = format!("particles[{k}]");
     let key = |s: &str| format!("particles[{k}].{s}");
@@ -624,6 +727,7 @@ pub(super) fn particle_group(
     let particles = particles_of_group(
         ctx,
         &prefix,
+        base,
         TypeKeys {
             material: p.material,
             size: p.size,

@@ -3,9 +3,10 @@
 
     python3 tools/paraview/check_pvd.py OUT_DIR [--scene SCENE.toml] [--run DEMCAL]
                                         [--particles N] [--clumps N]
+                                        [--polyhedra N] [--polyhedron-faces N]
 
-OUT_DIR holds what `demcal simulate` wrote: particles.pvd, geometry.pvd, and contacts.pvd and
-bonds.pvd when the run has them. With --run, DEMCAL (the demcal binary) first runs
+OUT_DIR holds what `demcal simulate` wrote: particles.pvd, geometry.pvd, and contacts.pvd,
+bonds.pvd and polyhedra.pvd when the run has them. With --run, DEMCAL (the demcal binary) first runs
 `simulate SCENE --out OUT_DIR`. With --scene, the times every collection lists must be the
 scene's snapshot times ([output] snapshot_interval from 0 to [simulation] duration, and the end),
 the contacts must be there when the scene asks for them ([output] contacts = true), and every
@@ -189,7 +190,9 @@ def main():
     parser.add_argument("--scene", help="the scene file, for the expected times and motions")
     parser.add_argument("--run", metavar="DEMCAL", help="run DEMCAL simulate SCENE --out OUT first")
     parser.add_argument("--particles", type=int, help="spheres every particles file must hold")
-    parser.add_argument("--clumps", type=int, help="clumps every particles file must hold")
+    parser.add_argument("--clumps", type=int, help="clumps (polyhedra included) every particles file must hold")
+    parser.add_argument("--polyhedra", type=int, help="polyhedra every polyhedra file must hold")
+    parser.add_argument("--polyhedron-faces", type=int, help="faces of each polyhedron")
     args = parser.parse_args()
 
     scene = None
@@ -267,6 +270,11 @@ def main():
     bonds_pvd = os.path.join(out, "bonds.pvd")
     if os.path.isfile(bonds_pvd):
         check_lines(check, out, bonds_pvd, times, BOND_ARRAYS, counts, "bonds", need_lines=False)
+
+    polyhedra_pvd = os.path.join(out, "polyhedra.pvd")
+    if args.polyhedra is not None or os.path.isfile(polyhedra_pvd):
+        if check.expect(os.path.isfile(polyhedra_pvd), f"{polyhedra_pvd} is missing"):
+            check_polyhedra(check, out, polyhedra_pvd, times, args.polyhedra, args.polyhedron_faces)
 
     for n in check.notes:
         print(f"check_pvd: {n}")
@@ -359,6 +367,55 @@ def check_lines(check, out, pvd, times, arrays, counts, what, need_lines):
     if need_lines:
         check.expect(any(lines), f"{what}.pvd: no snapshot has a single line")
     check.notes.append(f"{what}.pvd: {len(entries)} snapshots, lines per snapshot {lines}")
+
+
+POLYHEDRON_ARRAYS = {"id": 1, "clump_id": 1, "material_id": 1, "velocity": 3}
+
+
+def check_polyhedra(check, out, pvd, times, count, faces):
+    """Every snapshot's polyhedra: closed polygon surfaces, `faces` polygons per body, each body's
+    faces sharing its id, and the bodies moving between the first and the last snapshot."""
+    entries = read_collection(pvd)
+    ptimes = sorted(set(t for t, _, _ in entries))
+    check.expect(ptimes == times, f"polyhedra.pvd: times {ptimes} differ from particles.pvd's {times}")
+    centres = []
+    for t, _, f in entries:
+        path = os.path.join(out, f)
+        data = read_vtp(check, path)
+        if data is None:
+            continue
+        polys = data.GetNumberOfPolys()
+        check.expect(polys == data.GetNumberOfCells() and polys > 0, f"{path}: {polys} polygons of {data.GetNumberOfCells()} cells")
+        check_arrays(check, path, data.GetCellData(), polys, POLYHEDRON_ARRAYS, "cell")
+        ids = data.GetCellData().GetArray("id")
+        if ids is None:
+            continue
+        per_body = {}
+        for k in range(polys):
+            per_body.setdefault(int(ids.GetValue(k)), []).append(k)
+        if count is not None:
+            check.expect(len(per_body) == count, f"{path}: {len(per_body)} polyhedra, expected {count}")
+        if faces is not None:
+            bad = [b for b, cells in per_body.items() if len(cells) != faces]
+            check.expect(not bad, f"{path}: polyhedra {bad[:5]} do not have {faces} faces")
+        # Each face is a closed polygon of at least 3 corners; the mean of a body's points is its
+        # centre, which should move under gravity.
+        points = data.GetPoints()
+        idl = vtk.vtkIdList()
+        centre = []
+        for b in sorted(per_body):
+            pts = set()
+            for k in per_body[b]:
+                data.GetCellPoints(k, idl)
+                check.expect(idl.GetNumberOfIds() >= 3, f"{path}: a face of polyhedron {b} has {idl.GetNumberOfIds()} corners")
+                pts.update(idl.GetId(j) for j in range(idl.GetNumberOfIds()))
+            xs = [points.GetPoint(p) for p in pts]
+            centre.append(tuple(sum(c[i] for c in xs) / len(xs) for i in range(3)))
+        centres.append(centre)
+    if len(centres) > 1 and centres[0] and len(centres[0]) == len(centres[-1]):
+        moved = max(abs(a[2] - b[2]) for a, b in zip(centres[0], centres[-1]))
+        check.expect(moved > 1e-4, f"polyhedra.pvd: the polyhedra did not move ({moved:.2e} m)")
+        check.notes.append(f"polyhedra.pvd: {len(entries)} snapshots, {len(centres[0])} polyhedra, largest fall {moved:.4f} m")
 
 
 if __name__ == "__main__":

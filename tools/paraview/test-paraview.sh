@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Checks that VTK, ParaView's reader library, loads what `demcal simulate` writes: builds demcal,
 # runs tools/paraview/scene.toml once with binary and once with ASCII snapshots, and checks both
-# series with check_pvd.py (times, points and arrays, geometry that moves, contacts). Installs
+# series with check_pvd.py (times, points and arrays, geometry that moves, contacts, polyhedra). Installs
 # the `vtk` Python package with pip when it is missing. Prints the sizes of the two formats.
 #
 #   tools/paraview/test-paraview.sh [OUT_DIR]     (default: a new temporary folder)
@@ -44,8 +44,9 @@ grep -q '^format = "ascii"' "$ascii_scene" || {
     exit 1
 }
 
-# 300 spheres and 30 rods of 3 spheres.
-expect=(--particles 390 --clumps 30)
+# 300 spheres, 30 rods of 3 spheres, and 20 polyhedra (one bounding sphere each; wedges of 8
+# corners and 6 faces in polyhedra.pvd).
+expect=(--particles 410 --clumps 50 --polyhedra 20 --polyhedron-faces 6)
 for run in binary ascii; do
     s=$scene
     [ "$run" = ascii ] && s=$ascii_scene

@@ -392,14 +392,16 @@ impl Bodies {
         b
     }
 
-    /// Adds a convex polyhedron of material density `density`, centre of mass at `position`, body
-    /// axes rotated by `orientation`: a body with one member sphere centred on the centre of mass
-    /// and holding the polyhedron, which the neighbour search sees (see [`crate::polyhedron`]).
+    /// Adds a convex polyhedron drawn at `scale`, of material density `density`, centre of mass
+    /// at `position`, body axes rotated by `orientation`: a body with one member sphere centred on
+    /// the centre of mass and holding the polyhedron, which the neighbour search sees (see
+    /// [`crate::polyhedron`]).
     #[allow(clippy::too_many_arguments)]
     pub fn add_polyhedron(
         &mut self,
         particles: &mut crate::particles::Particles,
         shape: &std::sync::Arc<crate::polyhedron::ConvexPolyhedron>,
+        scale: f64,
         density: f64,
         material: usize,
         position: DVec3,
@@ -407,19 +409,25 @@ impl Bodies {
         velocity: DVec3,
     ) -> usize {
         let proxy = ClumpTemplate {
-            spheres: vec![(DVec3::ZERO, shape.bounding_radius)],
+            spheres: vec![(DVec3::ZERO, shape.bounding_radius * scale)],
+        };
+        let unit = shape.mass_properties();
+        let props = MassProperties {
+            volume: unit.volume * scale.powi(3),
+            principal_inertia: unit.principal_inertia * scale.powi(5),
+            ..unit
         };
         let b = self.add(
             particles,
             &proxy,
-            &shape.mass_properties(),
+            &props,
             density,
             material,
             position,
             orientation,
             velocity,
         );
-        self.polyhedra.set_last(shape);
+        self.polyhedra.set_last(shape, scale);
         b
     }
 

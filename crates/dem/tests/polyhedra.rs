@@ -41,7 +41,7 @@ fn scene(
     let mut p = Particles::default();
     let mut bodies = Bodies::default();
     for (shape, x, q, v) in items {
-        bodies.add_polyhedron(&mut p, shape, DENSITY, 0, *x, *q, *v);
+        bodies.add_polyhedron(&mut p, shape, 1.0, DENSITY, 0, *x, *q, *v);
     }
     let t = table(
         material("p", 1e7, 0.3, DENSITY),
@@ -295,11 +295,17 @@ fn cube_on_a_triangle_mesh_and_in_a_box_carries_its_weight_once() {
     run(&mut sim, 0.3);
     let weight = DENSITY * 8.0 * H * H * H * g;
     let load = sim.geometries[0].load.force;
+    // The two triangles' pieces are one contact: the cube sinks as on a plane (flat punch).
+    let e_star = 1.0 / (2.0 * (1.0 - 0.09) / 1e7);
+    let a = (4.0 * H * H / std::f64::consts::PI).sqrt();
+    let sink = H - sim.bodies.position[0].z;
     eprintln!(
-        "cube on two triangles: load {:.6e} N against weight {weight:.6e} N",
-        -load.z
+        "cube on two triangles: load {:.6e} N against weight {weight:.6e} N, sinks {sink:.4e} m against {:.4e} m",
+        -load.z,
+        weight / (2.0 * e_star * a)
     );
     assert!(rel_err(-load.z, weight) < 1e-6);
+    assert!(rel_err(sink, weight / (2.0 * e_star * a)) < 1e-3, "{sink}");
     assert!(sim.bodies.velocity[0].length() < 1e-7);
     // Pushed into the corner of an open box of rectangles (frictionless): floor and two walls.
     let walls = Geometry::new(
@@ -351,6 +357,7 @@ fn a_sphere_rests_on_a_polyhedron() {
         bodies.add_polyhedron(
             &mut p,
             &cube,
+            1.0,
             DENSITY,
             0,
             DVec3::new(0.0, 0.0, H),
@@ -500,4 +507,130 @@ fill = {{ type = "random", count = 10, seed = 1 }}
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_cube_on_the_crest_of_a_cylinder_and_a_scaled_cube() {
+    use dem::geometry::{Element, Geometry};
+    // A horizontal shell of radius 20 mm along x; a cube set on its crest rests there, carried
+    // by the shell with no sideways push.
+    let r = 0.02;
+    let shell = Geometry::new(
+        "shell",
+        1,
+        vec![Element::CylinderShell {
+            base: DVec3::new(-0.03, 0.0, 0.0),
+            axis: DVec3::X,
+            radius: r,
+            length: 0.06,
+        }],
+    );
+    let g = 9.81;
+    let mut sim = scene(
+        &[(
+            cuboid(H, H, H),
+            DVec3::new(0.0, 0.0, r + H),
+            DQuat::IDENTITY,
+            DVec3::ZERO,
+        )],
+        0.5,
+        0.5,
+        DVec3::new(0.0, 0.0, -g),
+        false,
+    );
+    sim.geometries.push(shell);
+    run(&mut sim, 0.2);
+    let weight = DENSITY * 8.0 * H * H * H * g;
+    let load = sim.geometries[0].load.force;
+    let x = sim.bodies.position[0];
+    eprintln!("cube on a cylinder's crest: load {load} N, centre {x}");
+    assert!(rel_err(-load.z, weight) < 1e-6);
+    assert!(load.y.abs() < 1e-9 * weight && x.y.abs() < 1e-9);
+    assert!((x.z - (r + H)).abs() < 1e-5, "{x}");
+
+    // The same cube drawn at scale 2 on a plane: 8 times the mass, twice the bounding radius,
+    // and it rests on its face.
+    let cube = cuboid(H, H, H);
+    let mut p = Particles::default();
+    let mut bodies = Bodies::default();
+    bodies.add_polyhedron(
+        &mut p,
+        &cube,
+        2.0,
+        DENSITY,
+        0,
+        DVec3::new(0.0, 0.0, 2.0 * H),
+        DQuat::IDENTITY,
+        DVec3::ZERO,
+    );
+    bodies.add_polyhedron(
+        &mut p,
+        &cube,
+        1.0,
+        DENSITY,
+        0,
+        DVec3::new(0.05, 0.0, H),
+        DQuat::IDENTITY,
+        DVec3::ZERO,
+    );
+    assert_eq!(bodies.polyhedra.shapes.len(), 1, "one shape at two scales");
+    let m1 = DENSITY * 8.0 * H * H * H;
+    assert!(rel_err(bodies.mass[0], 8.0 * m1) < 1e-12);
+    assert!(rel_err(p.radius[0], 2.0 * p.radius[1]) < 1e-12);
+    let t = table(
+        material("p", 1e7, 0.3, DENSITY),
+        material("w", 1e7, 0.3, 7800.0),
+        interaction(0.5, 0.5, 0.0),
+    );
+    let mut sim = simulation(
+        p,
+        t,
+        vec![floor(1)],
+        DT,
+        DVec3::new(0.0, 0.0, -g),
+        RollingModel::ConstantDirectionalTorque,
+    )
+    .with_bodies(bodies);
+    sim.params.skin = 0.2 * H;
+    run(&mut sim, 0.3);
+    let load = sim.geometries[0].load.force;
+    assert!(rel_err(-load.z, 9.0 * m1 * g) < 1e-6, "{load}");
+    let e_star = 1.0 / (2.0 * (1.0 - 0.09) / 1e7);
+    let a = (16.0 * H * H / std::f64::consts::PI).sqrt();
+    let sink = 2.0 * H - sim.bodies.position[0].z;
+    assert!(
+        rel_err(sink, 8.0 * m1 * g / (2.0 * e_star * a)) < 1e-3,
+        "{sink}"
+    );
+}
+
+#[test]
+fn a_cube_inside_another_is_pushed_out() {
+    // A small cube wholly inside a large one has no contact surface; it is pushed along the line
+    // of centres instead of staying inside.
+    let mut sim = scene(
+        &[
+            (
+                cuboid(4.0 * H, 4.0 * H, 4.0 * H),
+                DVec3::ZERO,
+                DQuat::IDENTITY,
+                DVec3::ZERO,
+            ),
+            (
+                cuboid(0.5 * H, 0.5 * H, 0.5 * H),
+                DVec3::new(H, 0.0, 0.0),
+                DQuat::IDENTITY,
+                DVec3::ZERO,
+            ),
+        ],
+        0.5,
+        0.5,
+        DVec3::ZERO,
+        false,
+    );
+    run(&mut sim, 0.05);
+    let (big, small) = (sim.bodies.position[0], sim.bodies.position[1]);
+    eprintln!("cube inside a cube: small at {small}, large at {big}");
+    assert!(small.x - big.x > 4.5 * H, "{small} {big}");
+    assert!(small.y.abs() < 1e-9 && small.z.abs() < 1e-9);
 }

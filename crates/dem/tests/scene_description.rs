@@ -247,7 +247,7 @@ fn a_description_is_checked_with_the_file_keys() {
 #[test]
 fn shared_parts_and_group_particles_read_as_in_a_scene() {
     let table: toml::Table = toml::from_str(FILE).unwrap();
-    let parts = parse::shared_parts(&table, "cup.toml").unwrap();
+    let parts = parse::shared_parts(&table, "cup.toml", std::path::Path::new(".")).unwrap();
     assert_eq!(parts.materials.len(), 2);
     assert_eq!(parts.materials[1].stiffness, Stiffness::YoungsModulus(2e11));
     assert_eq!(parts.interactions.len(), 2);
@@ -257,7 +257,7 @@ fn shared_parts_and_group_particles_read_as_in_a_scene() {
         .as_table_mut()
         .unwrap()
         .insert("density".into(), toml::Value::String("heavy".into()));
-    let e = parse::shared_parts(&bad, "cup.toml")
+    let e = parse::shared_parts(&bad, "cup.toml", std::path::Path::new("."))
         .unwrap_err()
         .to_string();
     assert!(
@@ -270,7 +270,8 @@ fn shared_parts_and_group_particles_read_as_in_a_scene() {
     )
     .unwrap()["p"]
         .clone();
-    let g = parse::group_particles(group, "t.toml", "test.particles").unwrap();
+    let g = parse::group_particles(group, "t.toml", "test.particles", std::path::Path::new("."))
+        .unwrap();
     assert!(matches!(
         g,
         GroupParticles::Inline {
@@ -284,7 +285,7 @@ fn shared_parts_and_group_particles_read_as_in_a_scene() {
     )
     .unwrap()["p"]
         .clone();
-    let e = parse::group_particles(group, "t.toml", "test.particles")
+    let e = parse::group_particles(group, "t.toml", "test.particles", std::path::Path::new("."))
         .unwrap_err()
         .to_string();
     assert_eq!(

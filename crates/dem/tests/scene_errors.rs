@@ -588,6 +588,32 @@ fn polyhedron_shapes() {
         .replacen(fill, random, 1);
     let e = load(&text).err().expect("refused");
     assert_has(&e, &["particles[0].shape.vertices", "one plane"]);
+    // Laws and models that use the equivalent contact's radius beyond Hertz-Mindlin are refused.
+    let kernel = shape("class = \"flat\"");
+    for (from, to, key) in [
+        (
+            "time_step_percent = 20",
+            "time_step_percent = 20\ncontact_model = \"hooke\"",
+            "simulation.contact_model",
+        ),
+        (
+            "time_step_percent = 20",
+            "time_step_percent = 20\nrolling_friction_model = \"epsd\"",
+            "simulation.rolling_friction_model",
+        ),
+        (
+            "restitution = 0.3",
+            "restitution = 0.3\nsurface_energy = 0.1",
+            "interaction[0].surface_energy",
+        ),
+    ] {
+        let text = GOOD
+            .replacen(size, &kernel, 1)
+            .replacen(fill, random, 1)
+            .replacen(from, to, 1);
+        let e = load(&text).err().expect("refused");
+        assert_has(&e, &[key, "polyhedral particles"]);
+    }
     // A box from its corners, and a kernel class with one dimension changed, both load.
     let corners = "vertices = [[0, 0, 0], [0.006, 0, 0], [0, 0.004, 0], [0.006, 0.004, 0], [0, 0, 0.003], [0.006, 0, 0.003], [0, 0.004, 0.003], [0.006, 0.004, 0.003]]";
     for s in [corners, "class = \"flat\", diameter = \"8 mm\""] {

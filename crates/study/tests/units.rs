@@ -84,6 +84,7 @@ fn a_test_with_units_is_the_same_test_in_si() {
             std::mem::replace(&mut settings.particles, toml::Value::Boolean(false)),
             "repose.toml",
             "angle_of_repose.particles",
+            std::path::Path::new("."),
         )
         .unwrap();
         (

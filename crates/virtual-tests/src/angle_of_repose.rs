@@ -437,7 +437,7 @@ impl VirtualTest for AngleOfRepose {
         .map_err(fail)?;
         let final_rms = harness::rms_speed(&sim);
         let positions = sim.particles.position.clone();
-        let (heap, radii) = heap_particles(&sim);
+        let (heap, radii) = heap_particles(&mut sim);
         let m = ReposeMeasurement {
             planes: s.planes,
             fit_band: (s.fit_band[0], s.fit_band[1]),
@@ -523,24 +523,20 @@ impl VirtualTest for AngleOfRepose {
 
 /// The heap's particles for the measurement (a polyhedron by its vertices and edges), and a
 /// radius per particle for pictures (a polyhedron's equal-volume sphere).
-pub fn heap_particles(sim: &Simulation) -> (Vec<HeapParticle>, Vec<f64>) {
+pub fn heap_particles(sim: &mut Simulation) -> (Vec<HeapParticle>, Vec<f64>) {
+    sim.bodies.update_polyhedra();
     let p = &sim.particles;
     let frames = &sim.bodies.polyhedra;
     let mut heap = Vec::with_capacity(p.len());
     let mut radii = Vec::with_capacity(p.len());
     for k in 0..p.len() {
         let b = p.body[k];
-        match frames.shape_of(b) {
-            Some(shape) => {
-                let body = b as usize;
-                let placed = shape.placed_frame(
-                    sim.bodies.position[body],
-                    sim.bodies.rotation[body].orientation,
-                );
-                let r = shape.equal_volume_radius();
+        match frames.world(b) {
+            Some((shape, scale, vertices)) => {
+                let r = shape.equal_volume_radius() * scale;
                 heap.push(HeapParticle::Convex {
                     centre: p.position[k],
-                    vertices: placed.vertices,
+                    vertices: vertices.to_vec(),
                     edges: shape.edges.clone(),
                     equal_volume_radius: r,
                 });

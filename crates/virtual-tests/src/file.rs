@@ -96,7 +96,7 @@ impl TestFile {
                 }
             }
         }
-        let parts = parse::shared_parts(value, name).map_err(|e| e.to_string())?;
+        let parts = parse::shared_parts(value, name, folder).map_err(|e| e.to_string())?;
         Ok(TestFile {
             name: name.to_string(),
             folder: folder.to_path_buf(),
@@ -188,6 +188,7 @@ impl TestFile {
             particles.clone(),
             &self.name,
             &format!("{}.particles", self.test),
+            &self.folder,
         )
         .map_err(|e| e.to_string())
     }

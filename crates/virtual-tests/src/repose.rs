@@ -123,8 +123,14 @@ impl HeapParticle {
                     let (a, b) = (across(p), across(q));
                     if (a <= 0.0) != (b <= 0.0) {
                         top = top.max(p.z + (q.z - p.z) * (a / (a - b)));
-                    } else if a == 0.0 {
-                        top = top.max(p.z);
+                    } else {
+                        // Corners lying in the plane.
+                        if a == 0.0 {
+                            top = top.max(p.z);
+                        }
+                        if b == 0.0 {
+                            top = top.max(q.z);
+                        }
                     }
                 }
                 (top > f64::MIN).then(|| (along(*centre), top))

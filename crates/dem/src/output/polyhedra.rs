@@ -6,7 +6,8 @@ use super::vtp::{Cells, DataArray, PolyData};
 use crate::clump::Bodies;
 use crate::particles::Particles;
 
-/// The polyhedra of `bodies` (None when there are none).
+/// The polyhedra of `bodies` (None when there are none), as of the last update of their world
+/// frames ([`Bodies::update_polyhedra`]).
 pub fn polydata(particles: &Particles, bodies: &Bodies) -> Option<PolyData> {
     let frames = &bodies.polyhedra;
     if !frames.any() {
@@ -18,13 +19,12 @@ pub fn polydata(particles: &Particles, bodies: &Bodies) -> Option<PolyData> {
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for k in 0..particles.len() {
         let b = particles.body[k];
-        let Some(shape) = frames.shape_of(b) else {
+        let Some((shape, _, vertices)) = frames.world(b) else {
             continue;
         };
         let body = b as usize;
-        let placed = shape.placed_frame(bodies.position[body], bodies.rotation[body].orientation);
         let first = out.points.len();
-        out.points.extend(&placed.vertices);
+        out.points.extend(vertices);
         for f in 0..shape.faces.len() {
             polys.push(shape.face(f).iter().map(|&v| first + v as usize));
             id.push(particles.id[k] as i32);

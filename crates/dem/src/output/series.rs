@@ -100,6 +100,7 @@ impl Snapshots {
             self.write_file(&file, &contacts::polydata(&sim.particles, &pairs), time)?;
             self.contacts.add(time, 0, &file);
         }
+        sim.bodies.update_polyhedra();
         if let Some(data) = polyhedra::polydata(&sim.particles, &sim.bodies) {
             let file = name("polyhedra");
             self.write_file(&file, &data, time)?;

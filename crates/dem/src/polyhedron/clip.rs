@@ -11,10 +11,10 @@
 use super::ConvexPolyhedron;
 use glam::DVec3;
 
-/// Most vertices a clipped polygon keeps: a convex face of at most [`super::MAX_FACE_VERTICES`]
-/// gains at most one per clipping plane, and in practice keeps about a dozen; a vertex beyond the
-/// cap would be dropped (the polygon stays inside the overlap).
-const POLY_CAP: usize = super::MAX_FACE_VERTICES + 16;
+/// Most vertices a clipped polygon can have: a convex face of at most
+/// [`super::MAX_FACE_VERTICES`] gains at most one per clipping plane (a wall cap starts with 4 and
+/// meets at most 16 sides and [`super::MAX_FACES`] faces).
+const POLY_CAP: usize = super::MAX_FACE_VERTICES + super::MAX_FACES + 16;
 
 /// A half-space `normal . x <= offset` (normal: unit, outward).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -35,6 +35,8 @@ impl Plane {
 #[derive(Clone, Copy, Debug)]
 pub struct Placed<'a> {
     pub shape: &'a ConvexPolyhedron,
+    /// The scale the shape is drawn at (its vertices and planes here include it).
+    pub scale: f64,
     pub vertices: &'a [DVec3],
     pub planes: &'a [Plane],
     pub centre: DVec3,
@@ -206,12 +208,12 @@ fn add_clipped_faces(
     faces: &[u8],
     b: &Placed,
     clip_by: &[u8],
+    buffers: &mut (Polygon, Polygon),
 ) -> DVec3 {
     let mut area = DVec3::ZERO;
-    let (mut buf_p, mut buf_q) = (Polygon::new(), Polygon::new());
     for &f in faces {
         // Swap references, not the buffers (each is a few kilobytes).
-        let (mut p, mut q) = (&mut buf_p, &mut buf_q);
+        let (mut p, mut q) = (&mut buffers.0, &mut buffers.1);
         let face = &a.shape.faces[f as usize];
         let idx = &a.shape.face_vertices[face.first as usize..(face.first + face.count) as usize];
         p.n = idx.len();
@@ -259,8 +261,9 @@ pub fn polyhedra_overlap(a: &Placed, b: &Placed) -> Option<Overlap> {
         origin: 0.5 * (a.centre + b.centre),
         ..Default::default()
     };
-    let area_a = add_clipped_faces(&mut sums, a, &fa[..na], b, &fb[..nb]);
-    let area_b = add_clipped_faces(&mut sums, b, &fb[..nb], a, &fa[..na]);
+    let mut buffers = (Polygon::new(), Polygon::new());
+    let area_a = add_clipped_faces(&mut sums, a, &fa[..na], b, &fb[..nb], &mut buffers);
+    let area_b = add_clipped_faces(&mut sums, b, &fb[..nb], a, &fa[..na], &mut buffers);
     sums.finish(area_a, area_b)
 }
 
@@ -296,6 +299,7 @@ pub fn wall_overlap(a: &Placed, wall: &Plane, sides: &[Plane]) -> Option<Overlap
     let all: [u8; 17] = std::array::from_fn(|k| k as u8);
     let region = Placed {
         shape: a.shape,
+        scale: a.scale,
         vertices: &[],
         planes: &planes[..count],
         centre: a.centre,
@@ -306,19 +310,20 @@ pub fn wall_overlap(a: &Placed, wall: &Plane, sides: &[Plane]) -> Option<Overlap
         origin: a.centre,
         ..Default::default()
     };
+    let mut buffers = (Polygon::new(), Polygon::new());
     let area_a = add_clipped_faces(
         &mut sums,
         a,
         &faces[..a.planes.len()],
         &region,
         &all[..count],
+        &mut buffers,
     );
     // The region's own faces: a square on each plane, large enough to hold the particle's
     // section, clipped by the other region planes and the particle's planes.
-    let (mut buf_p, mut buf_q) = (Polygon::new(), Polygon::new());
     let mut area_wall = DVec3::ZERO;
     for k in 0..count {
-        let (mut p, mut q) = (&mut buf_p, &mut buf_q);
+        let (mut p, mut q) = (&mut buffers.0, &mut buffers.1);
         let plane = planes[k];
         let n = plane.normal;
         let centre = a.centre - plane.distance(a.centre) * n;

@@ -95,6 +95,20 @@ fn pair_contact<L: ContactLaw>(
     }
 }
 
+/// The normal (from the second body toward the first) and contact area of an overlap. When one
+/// body is wholly inside the other there is no contact surface; then the line of centres
+/// (`apart`, from the second toward the first) and the area of a cube of the overlap's volume are
+/// used, so the bodies are pushed apart rather than left inside each other.
+fn contact_normal(o: &super::Overlap, apart: DVec3) -> Option<(DVec3, f64)> {
+    match o.normal_and_area() {
+        Some((n, area)) if area > 1e-6 * o.volume.powf(2.0 / 3.0) => Some((n, area)),
+        _ => {
+            let len = apart.length();
+            (len > 0.0).then(|| (apart / len, o.volume.powf(2.0 / 3.0)))
+        }
+    }
+}
+
 /// Contact of polyhedra `a` (body i) and `b` (body j); `None` when they do not overlap.
 #[inline]
 #[allow(clippy::too_many_arguments)]
@@ -110,7 +124,7 @@ pub fn polyhedra_pair<L: ContactLaw>(
     dt: f64,
 ) -> Option<PairOutput> {
     let o = polyhedra_overlap(a, b)?;
-    let (n, area) = o.normal_and_area()?;
+    let (n, area) = contact_normal(&o, a.centre - b.centre)?;
     let (overlap, r_eff) = equivalent_contact(o.volume, area);
     Some(pair_contact(
         law, rolling, params, n, o.centroid, overlap, r_eff, area, i, j, history, dt,
@@ -270,16 +284,19 @@ fn wall_region(el: &Element, p: &Placed, sides: &mut [Plane; 16]) -> (Plane, usi
             };
             let centre_rho = radial(p.centre).length();
             let inside = centre_rho < radius;
-            // The deepest vertex sets the tangent plane: the furthest out from inside, the
-            // nearest the axis from outside.
+            // From inside, the deepest point is a vertex (the furthest from the axis), and the
+            // tangent plane there bounds the wall. From outside (the shell is convex), the
+            // tangent plane facing the particle's centre.
             let mut pick = radial(p.centre);
-            let mut best = if inside { f64::MIN } else { f64::MAX };
-            for v in p.vertices {
-                let r = radial(*v);
-                let rho = r.length();
-                if (inside && rho > best) || (!inside && rho < best) {
-                    best = rho;
-                    pick = r;
+            if inside {
+                let mut best = f64::MIN;
+                for v in p.vertices {
+                    let r = radial(*v);
+                    let rho = r.length();
+                    if rho > best {
+                        best = rho;
+                        pick = r;
+                    }
                 }
             }
             let e = if pick.length() > 0.0 {
@@ -322,21 +339,27 @@ pub fn wall_penetration(el: &Element, poly: &Placed) -> Option<f64> {
     let mut sides = [Plane::default(); 16];
     let (wall, count) = wall_region(el, poly, &mut sides);
     let o = wall_overlap(poly, &wall, &sides[..count])?;
-    let (_, area) = o.normal_and_area()?;
+    let area = o.area_second.length().max(o.volume.powf(2.0 / 3.0) * 1e-6);
     Some(equivalent_contact(o.volume, area).0)
 }
 
 /// The same for two placed polyhedra.
 pub fn pair_penetration(a: &Placed, b: &Placed) -> Option<f64> {
     let o = polyhedra_overlap(a, b)?;
-    let (_, area) = o.normal_and_area()?;
+    let (_, area) = contact_normal(&o, a.centre - b.centre)?;
     Some(equivalent_contact(o.volume, area).0)
 }
+
+/// Most pieces of one particle's wall contacts merged per step; beyond it pieces go alone.
+const MAX_PIECES: usize = 16;
 
 /// Contacts of one polyhedron with its geometry candidates (the polyhedral counterpart of
 /// [`crate::sim::walls::wall_contacts`]): each element's overlap with the particle, restricted to
 /// the element's footprint so a flat patch of triangles shares the contact without counting it
-/// twice.
+/// twice. Pieces of one geometry that lie in one plane (the triangles of a flat patch) are summed
+/// into one contact before the law sees them, so the stiffness does not depend on how the
+/// surface is cut into elements: the contact is that of the whole flat area, carried by the
+/// first candidate of the piece (its history and output); the others output zero.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn polyhedron_wall_contacts<L: ContactLaw>(
@@ -351,57 +374,156 @@ pub fn polyhedron_wall_contacts<L: ContactLaw>(
     materials: &MaterialTable,
     dt: f64,
 ) {
+    // (first candidate, geometry, wall plane, volume, first moment, area vector)
+    let mut pieces: [(usize, u16, Plane, f64, DVec3, DVec3); MAX_PIECES] =
+        [(0, 0, Plane::default(), 0.0, DVec3::ZERO, DVec3::ZERO); MAX_PIECES];
+    let mut count_pieces = 0;
     let mut sides = [Plane::default(); 16];
-    for (cand, out) in cands.iter_mut().zip(outs.iter_mut()) {
-        let g = &geometries[cand.geometry as usize];
-        let el = &g.elements[cand.element as usize];
+    let tol = 1e-9 * poly.radius.max(1e-12);
+    for k in 0..cands.len() {
+        let g = &geometries[cands[k].geometry as usize];
+        let el = &g.elements[cands[k].element as usize];
         let (wall, count) = wall_region(el, poly, &mut sides);
-        let contact = wall_overlap(poly, &wall, &sides[..count])
-            .and_then(|o| o.normal_and_area().map(|na| (o, na)));
-        let Some((o, (n, area))) = contact else {
-            cand.history = ContactHistory::default();
-            *out = WallOutput::default();
+        let overlap = wall_overlap(poly, &wall, &sides[..count]);
+        outs[k] = WallOutput::default();
+        let Some(o) = overlap else {
+            cands[k].history = ContactHistory::default();
             continue;
         };
-        let (overlap, r_eff) = equivalent_contact(o.volume, area);
-        let point = o.centroid;
-        let arm = point - body.x;
-        let lever = arm.length();
-        let params = materials.pair(material, g.material);
-        let cp = ContactPoint {
-            normal: n,
-            overlap,
-            r_eff,
-            m_eff: body.m,
-            v_rel: body.velocity_at(point) - g.velocity.at(point),
-            spin_lever: DVec3::ZERO,
-        };
-        let c = evaluate(
-            law,
-            rolling,
-            params,
-            &cp,
-            body.w - g.velocity.angular,
-            || 1.4 * body.m * lever * lever,
-            &mut cand.history,
-            dt,
-        );
-        let rocking = rocking_damping(params, area, body.m, n, body.w - g.velocity.angular);
-        let rolling_limit = c.rolling_resistance * lever;
-        let mut reaction_rolling = -c.rolling_torque - rocking;
-        if rolling_limit > 0.0 {
-            let s = body.w.length();
-            if s > 0.0 {
-                reaction_rolling += body.w * (rolling_limit / s);
+        let same = pieces[..count_pieces].iter().position(|p| {
+            p.1 == cands[k].geometry
+                && p.2.normal.dot(wall.normal) > 1.0 - 1e-9
+                && (p.2.offset - wall.offset).abs() < tol
+        });
+        match same {
+            Some(at) => {
+                let p = &mut pieces[at];
+                p.3 += o.volume;
+                p.4 += o.volume * o.centroid;
+                p.5 += o.area_second;
+                cands[k].history = ContactHistory::default();
+            }
+            None if count_pieces < MAX_PIECES => {
+                pieces[count_pieces] = (
+                    k,
+                    cands[k].geometry,
+                    wall,
+                    o.volume,
+                    o.volume * o.centroid,
+                    o.area_second,
+                );
+                count_pieces += 1;
+            }
+            None => {
+                // More separate walls than pieces: this one alone.
+                wall_contact(
+                    law,
+                    rolling,
+                    poly,
+                    body,
+                    material,
+                    &mut cands[k],
+                    &mut outs[k],
+                    g,
+                    materials,
+                    o.volume,
+                    o.centroid,
+                    o.area_second,
+                    &wall,
+                    dt,
+                );
             }
         }
-        *out = WallOutput {
-            force: -c.force,
-            torque: point.cross(-c.force) + reaction_rolling,
-            particle_torque: arm.cross(c.force) + c.rolling_torque + rocking,
-            rolling: rolling_limit,
-        };
     }
+    for p in &pieces[..count_pieces] {
+        let k = p.0;
+        let g = &geometries[p.1 as usize];
+        wall_contact(
+            law,
+            rolling,
+            poly,
+            body,
+            material,
+            &mut cands[k],
+            &mut outs[k],
+            g,
+            materials,
+            p.3,
+            p.4 / p.3,
+            p.5,
+            &p.2,
+            dt,
+        );
+    }
+}
+
+/// One wall contact of overlap `volume` about `centroid` with the wall's area vector `area_vector`
+/// (along the wall normal; zero when the particle is wholly beyond the wall plane, and then the
+/// wall's normal and the area of a cube of that volume are used, so the particle is pushed out).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn wall_contact<L: ContactLaw>(
+    law: &L,
+    rolling: RollingModel,
+    poly: &Placed,
+    body: &Kinematics,
+    material: usize,
+    cand: &mut WallCandidate,
+    out: &mut WallOutput,
+    g: &Geometry,
+    materials: &MaterialTable,
+    volume: f64,
+    centroid: DVec3,
+    area_vector: DVec3,
+    wall: &Plane,
+    dt: f64,
+) {
+    let _ = poly;
+    let area_len = area_vector.length();
+    let floor = volume.powf(2.0 / 3.0) * 1e-6;
+    let (n, area) = if area_len > floor {
+        (area_vector / area_len, area_len)
+    } else {
+        (wall.normal, volume.powf(2.0 / 3.0))
+    };
+    let (overlap, r_eff) = equivalent_contact(volume, area);
+    let point = centroid;
+    let arm = point - body.x;
+    let lever = arm.length();
+    let params = materials.pair(material, g.material);
+    let cp = ContactPoint {
+        normal: n,
+        overlap,
+        r_eff,
+        m_eff: body.m,
+        v_rel: body.velocity_at(point) - g.velocity.at(point),
+        spin_lever: DVec3::ZERO,
+    };
+    let c = evaluate(
+        law,
+        rolling,
+        params,
+        &cp,
+        body.w - g.velocity.angular,
+        || 1.4 * body.m * lever * lever,
+        &mut cand.history,
+        dt,
+    );
+    let rocking = rocking_damping(params, area, body.m, n, body.w - g.velocity.angular);
+    let rolling_limit = c.rolling_resistance * lever;
+    let mut reaction_rolling = -c.rolling_torque - rocking;
+    if rolling_limit > 0.0 {
+        let s = body.w.length();
+        if s > 0.0 {
+            reaction_rolling += body.w * (rolling_limit / s);
+        }
+    }
+    *out = WallOutput {
+        force: -c.force,
+        torque: point.cross(-c.force) + reaction_rolling,
+        particle_torque: arm.cross(c.force) + c.rolling_torque + rocking,
+        rolling: rolling_limit,
+    };
 }
 
 #[cfg(test)]

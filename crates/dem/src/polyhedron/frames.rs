@@ -4,6 +4,7 @@
 use super::clip::{Placed, Plane};
 use super::ConvexPolyhedron;
 use glam::{DQuat, DVec3};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// `shape` of a body that is a clump, not a polyhedron.
@@ -15,6 +16,10 @@ pub struct PolyFrames {
     pub shapes: Vec<Arc<ConvexPolyhedron>>,
     /// Per body: index into `shapes`, or [`NO_SHAPE`].
     pub shape: Vec<u32>,
+    /// Per body: the scale its shape is drawn at (1 for clumps).
+    pub scale: Vec<f64>,
+    /// Index in `shapes` by the shape's address.
+    by_address: HashMap<usize, u32>,
     vertex_start: Vec<u32>,
     plane_start: Vec<u32>,
     vertices: Vec<DVec3>,
@@ -27,24 +32,30 @@ impl PolyFrames {
         !self.shapes.is_empty()
     }
 
-    /// Registers the next body (`None`: a clump). Shapes are shared by pointer.
-    pub fn push(&mut self, shape: Option<&Arc<ConvexPolyhedron>>) {
+    /// Registers the next body (`None`: a clump), a shape at a scale. Shapes are shared by
+    /// address, so bodies of one shape at many scales hold it once.
+    pub fn push(&mut self, shape: Option<(&Arc<ConvexPolyhedron>, f64)>) {
         if self.vertex_start.is_empty() {
             self.vertex_start.push(0);
             self.plane_start.push(0);
         }
         let index = match shape {
             None => NO_SHAPE,
-            Some(s) => match self.shapes.iter().position(|t| Arc::ptr_eq(t, s)) {
-                Some(k) => k as u32,
-                None => {
+            Some((s, _)) => {
+                let next = self.shapes.len() as u32;
+                let k = *self
+                    .by_address
+                    .entry(Arc::as_ptr(s) as usize)
+                    .or_insert(next);
+                if k == next {
                     self.shapes.push(s.clone());
-                    (self.shapes.len() - 1) as u32
                 }
-            },
+                k
+            }
         };
         self.shape.push(index);
-        let (nv, nf) = shape.map_or((0, 0), |s| (s.vertices.len(), s.faces.len()));
+        self.scale.push(shape.map_or(1.0, |s| s.1));
+        let (nv, nf) = shape.map_or((0, 0), |(s, _)| (s.vertices.len(), s.faces.len()));
         self.vertices.resize(self.vertices.len() + nv, DVec3::ZERO);
         self.planes.resize(self.planes.len() + nf, Plane::default());
         self.vertex_start.push(self.vertices.len() as u32);
@@ -52,8 +63,9 @@ impl PolyFrames {
     }
 
     /// Makes the last registered body (a clump so far) the polyhedron `shape`.
-    pub fn set_last(&mut self, shape: &Arc<ConvexPolyhedron>) {
+    pub fn set_last(&mut self, shape: &Arc<ConvexPolyhedron>, scale: f64) {
         self.shape.pop();
+        self.scale.pop();
         self.vertex_start.pop();
         self.plane_start.pop();
         let (v, p) = (
@@ -62,7 +74,7 @@ impl PolyFrames {
         );
         self.vertices.truncate(v);
         self.planes.truncate(p);
-        self.push(Some(shape));
+        self.push(Some((shape, scale)));
     }
 
     /// The shape of body `b`, if it is a polyhedron.
@@ -97,6 +109,7 @@ impl PolyFrames {
             shape.place_into(
                 positions[b],
                 orientations(b),
+                self.scale[b],
                 &mut self.vertices[v0..v1],
                 &mut self.planes[p0..p1],
             );
@@ -108,13 +121,26 @@ impl PolyFrames {
     pub fn placed(&self, b: u32, centre: DVec3) -> Option<Placed<'_>> {
         let shape = self.shape_of(b)?;
         let b = b as usize;
+        let scale = self.scale[b];
         Some(Placed {
             shape,
+            scale,
             vertices: &self.vertices
                 [self.vertex_start[b] as usize..self.vertex_start[b + 1] as usize],
             planes: &self.planes[self.plane_start[b] as usize..self.plane_start[b + 1] as usize],
             centre,
-            radius: shape.bounding_radius,
+            radius: shape.bounding_radius * scale,
         })
+    }
+
+    /// Body `b`'s world vertices as of the last [`Self::update`], its shape and scale.
+    pub fn world(&self, b: u32) -> Option<(&ConvexPolyhedron, f64, &[DVec3])> {
+        let shape = self.shape_of(b)?;
+        let b = b as usize;
+        Some((
+            shape,
+            self.scale[b],
+            &self.vertices[self.vertex_start[b] as usize..self.vertex_start[b + 1] as usize],
+        ))
     }
 }

@@ -134,14 +134,17 @@ fn merge_coplanar(points: &[DVec3], tris: &[[usize; 3]], size: f64) -> Result<Hu
     for t in tris {
         let (p, q, r) = (points[t[0]], points[t[1]], points[t[2]]);
         let nn = (q - p).cross(r - p);
-        if nn.length() <= 0.0 {
+        // A sliver (from near-duplicate points) has no reliable normal; its corners belong to
+        // its neighbours' faces anyway.
+        if nn.length() <= 1e-10 * size * size {
             continue;
         }
         let n = nn.normalize();
         let off = n.dot(p);
+        // Coplanar within what f32 coordinates (STL files) resolve: 1e-6 of the size.
         match groups
             .iter_mut()
-            .find(|(gn, go, _)| gn.dot(n) > 1.0 - 1e-9 && (go - off).abs() < 1e-9 * size)
+            .find(|(gn, go, _)| gn.dot(n) > 1.0 - 1e-9 && (go - off).abs() < 1e-6 * size)
         {
             Some(g) => g.2.extend_from_slice(t),
             None => groups.push((n, off, t.to_vec())),
@@ -185,6 +188,9 @@ fn merge_coplanar(points: &[DVec3], tris: &[[usize; 3]], size: f64) -> Result<Hu
             ring.push(i);
         }
         ring.pop();
+        if ring.len() < 3 {
+            continue;
+        }
         let vs = ring;
         rings.push((n, centre, vs));
     }

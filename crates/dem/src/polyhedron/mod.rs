@@ -72,8 +72,9 @@ pub struct ConvexPolyhedron {
     pub principal_inertia: DVec3,
     /// Largest distance of a vertex from the centre of mass.
     pub bounding_radius: f64,
-    /// Smallest width between two parallel supporting planes normal to a face (half of it bounds
-    /// the inscribed sphere, which sets the time step).
+    /// Smallest width between two parallel supporting planes normal to a face (an upper bound of
+    /// the true smallest width; half of it is the radius the time step and the start-up overlap
+    /// checks take).
     pub min_width: f64,
 }
 
@@ -224,28 +225,29 @@ impl ConvexPolyhedron {
             centre: position,
             radius: self.bounding_radius,
         };
-        self.place_into(position, orientation, &mut f.vertices, &mut f.planes);
+        self.place_into(position, orientation, 1.0, &mut f.vertices, &mut f.planes);
         f
     }
 
-    /// Writes the world vertices and face planes at a pose into the given slices (of the shape's
-    /// vertex and face counts).
+    /// Writes the world vertices and face planes of the shape drawn at `scale` at a pose into the
+    /// given slices (of the shape's vertex and face counts).
     #[inline]
     pub fn place_into(
         &self,
         position: DVec3,
         orientation: DQuat,
+        scale: f64,
         vertices: &mut [DVec3],
         planes: &mut [Plane],
     ) {
         for (w, v) in vertices.iter_mut().zip(&self.vertices) {
-            *w = position + orientation * *v;
+            *w = position + orientation * (*v * scale);
         }
         for (p, f) in planes.iter_mut().zip(&self.faces) {
             let n = orientation * f.normal;
             *p = Plane {
                 normal: n,
-                offset: f.offset + n.dot(position),
+                offset: f.offset * scale + n.dot(position),
             };
         }
     }
@@ -269,6 +271,7 @@ impl PlacedFrame {
     pub fn placed<'a>(&'a self, shape: &'a ConvexPolyhedron) -> Placed<'a> {
         Placed {
             shape,
+            scale: 1.0,
             vertices: &self.vertices,
             planes: &self.planes,
             centre: self.centre,
@@ -368,9 +371,19 @@ pub fn from_stl(
         );
         solid += a.dot(b.cross(c)) / 6.0;
     }
+    // A scanned solid can have 1e5 vertices; its hull is reduced to at most MAX_VERTICES anyway,
+    // so the hull is taken of the 4000 most spread-out points (the full hull's volume as well).
+    let points = if points.len() > 4000 {
+        farthest_points(&points, 4000)
+    } else {
+        points
+    };
     let (poly, _, reduced) = ConvexPolyhedron::from_points_noted(&points)?;
     let mut notes = Vec::new();
-    let full = convex_hull(&points).map(|h| hull_volume(&h))?;
+    let full = match &reduced {
+        Some(_) => convex_hull(&points).map(|h| hull_volume(&h))?,
+        None => poly.volume,
+    };
     if solid.abs() < (1.0 - 0.01) * full {
         notes.push(format!(
             "{NOT_CONVEX}: its volume is {:.1} % of its convex hull's, which the particle takes",

@@ -348,6 +348,15 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
         Some(v) => ctx.positive(v, "simulation.expected_max_speed".into())?,
         None => initial_speed.max(fall_speed).max(0.1),
     };
+    let polyhedra = groups.iter().any(|g| {
+        g.mixture
+            .types
+            .iter()
+            .any(|t| matches!(t.shape, crate::mixture::Shape::Polyhedron { .. }))
+    });
+    if polyhedra {
+        polyhedra_supported(d, ctx, &contact_model, &rolling_model)?;
+    }
     let collision = timestep::shortest_collision_time(
         &contact_model,
         &smallest,
@@ -554,6 +563,39 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
             .filter(|n| !n.contains(crate::polyhedron::NOT_CONVEX))
             .collect(),
     })
+}
+
+/// Polyhedral particles reach the contact law as an equivalent Hertz contact whose effective
+/// radius has no meaning beyond the Hertz-Mindlin stiffnesses (docs/physics.md, polyhedral
+/// particles): laws and models that use that radius otherwise are refused.
+fn polyhedra_supported(
+    d: &SceneDescription,
+    ctx: &Ctx,
+    contact_model: &ContactModel,
+    rolling_model: &RollingModel,
+) -> Result<(), SceneError> {
+    if contact_model.name() != "hertz_mindlin" {
+        return Err(ctx.err(
+            "simulation.contact_model",
+            format!(
+                "polyhedral particles take contact_model = \"hertz_mindlin\", not \"{}\"",
+                contact_model.name()
+            ),
+        ));
+    }
+    if !matches!(rolling_model, RollingModel::ConstantDirectionalTorque) {
+        return Err(ctx.err(
+            "simulation.rolling_friction_model",
+            "polyhedral particles take the constant directional torque (\"cdt\"), not epsd",
+        ));
+    }
+    if let Some(k) = d.interactions.iter().position(|i| i.surface_energy != 0.0) {
+        return Err(ctx.err(
+            format!("interaction[{k}].surface_energy"),
+            "JKR cohesion is not defined for polyhedral particles; expected 0",
+        ));
+    }
+    Ok(())
 }
 
 /// The material table: every material, then every interaction.

@@ -334,6 +334,14 @@ pub fn prepare_shapes(
                     SizeDistribution::Fixed { radius: 1.0 },
                 );
                 *shape = ParticleShape::Prepared(built.shape);
+            } else if matches!(
+                shape,
+                ParticleShape::Polyhedron {
+                    source: PolyhedronSource::Stl { .. }
+                }
+            ) {
+                // Left to each build, which reads the file and warns when the solid is not
+                // convex (a prepared shape would carry no warning into the scenes made from it).
             } else if let Some(poly) = polyhedron_shape(&ctx, prefix, name, shape, &mut notes)? {
                 let built = ParticleType::polyhedron(
                     name,

@@ -259,16 +259,10 @@ impl Simulation {
                         .push(it.position, velocity, it.size, t.density, t.material);
                 }
                 Shape::Polyhedron { polyhedron } => {
-                    let scaled;
-                    let shape = if it.size == 1.0 {
-                        polyhedron
-                    } else {
-                        scaled = std::sync::Arc::new(polyhedron.scaled(it.size));
-                        &scaled
-                    };
                     let b = self.bodies.add_polyhedron(
                         &mut self.particles,
-                        shape,
+                        polyhedron,
+                        it.size,
                         t.density,
                         t.material,
                         it.position,
@@ -329,7 +323,7 @@ impl Simulation {
                 // A polyhedron: its overlap depth over its inscribed radius.
                 (Some(a), Some(b)) => crate::polyhedron::contact::pair_penetration(&a, &b)
                     .map_or(0.0, |d| {
-                        d / (0.5 * a.shape.min_width.min(b.shape.min_width))
+                        d / (0.5 * (a.shape.min_width * a.scale).min(b.shape.min_width * b.scale))
                     }),
                 (Some(a), None) | (None, Some(a)) => {
                     let s = if frames.is_polyhedron(p.body[i]) {
@@ -339,7 +333,7 @@ impl Simulation {
                     };
                     let (_, _, dist) =
                         crate::polyhedron::contact::closest_on_polyhedron(&a, p.position[s]);
-                    (p.radius[s] - dist) / p.radius[s].min(0.5 * a.shape.min_width)
+                    (p.radius[s] - dist) / p.radius[s].min(0.5 * a.shape.min_width * a.scale)
                 }
             };
             if rel > 0.0 && worst.is_none_or(|w| rel > w.0) {
@@ -364,7 +358,7 @@ impl Simulation {
                 // A polyhedron: its overlap depth over its inscribed radius.
                 let rel = match &poly {
                     Some(poly) => crate::polyhedron::contact::wall_penetration(el, poly)
-                        .map(|d| d / (0.5 * poly.shape.min_width)),
+                        .map(|d| d / (0.5 * poly.shape.min_width * poly.scale)),
                     None => el
                         .closest(p.position[k], p.radius[k])
                         .map(|cl| (p.radius[k] - cl.distance) / p.radius[k]),

@@ -97,7 +97,12 @@ pub struct SharedParts {
 
 /// Reads the `material`, `interaction` and `particle_type` arrays of `table` (other keys are the
 /// caller's); errors name `file` and the key as in a scene file (`material[1].density`).
-pub fn shared_parts(table: &toml::Table, file: &str) -> Result<SharedParts, SceneError> {
+/// `base` resolves relative paths inside (STL files of particle shapes).
+pub fn shared_parts(
+    table: &toml::Table,
+    file: &str,
+    base: &Path,
+) -> Result<SharedParts, SceneError> {
     let ctx = Ctx { file };
     let get = |k: &str| table.get(k).cloned();
     let materials: Vec<MaterialEntry> = match get("material") {
@@ -127,22 +132,24 @@ pub fn shared_parts(table: &toml::Table, file: &str) -> Result<SharedParts, Scen
         particle_types: types
             .into_iter()
             .enumerate()
-            .map(|(k, t)| particle_type(&ctx, k, t, Path::new("")))
+            .map(|(k, t)| particle_type(&ctx, k, t, base))
             .collect::<Result<_, _>>()?,
     })
 }
 
 /// Reads which particles a group holds, as a scene's `[[particles]]` gives them without their
 /// placement: one type inline (`material` with `size`, or `shape` and `scale`) or a mixture of
-/// named types (`types`, `fractions`, `basis`). `key` names the table in errors.
+/// named types (`types`, `fractions`, `basis`). `key` names the table in errors; `base` resolves
+/// relative paths inside.
 pub fn group_particles(
     value: toml::Value,
     file: &str,
     key: &str,
+    base: &Path,
 ) -> Result<GroupParticles, SceneError> {
     let ctx = Ctx { file };
     let e: GroupParticlesEntry = from_value(&ctx, key, value)?;
-    particles::group_from_entry(&ctx, key, e, Path::new(""))
+    particles::group_from_entry(&ctx, key, e, base)
 }
 
 /// Every section of a scene file, as `docs/reference.md` heads it, with the keys its reader

@@ -5,6 +5,7 @@ mod bench;
 mod help_check;
 mod lab;
 mod progress;
+mod shape;
 mod tables;
 
 use clap::{Parser, Subcommand};
@@ -189,6 +190,13 @@ enum Command {
     Surrogate {
         #[command(subcommand)]
         action: SurrogateCommand,
+    },
+    /// Particle shapes: multi-sphere fits of the maize kernel classes or an STL solid to a volume
+    /// error, with their surface error and smallest sphere.
+    #[command(after_help = "Example:\n  demcal shape fit --volume-error 0.05 --today")]
+    Shape {
+        #[command(subcommand)]
+        action: shape::ShapeCommand,
     },
     /// Run a peer benchmark and print particle-steps per second (batch: simulations per hour).
     #[command(after_help = "Example:\n  demcal bench settle --threads 2")]
@@ -403,6 +411,7 @@ fn main() -> ExitCode {
             Command::Doe { action } => doe_command(action),
             Command::Surrogate { action } => surrogate_command(action),
             Command::Lab { action } => lab::run(action),
+            Command::Shape { action } => shape::run(action),
             Command::Run {
                 study,
                 jobs,

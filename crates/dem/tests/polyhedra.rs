@@ -482,7 +482,7 @@ fill = {{ type = "random", count = 10, seed = 1 }}
         )
     };
     let load = |file: &str| dem::scene::Scene::from_toml(&scene(file), "s.toml", &dir);
-    let boxed = load("box.stl").ok().expect("box loads");
+    let boxed = load("box.stl").expect("box loads");
     let v = boxed
         .simulation
         .bodies
@@ -492,7 +492,7 @@ fill = {{ type = "random", count = 10, seed = 1 }}
         .volume;
     assert!((v / (6e-3 * 4e-3 * 3e-3) - 1.0).abs() < 1e-9, "{v}");
     assert!(boxed.warnings.is_empty(), "{:?}", boxed.warnings);
-    let ell = load("ell.stl").ok().expect("L loads");
+    let ell = load("ell.stl").expect("L loads");
     let v = ell.simulation.bodies.polyhedra.shape_of(0).unwrap().volume;
     assert!((v / (3.5e-6 * 3e-3) - 1.0).abs() < 1e-9, "{v}");
     let warned = ell

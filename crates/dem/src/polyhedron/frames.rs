@@ -92,6 +92,7 @@ impl PolyFrames {
 
     /// Recomputes the world frames from the bodies' poses.
     pub fn update(&mut self, positions: &[DVec3], orientations: impl Fn(usize) -> DQuat) {
+        #[allow(clippy::needless_range_loop)] // b indexes five per-body arrays
         for b in 0..self.shape.len() {
             let s = self.shape[b];
             if s == NO_SHAPE {

@@ -455,8 +455,17 @@ impl VirtualTest for InclineSlide {
                 )],
             )?;
             let com = centres(&sim)[0];
+            // A polyhedron's lowest point is its lowest corner, not its bounding sphere's.
+            sim.bodies.update_polyhedra();
+            let frames = &sim.bodies.polyhedra;
             let lowest = (0..sim.particles.len())
-                .map(|k| (sim.particles.position[k] - com).dot(normal) - sim.particles.radius[k])
+                .map(|k| match frames.world(sim.particles.body[k]) {
+                    Some((_, _, corners)) => corners
+                        .iter()
+                        .map(|v| (*v - com).dot(normal))
+                        .fold(f64::INFINITY, f64::min),
+                    None => (sim.particles.position[k] - com).dot(normal) - sim.particles.radius[k],
+                })
                 .fold(f64::INFINITY, f64::min);
             // Lowest point a hair above the ramp at the release point.
             let gap = 1e-5;

@@ -43,12 +43,24 @@ fn scene(
     for (shape, x, q, v) in items {
         bodies.add_polyhedron(&mut p, shape, 1.0, DENSITY, 0, *x, *q, *v);
     }
+    let geometries = if floor_too { vec![floor(1)] } else { vec![] };
+    assemble(p, bodies, restitution, friction, gravity, geometries)
+}
+
+/// The simulation of particles and bodies already made, materials 0 (particles) and 1 (walls).
+fn assemble(
+    p: Particles,
+    bodies: Bodies,
+    restitution: f64,
+    friction: f64,
+    gravity: DVec3,
+    geometries: Vec<dem::geometry::Geometry>,
+) -> Simulation {
     let t = table(
         material("p", 1e7, 0.3, DENSITY),
         material("w", 1e7, 0.3, 7800.0),
         interaction(restitution, friction, 0.0),
     );
-    let geometries = if floor_too { vec![floor(1)] } else { vec![] };
     let mut sim = simulation(
         p,
         t,
@@ -371,22 +383,14 @@ fn a_sphere_rests_on_a_polyhedron() {
             DENSITY,
             0,
         );
-        let t = table(
-            material("p", 1e7, 0.3, DENSITY),
-            material("w", 1e7, 0.3, 7800.0),
-            interaction(0.5, 0.5, 0.0),
-        );
-        let mut sim = simulation(
+        assemble(
             p,
-            t,
-            vec![floor(1)],
-            DT,
+            bodies,
+            0.5,
+            0.5,
             DVec3::new(0.0, 0.0, -g),
-            RollingModel::ConstantDirectionalTorque,
+            vec![floor(1)],
         )
-        .with_bodies(bodies);
-        sim.params.skin = 0.2 * H;
-        sim
     };
     run(&mut sim, 0.4);
     let sphere_mass = DENSITY * 4.0 / 3.0 * std::f64::consts::PI * 0.002f64.powi(3);
@@ -501,6 +505,25 @@ fill = {{ type = "random", count = 10, seed = 1 }}
         .find(|w| w.contains("not convex"))
         .unwrap();
     assert!(warned.contains("85.7 %"), "{warned}");
+    // An open mesh (the box without its top) has no volume to compare with its hull: refused.
+    let open: String = prism_stl(&[(0.0, 0.0), (6.0, 0.0), (6.0, 4.0), (0.0, 4.0)], 3.0)
+        .split("facet normal")
+        .enumerate()
+        .filter(|(k, _)| *k != 1 && *k != 3)
+        .map(|(k, part)| {
+            if k == 0 {
+                part.to_string()
+            } else {
+                format!("facet normal{part}")
+            }
+        })
+        .collect();
+    std::fs::write(dir.join("open.stl"), open).unwrap();
+    let e = load("open.stl").err().expect("refused").to_string();
+    assert!(
+        e.contains("particles[0].shape.file") && e.contains("not closed"),
+        "{e}"
+    );
     let e = load("missing.stl").err().expect("refused").to_string();
     assert!(
         e.contains("particles[0].shape.file") && e.contains("does not exist"),
@@ -577,21 +600,14 @@ fn a_cube_on_the_crest_of_a_cylinder_and_a_scaled_cube() {
     let m1 = DENSITY * 8.0 * H * H * H;
     assert!(rel_err(bodies.mass[0], 8.0 * m1) < 1e-12);
     assert!(rel_err(p.radius[0], 2.0 * p.radius[1]) < 1e-12);
-    let t = table(
-        material("p", 1e7, 0.3, DENSITY),
-        material("w", 1e7, 0.3, 7800.0),
-        interaction(0.5, 0.5, 0.0),
-    );
-    let mut sim = simulation(
+    let mut sim = assemble(
         p,
-        t,
-        vec![floor(1)],
-        DT,
+        bodies,
+        0.5,
+        0.5,
         DVec3::new(0.0, 0.0, -g),
-        RollingModel::ConstantDirectionalTorque,
-    )
-    .with_bodies(bodies);
-    sim.params.skin = 0.2 * H;
+        vec![floor(1)],
+    );
     run(&mut sim, 0.3);
     let load = sim.geometries[0].load.force;
     assert!(rel_err(-load.z, 9.0 * m1 * g) < 1e-6, "{load}");

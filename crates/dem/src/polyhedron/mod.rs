@@ -349,28 +349,17 @@ fn farthest_points(points: &[DVec3], k: usize) -> Vec<DVec3> {
 /// The words that start the note on a non-convex STL solid (scenes turn it into a warning).
 pub const NOT_CONVEX: &str = "the solid is not convex";
 
-/// Reads a closed STL solid (scaled, e.g. 0.001 for millimetres) and returns its convex hull, with
+/// Reads a closed STL solid (scaled, e.g. 0.001 for millimetres; errors name the file) and returns
+/// its convex hull, with
 /// a note when the solid is not convex (its volume below the hull's) or the hull was reduced.
 pub fn from_stl(
     path: &std::path::Path,
     scale: f64,
 ) -> Result<(ConvexPolyhedron, Vec<String>), String> {
-    let mut file = std::fs::File::open(path).map_err(|e| format!("cannot open: {e}"))?;
-    let mesh = stl_io::read_stl(&mut file).map_err(|e| format!("not a valid STL file: {e}"))?;
-    let points: Vec<DVec3> = mesh
-        .vertices
-        .iter()
-        .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) * scale)
-        .collect();
-    let mut solid = 0.0;
-    for f in &mesh.faces {
-        let (a, b, c) = (
-            points[f.vertices[0]],
-            points[f.vertices[1]],
-            points[f.vertices[2]],
-        );
-        solid += a.dot(b.cross(c)) / 6.0;
-    }
+    // Read as the multi-sphere fits read a solid: closed, its volume by the divergence theorem.
+    let mesh = crate::sphere_fit::mesh::MeshSolid::read(path, scale)?;
+    let solid = crate::sphere_fit::Solid::volume(&mesh);
+    let points: Vec<DVec3> = mesh.triangles.iter().flatten().copied().collect();
     // A scanned solid can have 1e5 vertices; its hull is reduced to at most MAX_VERTICES anyway,
     // so the hull is taken of the 4000 most spread-out points (the full hull's volume as well).
     let points = if points.len() > 4000 {

@@ -224,8 +224,8 @@ fn polyhedron_shape(
                 ));
             }
             let scale = ctx.positive(*scale, sk("file_scale"))?;
-            let (p, stl_notes) = crate::polyhedron::from_stl(file, scale)
-                .map_err(|m| ctx.err(sk("file"), format!("{}: {m}", file.display())))?;
+            let (p, stl_notes) =
+                crate::polyhedron::from_stl(file, scale).map_err(|m| ctx.err(sk("file"), m))?;
             for note in stl_notes {
                 notes.push(format!("{prefix} (\"{name}\"): {}: {note}", file.display()));
             }

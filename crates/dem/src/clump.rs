@@ -452,10 +452,50 @@ impl Bodies {
     /// Half kick of body `b` with its stored force and torque; the rolling resistance brakes the
     /// angular momentum along the spin, at most to rest.
     pub fn kick(&mut self, b: usize, half_dt: f64) {
-        self.velocity[b] += self.force[b] * (half_dt / self.mass[b]);
-        let rot = &mut self.rotation[b];
-        rot.angular_momentum += self.torque[b] * half_dt;
-        let brake = self.rolling_limit[b] * half_dt;
+        let load = (self.force[b], self.torque[b], self.rolling_limit[b]);
+        kick_body(
+            &mut self.velocity[b],
+            &mut self.rotation[b],
+            self.mass[b],
+            load,
+            half_dt,
+        );
+    }
+
+    /// Every body's half kick ([`Self::kick`]), and with `drift_dt` its drift and turn over that
+    /// time, in parallel.
+    pub fn kick_all(&mut self, half_dt: f64, drift_dt: Option<f64>) {
+        use rayon::prelude::*;
+        let (mass, force, torque, limit) =
+            (&self.mass, &self.force, &self.torque, &self.rolling_limit);
+        self.velocity
+            .par_iter_mut()
+            .zip(self.rotation.par_iter_mut())
+            .zip(self.position.par_iter_mut())
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(b, ((v, rot), x))| {
+                kick_body(v, rot, mass[b], (force[b], torque[b], limit[b]), half_dt);
+                if let Some(dt) = drift_dt {
+                    *x += *v * dt;
+                    rot.advance_orientation(dt);
+                }
+            });
+    }
+}
+
+/// Half kick of one body of mass `mass` under `(force, torque, rolling limit)`.
+fn kick_body(
+    velocity: &mut DVec3,
+    rot: &mut RigidRotation,
+    mass: f64,
+    (force, torque, rolling_limit): (DVec3, DVec3, f64),
+    half_dt: f64,
+) {
+    *velocity += force * (half_dt / mass);
+    {
+        rot.angular_momentum += torque * half_dt;
+        let brake = rolling_limit * half_dt;
         if brake > 0.0 {
             let w = rot.angular_velocity();
             let s = w.length();

@@ -19,6 +19,7 @@ pub mod material;
 pub mod mixture;
 pub mod neighbour;
 pub mod output;
+mod parallel;
 pub mod particles;
 pub mod polyhedron;
 pub mod scene;

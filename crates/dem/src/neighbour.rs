@@ -7,6 +7,7 @@
 //! (pairs in which a particle is j) lets forces be summed per particle without atomics.
 
 use crate::contact::ContactHistory;
+use crate::parallel;
 use crate::particles::Particles;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -37,6 +38,12 @@ pub struct NeighbourList {
     pub skin: f64,
     pub pairs: Vec<Pair>,
     pub output: Vec<PairOutput>,
+    /// Per pair, 0 when its output slot is zero and its history empty (the pair has been apart
+    /// since the last build, or since it last touched), so that the pair and sum stages pass it
+    /// by without touching either: while a bed forms most listed pairs are apart, and their
+    /// slots are most of the memory traffic of a step. A stage that writes output slots without
+    /// keeping this up to date calls [`NeighbourList::mark_all_active`].
+    pub active: Vec<u8>,
     /// CSR rows over i into `pairs`.
     pub row_start: Vec<u32>,
     /// CSR rows over j into `reverse`, which holds pair indices.
@@ -46,11 +53,11 @@ pub struct NeighbourList {
     pub built_at: Vec<DVec3>,
     pub rebuilds: u64,
     // Reused buffers.
-    cell_of: Vec<u32>,
+    keys: Vec<u64>,
     cell_start: Vec<u32>,
     order: Vec<u32>,
     inverse: Vec<u32>,
-    scratch: Vec<u8>,
+    scratch: Vec<u64>,
     carried: Vec<(u64, ContactHistory)>,
     grid: Grid,
 }
@@ -86,6 +93,13 @@ pub struct Reorder<'a> {
 }
 
 impl NeighbourList {
+    /// Marks every pair as possibly non-zero (after its output slots were written by code that
+    /// does not keep [`NeighbourList::active`]), so the sums read them all.
+    pub fn mark_all_active(&mut self) {
+        self.active.clear();
+        self.active.resize(self.pairs.len(), 1);
+    }
+
     pub fn new(skin: f64) -> Self {
         NeighbourList {
             skin,
@@ -98,7 +112,7 @@ impl NeighbourList {
     /// Returns the permutation so the caller can move its own per-particle data.
     pub fn rebuild(&mut self, particles: &mut Particles, extra_reach: f64) -> Reorder<'_> {
         let n = particles.len();
-        let max_r = particles.radius.iter().cloned().fold(0.0, f64::max);
+        let max_r = parallel::max(&particles.radius);
         let reach = 2.0 * max_r + self.skin + extra_reach;
 
         // Grid over the particle bounds, coarsened if the particles are spread thinly.
@@ -125,55 +139,51 @@ impl NeighbourList {
         let grid = self.grid;
         let ncell = (grid.dims[0] * grid.dims[1] * grid.dims[2]) as usize;
 
-        // Counting sort by cell.
-        self.cell_of.clear();
-        self.cell_of.extend(
+        // Sort by cell: every stage of the rebuild is parallel, and each gives the same answer
+        // for any thread count (sort keys are unique, writes go to disjoint slots).
+        self.keys.clear();
+        self.keys.par_extend(
             particles
                 .position
-                .iter()
-                .map(|&x| grid.index(grid.coords(x)) as u32),
+                .par_iter()
+                .enumerate()
+                .map(|(i, &x)| ((grid.index(grid.coords(x)) as u64) << 32) | i as u64),
         );
-        self.cell_start.clear();
+        self.keys.par_sort_unstable();
         self.cell_start.resize(ncell + 1, 0);
-        for &c in &self.cell_of {
-            self.cell_start[c as usize + 1] += 1;
-        }
-        for c in 0..ncell {
-            self.cell_start[c + 1] += self.cell_start[c];
-        }
+        let keys = &self.keys;
+        parallel::row_starts(n, |k| (keys[k] >> 32) as usize, &mut self.cell_start);
         self.order.clear();
-        self.order.resize(n, 0);
-        {
-            let mut fill = self.cell_start.clone();
-            for (old, &c) in self.cell_of.iter().enumerate() {
-                self.order[fill[c as usize] as usize] = old as u32;
-                fill[c as usize] += 1;
-            }
-        }
-        self.inverse.clear();
+        self.order
+            .par_extend(self.keys.par_iter().map(|&k| k as u32));
         self.inverse.resize(n, 0);
-        for (new, &old) in self.order.iter().enumerate() {
-            self.inverse[old as usize] = new as u32;
-        }
+        let inverse = parallel::Shared(self.inverse.as_mut_ptr());
+        self.order.par_iter().enumerate().for_each(|(new, &old)| {
+            // SAFETY: `order` is a permutation, so every old index is written once.
+            unsafe { inverse.ptr().add(old as usize).write(new as u32) };
+        });
         particles.permute(&self.order, &mut self.scratch);
 
         // Old history, renamed to the new indices and sorted like the new list will be.
+        let inverse = &self.inverse;
         self.carried.clear();
-        for p in &self.pairs {
-            if !p.history.is_empty() {
-                let (a, b) = (self.inverse[p.i as usize], self.inverse[p.j as usize]);
-                if a < b {
-                    self.carried
-                        .push((((a as u64) << 32) | b as u64, p.history));
-                } else {
-                    self.carried
-                        .push((((b as u64) << 32) | a as u64, p.history.reversed()));
-                }
-            }
-        }
-        self.carried.sort_unstable_by_key(|c| c.0);
+        self.carried.par_extend(
+            self.pairs
+                .par_iter()
+                .filter(|p| !p.history.is_empty())
+                .map(|p| {
+                    let (a, b) = (inverse[p.i as usize], inverse[p.j as usize]);
+                    if a < b {
+                        ((a as u64) << 32 | b as u64, p.history)
+                    } else {
+                        ((b as u64) << 32 | a as u64, p.history.reversed())
+                    }
+                }),
+        );
+        self.carried.par_sort_unstable_by_key(|c| c.0);
 
-        // New half list, built in parallel over blocks of particles and joined in order.
+        // New half list, found in parallel over blocks of particles, then written in parallel
+        // at each block's offset.
         let skin = self.skin + extra_reach;
         let pos = &particles.position;
         let rad = &particles.radius;
@@ -221,65 +231,82 @@ impl NeighbourList {
                 (counts, js)
             })
             .collect();
-
-        self.pairs.clear();
-        self.row_start.clear();
-        self.row_start.push(0);
-        let mut i = 0u32;
-        for (counts, js) in &blocks {
+        let mut offsets = Vec::with_capacity(blocks.len() + 1);
+        offsets.push(0usize);
+        for (_, js) in &blocks {
+            offsets.push(offsets.last().unwrap() + js.len());
+        }
+        let total = *offsets.last().unwrap();
+        self.pairs.resize(total, Pair::default());
+        self.row_start.resize(n + 1, 0);
+        self.row_start[n] = total as u32;
+        let (pairs, rows) = (
+            parallel::Shared(self.pairs.as_mut_ptr()),
+            parallel::Shared(self.row_start.as_mut_ptr()),
+        );
+        let carried = &self.carried;
+        blocks.par_iter().enumerate().for_each(|(b, (counts, js))| {
+            let mut at = offsets[b];
+            // The carried history of this block's rows: a merge, both sorted by (i, j).
+            let first_key = ((b * block) as u64) << 32;
+            let mut c = carried.partition_point(|h| h.0 < first_key);
             let mut k = 0;
-            for &c in counts {
-                for &j in &js[k..k + c as usize] {
-                    self.pairs.push(Pair {
-                        i,
-                        j,
-                        ..Default::default()
-                    });
+            for (r, &count) in counts.iter().enumerate() {
+                let i = (b * block + r) as u32;
+                // SAFETY: row i and the pairs at offsets[b].. belong to this block alone.
+                unsafe { rows.ptr().add(i as usize).write(at as u32) };
+                for &j in &js[k..k + count as usize] {
+                    let key = (i as u64) << 32 | j as u64;
+                    while c < carried.len() && carried[c].0 < key {
+                        c += 1;
+                    }
+                    let history = if c < carried.len() && carried[c].0 == key {
+                        carried[c].1
+                    } else {
+                        ContactHistory::default()
+                    };
+                    unsafe { pairs.ptr().add(at).write(Pair { i, j, history }) };
+                    at += 1;
                 }
-                k += c as usize;
-                self.row_start.push(self.pairs.len() as u32);
-                i += 1;
+                k += count as usize;
             }
+        });
+        if n == 0 {
+            self.row_start[0] = 0;
         }
 
-        // Merge the carried history into the new list (both sorted by (i, j)).
-        let mut c = 0;
-        for p in self.pairs.iter_mut() {
-            if c >= self.carried.len() {
-                break;
-            }
-            let key = ((p.i as u64) << 32) | p.j as u64;
-            while c < self.carried.len() && self.carried[c].0 < key {
-                c += 1;
-            }
-            if c < self.carried.len() && self.carried[c].0 == key {
-                p.history = self.carried[c].1;
-                c += 1;
-            }
-        }
-
-        // Reverse index: for each j, the pairs it belongs to, in pair order.
-        self.reverse_start.clear();
+        // Reverse index: for each j, the pairs it belongs to, in pair order (sorting the unique
+        // keys (j, pair) gives exactly that).
+        self.keys.clear();
+        self.keys.par_extend(
+            self.pairs
+                .par_iter()
+                .enumerate()
+                .map(|(k, p)| (p.j as u64) << 32 | k as u64),
+        );
+        self.keys.par_sort_unstable();
         self.reverse_start.resize(n + 1, 0);
-        for p in &self.pairs {
-            self.reverse_start[p.j as usize + 1] += 1;
-        }
-        for k in 0..n {
-            self.reverse_start[k + 1] += self.reverse_start[k];
-        }
+        let keys = &self.keys;
+        parallel::row_starts(
+            keys.len(),
+            |k| (keys[k] >> 32) as usize,
+            &mut self.reverse_start,
+        );
         self.reverse.clear();
-        self.reverse.resize(self.pairs.len(), 0);
-        {
-            let mut fill = self.reverse_start.clone();
-            for (k, p) in self.pairs.iter().enumerate() {
-                self.reverse[fill[p.j as usize] as usize] = k as u32;
-                fill[p.j as usize] += 1;
-            }
-        }
+        self.reverse
+            .par_extend(self.keys.par_iter().map(|&k| k as u32));
         self.output.clear();
-        self.output.resize(self.pairs.len(), PairOutput::default());
+        self.output
+            .par_extend((0..total).into_par_iter().map(|_| PairOutput::default()));
+        self.active.clear();
+        self.active.par_extend(
+            self.pairs
+                .par_iter()
+                .map(|p| u8::from(!p.history.is_empty())),
+        );
         self.built_at.clear();
-        self.built_at.extend_from_slice(&particles.position);
+        self.built_at
+            .par_extend(particles.position.par_iter().copied());
         self.rebuilds += 1;
         Reorder {
             order: &self.order,

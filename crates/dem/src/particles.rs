@@ -4,6 +4,7 @@
 //! memory; `id` keeps each particle's stable identity for output.
 
 use glam::DVec3;
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 #[derive(Clone, Debug, Default)]
@@ -68,24 +69,23 @@ impl Particles {
         self.body_offset.push(DVec3::ZERO);
     }
 
-    /// Reorders every array so that new index k holds old particle `order[k]`.
-    pub fn permute(&mut self, order: &[u32], scratch: &mut Vec<u8>) {
-        fn apply<T: Copy>(v: &mut Vec<T>, order: &[u32], scratch: &mut Vec<u8>) {
-            // Reuse one byte buffer for every array so a reorder allocates nothing after warm-up.
-            let bytes = std::mem::size_of::<T>() * v.len();
-            scratch.clear();
-            scratch.reserve(bytes + std::mem::align_of::<T>());
-            let base = scratch.as_mut_ptr();
-            let offset = base.align_offset(std::mem::align_of::<T>());
-            // SAFETY: the buffer holds at least `bytes` bytes past an offset aligned for T, and every
-            // slot is written before it is read.
-            unsafe {
-                let tmp = base.add(offset) as *mut T;
-                for (k, &o) in order.iter().enumerate() {
-                    tmp.add(k).write(v[o as usize]);
-                }
-                std::ptr::copy_nonoverlapping(tmp, v.as_mut_ptr(), v.len());
+    /// Reorders every array so that new index k holds old particle `order[k]`, in parallel.
+    /// `scratch` is reused for every array, so a reorder allocates nothing after warm-up.
+    pub fn permute(&mut self, order: &[u32], scratch: &mut Vec<u64>) {
+        fn apply<T: Copy + Send + Sync>(v: &mut [T], order: &[u32], scratch: &mut Vec<u64>) {
+            let words = (std::mem::size_of_val(v)).div_ceil(8);
+            if scratch.len() < words {
+                scratch.resize(words, 0);
             }
+            // SAFETY: the scratch words are initialised, 8-byte aligned (enough for every field
+            // type here) and cover `v.len()` values of T; the fields are plain numbers, for
+            // which any bits are a value, and every slot is written before it is read.
+            let tmp =
+                unsafe { std::slice::from_raw_parts_mut(scratch.as_mut_ptr() as *mut T, v.len()) };
+            crate::parallel::gather(v, order, tmp);
+            v.par_chunks_mut(crate::parallel::CHUNK)
+                .zip(tmp.par_chunks(crate::parallel::CHUNK))
+                .for_each(|(a, b)| a.copy_from_slice(b));
         }
         apply(&mut self.id, order, scratch);
         apply(&mut self.position, order, scratch);
@@ -105,14 +105,7 @@ impl Particles {
 
     /// Axis-aligned box around the centres, grown by each radius when `with_radius`.
     pub fn bounds(&self, with_radius: bool) -> (DVec3, DVec3) {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for (x, r) in self.position.iter().zip(&self.radius) {
-            let pad = DVec3::splat(if with_radius { *r } else { 0.0 });
-            lo = lo.min(*x - pad);
-            hi = hi.max(*x + pad);
-        }
-        (lo, hi)
+        crate::parallel::bounds(&self.position, with_radius.then_some(&self.radius[..]))
     }
 
     /// Translational plus rotational kinetic energy.

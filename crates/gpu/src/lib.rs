@@ -702,6 +702,7 @@ impl Backend for GpuStages {
             slot.rolling_i = o[11 * q + 9];
             slot.rolling_j = o[11 * q + 10];
         }
+        lists.mark_all_active();
     }
 
     fn wall_forces(&self, p: &Particles, walls: &mut WallLists, inputs: &StepInputs) {

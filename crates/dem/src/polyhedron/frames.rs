@@ -91,30 +91,35 @@ impl PolyFrames {
     }
 
     /// Recomputes the world frames from the bodies' poses.
-    pub fn update(&mut self, positions: &[DVec3], orientations: impl Fn(usize) -> DQuat) {
-        #[allow(clippy::needless_range_loop)] // b indexes five per-body arrays
-        for b in 0..self.shape.len() {
-            let s = self.shape[b];
-            if s == NO_SHAPE {
-                continue;
-            }
-            let shape = &self.shapes[s as usize];
-            let (v0, v1) = (
-                self.vertex_start[b] as usize,
-                self.vertex_start[b + 1] as usize,
-            );
-            let (p0, p1) = (
-                self.plane_start[b] as usize,
-                self.plane_start[b + 1] as usize,
-            );
-            shape.place_into(
-                positions[b],
-                orientations(b),
-                self.scale[b],
-                &mut self.vertices[v0..v1],
-                &mut self.planes[p0..p1],
-            );
-        }
+    /// In parallel over the bodies: each writes its own vertex and plane rows.
+    pub fn update(&mut self, positions: &[DVec3], orientations: impl Fn(usize) -> DQuat + Sync) {
+        use crate::parallel::Shared;
+        use rayon::prelude::*;
+        let (vertices, planes) = (
+            Shared(self.vertices.as_mut_ptr()),
+            Shared(self.planes.as_mut_ptr()),
+        );
+        let (shape_of, shapes, scale) = (&self.shape, &self.shapes, &self.scale);
+        let (vertex_start, plane_start) = (&self.vertex_start, &self.plane_start);
+        (0..shape_of.len())
+            .into_par_iter()
+            .with_min_len(64)
+            .for_each(|b| {
+                let s = shape_of[b];
+                if s == NO_SHAPE {
+                    return;
+                }
+                let (v0, v1) = (vertex_start[b] as usize, vertex_start[b + 1] as usize);
+                let (p0, p1) = (plane_start[b] as usize, plane_start[b + 1] as usize);
+                // SAFETY: the rows of different bodies are disjoint ranges of the buffers.
+                let (vs, ps) = unsafe {
+                    (
+                        std::slice::from_raw_parts_mut(vertices.ptr().add(v0), v1 - v0),
+                        std::slice::from_raw_parts_mut(planes.ptr().add(p0), p1 - p0),
+                    )
+                };
+                shapes[s as usize].place_into(positions[b], orientations(b), scale[b], vs, ps);
+            });
     }
 
     /// Body `b` placed in the world (as of the last [`Self::update`]); `centre` its centre of mass.

@@ -93,4 +93,19 @@ pub trait Backend: Send + Sync {
         inputs: &StepInputs,
         kick: bool,
     );
+
+    /// [`Self::wall_forces`] then [`Self::particle_sums`]. A back end may do both in one pass
+    /// over the particles (the CPU does: each particle's wall contacts are summed while still in
+    /// cache, and a step has one parallel section fewer).
+    fn wall_forces_and_sums(
+        &self,
+        particles: &mut Particles,
+        lists: &NeighbourList,
+        walls: &mut WallLists,
+        inputs: &StepInputs,
+        kick: bool,
+    ) {
+        self.wall_forces(particles, walls, inputs);
+        self.particle_sums(particles, lists, walls, inputs, kick);
+    }
 }

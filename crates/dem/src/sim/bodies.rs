@@ -1,20 +1,20 @@
 //! The clump stages of the step: bodies are kicked and drifted before the spheres, their members
 //! placed from the body's pose, and after the forces the members' forces and torques gathered onto
-//! the body.
+//! the body. Each runs in parallel over the bodies (a member belongs to one body, so the writes
+//! are disjoint).
 
 use super::Simulation;
+use crate::parallel::Shared;
 use glam::DVec3;
+use rayon::prelude::*;
+
+/// Bodies per parallel task.
+const BODY_BLOCK: usize = 256;
 
 impl Simulation {
     /// Clumps: half kick, drift, orientation update, then their members follow.
     pub(super) fn bodies_first_half(&mut self, dt: f64) {
-        let half = 0.5 * dt;
-        let bodies = &mut self.bodies;
-        for b in 0..bodies.len() {
-            bodies.kick(b, half);
-            bodies.position[b] += bodies.velocity[b] * dt;
-            bodies.rotation[b].advance_orientation(dt);
-        }
+        self.bodies.kick_all(0.5 * dt, Some(dt));
         self.place_members(true);
     }
 
@@ -22,19 +22,33 @@ impl Simulation {
     pub(super) fn place_members(&mut self, positions: bool) {
         let p = &mut self.particles;
         let bodies = &self.bodies;
-        for b in 0..bodies.len() {
-            let rot = &bodies.rotation[b];
-            let w = rot.angular_velocity();
-            for &id in &bodies.members[b] {
-                let k = self.index_of[id as usize] as usize;
-                let arm = rot.orientation * p.body_offset[k];
-                if positions {
-                    p.position[k] = bodies.position[b] + arm;
+        let index_of = &self.index_of;
+        let offset = &p.body_offset;
+        let (x, v, w) = (
+            Shared(p.position.as_mut_ptr()),
+            Shared(p.velocity.as_mut_ptr()),
+            Shared(p.angular_velocity.as_mut_ptr()),
+        );
+        (0..bodies.len())
+            .into_par_iter()
+            .with_min_len(BODY_BLOCK)
+            .for_each(|b| {
+                let rot = &bodies.rotation[b];
+                let spin = rot.angular_velocity();
+                for &id in &bodies.members[b] {
+                    let k = index_of[id as usize] as usize;
+                    let arm = rot.orientation * offset[k];
+                    // SAFETY: a member belongs to one body, so member k is written by this task
+                    // alone, and `offset` is another array.
+                    unsafe {
+                        if positions {
+                            x.ptr().add(k).write(bodies.position[b] + arm);
+                        }
+                        v.ptr().add(k).write(bodies.velocity[b] + spin.cross(arm));
+                        w.ptr().add(k).write(spin);
+                    }
                 }
-                p.velocity[k] = bodies.velocity[b] + w.cross(arm);
-                p.angular_velocity[k] = w;
-            }
-        }
+            });
     }
 
     /// Sums members' forces and torques onto their bodies. A member's force includes gravity on
@@ -43,19 +57,28 @@ impl Simulation {
     pub(super) fn gather_bodies(&mut self) {
         let p = &self.particles;
         let g = self.params.gravity;
+        let index_of = &self.index_of;
         let bodies = &mut self.bodies;
-        for b in 0..bodies.len() {
-            let (mut f, mut t, mut lim) = (g * bodies.mass[b], DVec3::ZERO, 0.0);
-            for &id in &bodies.members[b] {
-                let k = self.index_of[id as usize] as usize;
-                let contact = p.force[k] - g * p.mass[k];
-                f += contact;
-                t += (p.position[k] - bodies.position[b]).cross(contact) + p.torque[k];
-                lim += p.rolling_torque_limit[k];
-            }
-            bodies.force[b] = f;
-            bodies.torque[b] = t;
-            bodies.rolling_limit[b] = lim;
-        }
+        let (mass, position, members) = (&bodies.mass, &bodies.position, &bodies.members);
+        bodies
+            .force
+            .par_iter_mut()
+            .zip(bodies.torque.par_iter_mut())
+            .zip(bodies.rolling_limit.par_iter_mut())
+            .enumerate()
+            .with_min_len(BODY_BLOCK)
+            .for_each(|(b, ((force, torque), limit))| {
+                let (mut f, mut t, mut lim) = (g * mass[b], DVec3::ZERO, 0.0);
+                for &id in &members[b] {
+                    let k = index_of[id as usize] as usize;
+                    let contact = p.force[k] - g * p.mass[k];
+                    f += contact;
+                    t += (p.position[k] - position[b]).cross(contact) + p.torque[k];
+                    lim += p.rolling_torque_limit[k];
+                }
+                *force = f;
+                *torque = t;
+                *limit = lim;
+            });
     }
 }

@@ -32,6 +32,7 @@ impl Simulation {
             let mut copy = NeighbourList::new(self.params.skin);
             copy.pairs = self.neighbours.pairs.clone();
             copy.output = vec![PairOutput::default(); copy.pairs.len()];
+            copy.mark_all_active();
             let inputs = self.inputs(!self.bodies.is_empty());
             CpuBackend.pair_forces(&self.particles, &mut copy, &inputs);
             fresh = copy.output;

@@ -3,10 +3,11 @@
 //! fixed order, so results do not depend on the number of threads.
 
 use super::backend::{Backend, StepInputs};
-use super::walls::{wall_contacts, WallBody, WallLists};
+use super::walls::{wall_contacts, WallBody, WallLists, WallOutput};
 use super::{SimulationParams, BLOCK};
 use crate::contact::{evaluate, ContactLaw, ContactPoint, LawVisitor};
 use crate::neighbour::{NeighbourList, PairOutput};
+use crate::parallel::Shared;
 use crate::particles::{Particles, NO_BODY};
 use crate::polyhedron::contact::{
     polyhedra_pair, polyhedron_sphere, polyhedron_wall_contacts, Kinematics,
@@ -50,29 +51,55 @@ impl Backend for CpuBackend {
             .enumerate()
             .map(|(b, ((xs, vs), ws))| {
                 let base = b * BLOCK;
+                let len = xs.len();
+                // Slices of one length, so the loop below runs without bounds checks.
+                let (vs, ws) = (&mut vs[..len], &mut ws[..len]);
+                let (fs, ts, ls) = (
+                    &force[base..][..len],
+                    &torque[base..][..len],
+                    &limit[base..][..len],
+                );
+                let (ims, iis, bs, at) = (
+                    &inv_mass[base..][..len],
+                    &inv_inertia[base..][..len],
+                    &body[base..][..len],
+                    &built[base..][..len],
+                );
                 let mut worst: f64 = 0.0;
-                let mut bad: Option<usize> = None;
-                for k in 0..xs.len() {
-                    let i = base + k;
+                // Branch-free checks in the loop: a NaN or infinite displacement and the box
+                // around the block's positions; the block is searched for the culprit only when
+                // one of them fails.
+                let mut finite = true;
+                let mut lo = DVec3::INFINITY;
+                let mut hi = DVec3::NEG_INFINITY;
+                for k in 0..len {
                     // Clump members were moved with their bodies.
-                    if !clumps || body[i] == NO_BODY {
-                        vs[k] += force[i] * (inv_mass[i] * half);
-                        ws[k] = kick_spin(ws[k], torque[i], limit[i], inv_inertia[i] * half);
+                    if !clumps || bs[k] == NO_BODY {
+                        vs[k] += fs[k] * (ims[k] * half);
+                        ws[k] = kick_spin(ws[k], ts[k], ls[k], iis[k] * half);
                         xs[k] += vs[k] * dt;
                     }
-                    let d2 = (xs[k] - built[i]).length_squared();
-                    if d2.is_finite() {
-                        worst = worst.max(d2);
-                    } else if bad.is_none() {
-                        bad = Some(i);
-                    }
-                    if let Some((lo, hi)) = domain {
-                        let x = xs[k];
-                        if bad.is_none() && (x.cmplt(lo).any() || x.cmpgt(hi).any()) {
-                            bad = Some(i);
-                        }
-                    }
+                    let d2 = (xs[k] - at[k]).length_squared();
+                    finite &= d2 <= f64::MAX;
+                    worst = if d2 > worst { d2 } else { worst };
+                    lo = lo.min(xs[k]);
+                    hi = hi.max(xs[k]);
                 }
+                let outside =
+                    domain.is_some_and(|(dlo, dhi)| lo.cmplt(dlo).any() || hi.cmpgt(dhi).any());
+                let bad = if finite && !outside {
+                    None
+                } else {
+                    (0..len)
+                        .find(|&k| {
+                            let x = xs[k];
+                            !((x - at[k]).length_squared() <= f64::MAX)
+                                || domain.is_some_and(|(dlo, dhi)| {
+                                    x.cmplt(dlo).any() || x.cmpgt(dhi).any()
+                                })
+                        })
+                        .map(|k| base + k)
+                };
                 (worst, bad)
             })
             .reduce(
@@ -112,50 +139,146 @@ impl Backend for CpuBackend {
         inputs: &StepInputs,
         kick: bool,
     ) {
-        let half = 0.5 * inputs.params.time_step;
-        let gravity = inputs.params.gravity;
-        let clumps = inputs.clumps;
-        let (mass, inv_mass, inv_inertia, body) = (&p.mass, &p.inv_mass, &p.inv_inertia, &p.body);
-        p.force
-            .par_chunks_mut(BLOCK)
-            .zip(p.torque.par_chunks_mut(BLOCK))
-            .zip(p.rolling_torque_limit.par_chunks_mut(BLOCK))
-            .zip(p.velocity.par_chunks_mut(BLOCK))
-            .zip(p.angular_velocity.par_chunks_mut(BLOCK))
-            .enumerate()
-            .for_each(|(b, ((((fs, ts), ls), vs), ws))| {
-                for k in 0..fs.len() {
-                    let i = b * BLOCK + k;
-                    let mut f = gravity * mass[i];
-                    let mut t = DVec3::ZERO;
-                    let mut lim = 0.0;
-                    for o in &nl.output[nl.row_start[i] as usize..nl.row_start[i + 1] as usize] {
+        let out = Shared(walls.output.as_ptr() as *mut WallOutput);
+        sums(p, nl, out, &walls.start, inputs, kick, |_, _, _, _| {});
+    }
+
+    fn wall_forces_and_sums(
+        &self,
+        p: &mut Particles,
+        nl: &NeighbourList,
+        walls: &mut WallLists,
+        inputs: &StepInputs,
+        kick: bool,
+    ) {
+        if walls.candidates.is_empty() {
+            return self.particle_sums(p, nl, walls, inputs, kick);
+        }
+        inputs.params.contact_model.dispatch(GatherStage {
+            p,
+            nl,
+            walls,
+            inputs,
+            kick,
+        });
+    }
+}
+
+/// Each particle sums gravity, its pair slots (as i, then as j) and its wall slots, in that
+/// fixed order, then gets the second half kick when `kick`. `before(i, v, w)` runs first for
+/// each particle with its velocity and spin as they were when the stage began (the fused gather
+/// stage computes the particle's wall contacts there, into the particle's own wall slots).
+fn sums(
+    p: &mut Particles,
+    nl: &NeighbourList,
+    wall_output: Shared<WallOutput>,
+    wall_start: &[u32],
+    inputs: &StepInputs,
+    kick: bool,
+    before: impl Fn(&Particles, usize, DVec3, DVec3) + Sync,
+) {
+    let half = 0.5 * inputs.params.time_step;
+    let gravity = inputs.params.gravity;
+    let clumps = inputs.clumps;
+    // The arrays this stage writes are taken out of the particles for the pass, so that the rest
+    // (positions, radii, masses, ...) can be read through a shared reference beside them.
+    let mut force = std::mem::take(&mut p.force);
+    let mut torque = std::mem::take(&mut p.torque);
+    let mut limit = std::mem::take(&mut p.rolling_torque_limit);
+    let mut velocity = std::mem::take(&mut p.velocity);
+    let mut spin = std::mem::take(&mut p.angular_velocity);
+    let shared: &Particles = p;
+    force
+        .par_chunks_mut(BLOCK)
+        .zip(torque.par_chunks_mut(BLOCK))
+        .zip(limit.par_chunks_mut(BLOCK))
+        .zip(velocity.par_chunks_mut(BLOCK))
+        .zip(spin.par_chunks_mut(BLOCK))
+        .enumerate()
+        .for_each(|(b, ((((fs, ts), ls), vs), ws))| {
+            let p = shared;
+            for k in 0..fs.len() {
+                let i = b * BLOCK + k;
+                before(p, i, vs[k], ws[k]);
+                let mut f = gravity * p.mass[i];
+                let mut t = DVec3::ZERO;
+                let mut lim = 0.0;
+                // Inactive slots are zero (see `NeighbourList::active`): passing them by adds
+                // nothing, so the sum is the same as over every slot.
+                let row = nl.row_start[i] as usize..nl.row_start[i + 1] as usize;
+                for (o, &a) in nl.output[row.clone()].iter().zip(&nl.active[row]) {
+                    if a != 0 {
                         f += o.force;
                         t += o.torque_i;
                         lim += o.rolling_i;
                     }
-                    for &q in
-                        &nl.reverse[nl.reverse_start[i] as usize..nl.reverse_start[i + 1] as usize]
-                    {
+                }
+                for &q in
+                    &nl.reverse[nl.reverse_start[i] as usize..nl.reverse_start[i + 1] as usize]
+                {
+                    if nl.active[q as usize] != 0 {
                         let o = &nl.output[q as usize];
                         f -= o.force;
                         t += o.torque_j;
                         lim += o.rolling_j;
                     }
-                    for o in &walls.output[walls.row(i)] {
-                        f -= o.force;
-                        t += o.particle_torque;
-                        lim += o.rolling;
-                    }
-                    fs[k] = f;
-                    ts[k] = t;
-                    ls[k] = lim;
-                    if kick && (!clumps || body[i] == NO_BODY) {
-                        vs[k] += f * (inv_mass[i] * half);
-                        ws[k] = kick_spin(ws[k], t, lim, inv_inertia[i] * half);
-                    }
                 }
-            });
+                let (w0, w1) = (wall_start[i] as usize, wall_start[i + 1] as usize);
+                // SAFETY: this particle's wall slots were written (if at all) by `before` on
+                // this task just now, and no other task touches them.
+                let wall_slots =
+                    unsafe { std::slice::from_raw_parts(wall_output.ptr().add(w0), w1 - w0) };
+                for o in wall_slots {
+                    f -= o.force;
+                    t += o.particle_torque;
+                    lim += o.rolling;
+                }
+                fs[k] = f;
+                ts[k] = t;
+                ls[k] = lim;
+                if kick && (!clumps || p.body[i] == NO_BODY) {
+                    vs[k] += f * (p.inv_mass[i] * half);
+                    ws[k] = kick_spin(ws[k], t, lim, p.inv_inertia[i] * half);
+                }
+            }
+        });
+    p.force = force;
+    p.torque = torque;
+    p.rolling_torque_limit = limit;
+    p.velocity = velocity;
+    p.angular_velocity = spin;
+}
+
+/// The wall stage and the particle sums in one pass, compiled for one contact law: each particle
+/// computes its wall contacts, then sums them with its pair slots.
+struct GatherStage<'a> {
+    p: &'a mut Particles,
+    nl: &'a NeighbourList,
+    walls: &'a mut WallLists,
+    inputs: &'a StepInputs<'a>,
+    kick: bool,
+}
+
+impl LawVisitor for GatherStage<'_> {
+    type Output = ();
+
+    fn visit<L: ContactLaw>(self, law: &L) {
+        let start = &self.walls.start;
+        let cands = Shared(self.walls.candidates.as_mut_ptr());
+        let outs = Shared(self.walls.output.as_mut_ptr());
+        let inputs = self.inputs;
+        let before = |p: &Particles, i: usize, v: DVec3, w: DVec3| {
+            let (w0, w1) = (start[i] as usize, start[i + 1] as usize);
+            if w1 == w0 {
+                return;
+            }
+            // SAFETY: candidate rows of different particles are disjoint and each particle is
+            // handled by exactly one task.
+            let cands = unsafe { std::slice::from_raw_parts_mut(cands.ptr().add(w0), w1 - w0) };
+            let outs = unsafe { std::slice::from_raw_parts_mut(outs.ptr().add(w0), w1 - w0) };
+            particle_walls(law, p, i, v, w, cands, outs, inputs);
+        };
+        sums(self.p, self.nl, outs, start, inputs, self.kick, before);
     }
 }
 
@@ -181,12 +304,17 @@ impl LawVisitor for PairStage<'_> {
         nl.pairs
             .par_chunks_mut(BLOCK * 4)
             .zip(nl.output.par_chunks_mut(BLOCK * 4))
-            .for_each(|(pairs, outs)| {
-                for (pair, out) in pairs.iter_mut().zip(outs.iter_mut()) {
+            .zip(nl.active.par_chunks_mut(BLOCK * 4))
+            .for_each(|((pairs, outs), actives)| {
+                for ((pair, out), active) in pairs
+                    .iter_mut()
+                    .zip(outs.iter_mut())
+                    .zip(actives.iter_mut())
+                {
                     let (i, j) = (pair.i as usize, pair.j as usize);
                     if clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
                         // Members of one clump overlap by design.
-                        *out = PairOutput::default();
+                        clear(pair, out, active);
                         continue;
                     }
                     let delta = p.position[i] - p.position[j];
@@ -203,8 +331,7 @@ impl LawVisitor for PairStage<'_> {
                         sum
                     };
                     if dist2 >= reach * reach {
-                        pair.history = Default::default();
-                        *out = PairOutput::default();
+                        clear(pair, out, active);
                         continue;
                     }
                     if let Some(frames) = polyhedra {
@@ -220,6 +347,7 @@ impl LawVisitor for PairStage<'_> {
                             dt,
                         ) {
                             *out = o;
+                            *active = 1;
                             continue;
                         }
                     }
@@ -254,6 +382,7 @@ impl LawVisitor for PairStage<'_> {
                         dt,
                     );
                     let nxf = n.cross(c.law.tangential);
+                    *active = 1;
                     *out = PairOutput {
                         force: c.force,
                         torque_i: -ci * nxf + c.rolling_torque,
@@ -263,6 +392,17 @@ impl LawVisitor for PairStage<'_> {
                     };
                 }
             });
+    }
+}
+
+/// Clears a pair that does not touch, unless it was clear already (see
+/// [`NeighbourList::active`]): its slots are then neither read nor written.
+#[inline(always)]
+fn clear(pair: &mut crate::neighbour::Pair, out: &mut PairOutput, active: &mut u8) {
+    if *active != 0 {
+        pair.history = Default::default();
+        *out = PairOutput::default();
+        *active = 0;
     }
 }
 
@@ -279,8 +419,6 @@ impl LawVisitor for WallStage<'_> {
     fn visit<L: ContactLaw>(self, law: &L) {
         let p = self.p;
         let inputs = self.inputs;
-        let rolling = inputs.params.rolling_model;
-        let dt = inputs.params.time_step;
         let start = &self.walls.start;
         let cands = Shared(self.walls.candidates.as_mut_ptr());
         let outs = Shared(self.walls.output.as_mut_ptr());
@@ -294,44 +432,77 @@ impl LawVisitor for WallStage<'_> {
                 // handled by exactly one task.
                 let cands = unsafe { std::slice::from_raw_parts_mut(cands.ptr().add(w0), w1 - w0) };
                 let outs = unsafe { std::slice::from_raw_parts_mut(outs.ptr().add(w0), w1 - w0) };
-                if let Some(frames) = inputs.polyhedra {
-                    if let Some(poly) = frames.placed(p.body[i], p.position[i]) {
-                        polyhedron_wall_contacts(
-                            law,
-                            rolling,
-                            &poly,
-                            &kinematics(p, i),
-                            p.material[i] as usize,
-                            cands,
-                            outs,
-                            inputs.geometries,
-                            inputs.materials,
-                            dt,
-                        );
-                        continue;
-                    }
-                }
-                let body = WallBody {
-                    x: p.position[i],
-                    v: p.velocity[i],
-                    w: p.angular_velocity[i],
-                    r: p.radius[i],
-                    m: p.mass[i],
-                    material: p.material[i] as usize,
-                };
-                wall_contacts(
+                particle_walls(
                     law,
-                    rolling,
-                    &body,
+                    p,
+                    i,
+                    p.velocity[i],
+                    p.angular_velocity[i],
                     cands,
                     outs,
-                    inputs.geometries,
-                    inputs.materials,
-                    dt,
+                    inputs,
                 );
             }
         });
     }
+}
+
+/// The contacts of particle `i` (moving with velocity `v` and spin `w`) with its geometry
+/// candidates, into their slots.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn particle_walls<L: ContactLaw>(
+    law: &L,
+    p: &Particles,
+    i: usize,
+    v: DVec3,
+    w: DVec3,
+    cands: &mut [super::walls::WallCandidate],
+    outs: &mut [WallOutput],
+    inputs: &StepInputs,
+) {
+    let rolling = inputs.params.rolling_model;
+    let dt = inputs.params.time_step;
+    if let Some(frames) = inputs.polyhedra {
+        if let Some(poly) = frames.placed(p.body[i], p.position[i]) {
+            polyhedron_wall_contacts(
+                law,
+                rolling,
+                &poly,
+                &Kinematics {
+                    x: p.position[i],
+                    v,
+                    w,
+                    m: p.mass[i],
+                },
+                p.material[i] as usize,
+                cands,
+                outs,
+                inputs.geometries,
+                inputs.materials,
+                dt,
+            );
+            return;
+        }
+    }
+    let body = WallBody {
+        x: p.position[i],
+        v,
+        w,
+        r: p.radius[i],
+        m: p.mass[i],
+        material: p.material[i] as usize,
+    };
+    wall_contacts(
+        law,
+        rolling,
+        &body,
+        cands,
+        outs,
+        inputs.geometries,
+        inputs.materials,
+        dt,
+    );
 }
 
 fn kinematics(p: &Particles, i: usize) -> Kinematics {
@@ -415,20 +586,5 @@ pub fn kick_spin(w: DVec3, torque: DVec3, limit: f64, inv_inertia_half_dt: f64) 
         DVec3::ZERO
     } else {
         w * (1.0 - brake / s2.sqrt())
-    }
-}
-
-/// Raw pointer that may be shared between rayon tasks that write disjoint slots.
-#[derive(Clone, Copy)]
-struct Shared<T>(*mut T);
-unsafe impl<T> Send for Shared<T> {}
-unsafe impl<T> Sync for Shared<T> {}
-
-impl<T> Shared<T> {
-    /// Going through a method makes closures capture the whole wrapper (which is Send), not the
-    /// raw pointer field.
-    #[inline(always)]
-    fn ptr(self) -> *mut T {
-        self.0
     }
 }

@@ -9,12 +9,12 @@
 //! 3. **neighbour**: the pair and wall-candidate lists are rebuilt when some particle (or
 //!    geometry) has moved more than half the skin.
 //! 4. **pair forces**: every candidate pair evaluates its contact once, into its own slot.
-//! 5. **wall forces**: every particle's geometry candidates evaluate their contacts into theirs.
-//! 6. **particle sums**: every particle sums gravity and its slots, then the second half kick
+//! 5. **wall forces + sums** (the gather): every particle evaluates its geometry candidates'
+//!    contacts into their slots, sums gravity and all its slots, then gets the second half kick
 //!    (**extension forces**, e.g. bonds, come in before the kick and are timed apart; clumps
-//!    gather their members' forces and are kicked as bodies).
-//! 7. **geometry loads**: each geometry's force and torque, summed from its wall slots.
-//! 8. **extensions**: per-step extensions ([`StepExtension`]): factories creating particles now,
+//!    gather their members' forces and are kicked as bodies). The CPU does this in one pass.
+//! 6. **geometry loads**: each geometry's force and torque, summed from its wall slots.
+//! 7. **extensions**: per-step extensions ([`StepExtension`]): factories creating particles now,
 //!    recorders and servo-controlled plates next.
 //!
 //! No stage uses atomics or locks and every sum runs in a fixed order, so results are bit-identical
@@ -48,6 +48,7 @@ use crate::mixture::{Item, Mixture, Shape};
 use crate::neighbour::NeighbourList;
 use crate::particles::{Particles, NO_BODY};
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use std::time::Instant;
 use walls::WallLists;
 
@@ -86,6 +87,8 @@ pub struct Simulation {
     /// that wait was (it doubles with each decline in a row).
     segments_declined_until: u64,
     segment_backoff: u64,
+    /// Per-chunk partial geometry loads (see `geometry_loads`), kept between steps.
+    load_partials: Vec<Load>,
 }
 
 impl Simulation {
@@ -118,6 +121,7 @@ impl Simulation {
             prepared_radius: -1.0,
             segments_declined_until: 0,
             segment_backoff: 0,
+            load_partials: Vec::new(),
         };
         let max_r = sim.particles.radius.iter().cloned().fold(0.0, f64::max);
         sim.prepare_radius(max_r);
@@ -531,16 +535,12 @@ impl Simulation {
         self.backend
             .pair_forces(&self.particles, &mut self.neighbours, &inputs);
         self.pair_forces_current = true;
-        let t1 = Instant::now();
-        self.timers.pair_forces += t1 - t0;
-        self.backend
-            .wall_forces(&self.particles, &mut self.walls, &inputs);
         let t2 = Instant::now();
-        self.timers.wall_forces += t2 - t1;
-        self.backend.particle_sums(
+        self.timers.pair_forces += t2 - t0;
+        self.backend.wall_forces_and_sums(
             &mut self.particles,
             &self.neighbours,
-            &self.walls,
+            &mut self.walls,
             &inputs,
             kick && !force_hooks,
         );
@@ -559,15 +559,12 @@ impl Simulation {
         }
         let t3 = Instant::now();
         // Extension forces are timed on their own inside this span.
-        self.timers.particle_sums +=
+        self.timers.gather +=
             (t3 - t2).saturating_sub(self.timers.extension_forces - extension_before);
         if clumps {
             self.gather_bodies();
             if kick {
-                let half = 0.5 * self.params.time_step;
-                for b in 0..self.bodies.len() {
-                    self.bodies.kick(b, half);
-                }
+                self.bodies.kick_all(0.5 * self.params.time_step, None);
                 self.place_members(false);
             }
         }
@@ -584,9 +581,15 @@ impl Simulation {
         let order = reorder.order;
         self.pair_forces_current = false;
         self.index_of.resize(self.particles.len(), 0);
-        for (k, &id) in self.particles.id.iter().enumerate() {
-            self.index_of[id as usize] = k as u32;
-        }
+        let index_of = crate::parallel::Shared(self.index_of.as_mut_ptr());
+        self.particles
+            .id
+            .par_iter()
+            .enumerate()
+            .for_each(|(k, &id)| {
+                // SAFETY: ids are a permutation of 0..n, so each slot is written once.
+                unsafe { index_of.ptr().add(id as usize).write(k as u32) };
+            });
         let skin = self.params.skin + self.cohesive_reach;
         self.walls
             .rebuild(&self.particles, order, &self.geometries, skin);
@@ -598,15 +601,51 @@ impl Simulation {
         self.bounds_at_build = self.particles.bounds(true);
     }
 
+    /// Each geometry's force and torque: partial sums over fixed chunks of the wall slots, in
+    /// parallel, then added in chunk order, so the result does not depend on the thread count.
     fn geometry_loads(&mut self) {
+        let count = self.geometries.len();
         for g in &mut self.geometries {
             g.load = Load::default();
         }
-        for (c, o) in self.walls.candidates.iter().zip(&self.walls.output) {
+        if count == 0 {
+            return;
+        }
+        let chunk = crate::parallel::CHUNK;
+        let add = |loads: &mut [Load], c: &walls::WallCandidate, o: &walls::WallOutput| {
             if o.force != DVec3::ZERO {
-                let l = &mut self.geometries[c.geometry as usize].load;
+                let l = &mut loads[c.geometry as usize];
                 l.force += o.force;
                 l.torque += o.torque;
+            }
+        };
+        let (cands, outs) = (&self.walls.candidates, &self.walls.output);
+        if cands.len() <= chunk {
+            for (c, o) in cands.iter().zip(outs) {
+                if o.force != DVec3::ZERO {
+                    let l = &mut self.geometries[c.geometry as usize].load;
+                    l.force += o.force;
+                    l.torque += o.torque;
+                }
+            }
+        } else {
+            // One row of partial loads per chunk (the buffer is kept between steps).
+            let partial = &mut self.load_partials;
+            partial.clear();
+            partial.resize(cands.len().div_ceil(chunk) * count, Load::default());
+            partial
+                .par_chunks_mut(count)
+                .zip(cands.par_chunks(chunk).zip(outs.par_chunks(chunk)))
+                .for_each(|(loads, (cs, os))| {
+                    for (c, o) in cs.iter().zip(os) {
+                        add(loads, c, o);
+                    }
+                });
+            for loads in partial.chunks(count) {
+                for (g, l) in self.geometries.iter_mut().zip(loads) {
+                    g.load.force += l.force;
+                    g.load.torque += l.torque;
+                }
             }
         }
         for g in &mut self.geometries {

@@ -105,9 +105,9 @@ pub struct StageTimers {
     pub geometry_motion: Duration,
     pub neighbour: Duration,
     pub pair_forces: Duration,
-    pub wall_forces: Duration,
-    /// Summing each particle's contacts, gravity, and the second half kick.
-    pub particle_sums: Duration,
+    /// The gather: each particle's wall contacts, the sum of all its contacts and gravity, and
+    /// the second half kick.
+    pub gather: Duration,
     /// Forces that extensions add before the kick (bonds).
     pub extension_forces: Duration,
     pub geometry_loads: Duration,
@@ -118,15 +118,14 @@ pub struct StageTimers {
 }
 
 impl StageTimers {
-    fn stages(&self) -> [(&'static str, Duration); 11] {
+    fn stages(&self) -> [(&'static str, Duration); 10] {
         [
             ("integrate", self.integrate),
             ("bodies", self.bodies),
             ("geometry motion", self.geometry_motion),
             ("neighbour", self.neighbour),
             ("pair forces", self.pair_forces),
-            ("wall forces", self.wall_forces),
-            ("particle sums", self.particle_sums),
+            ("wall forces + sums", self.gather),
             ("extension forces", self.extension_forces),
             ("geometry loads", self.geometry_loads),
             ("extensions", self.extensions),

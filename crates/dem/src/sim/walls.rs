@@ -4,6 +4,7 @@
 use crate::contact::{evaluate, ContactHistory, ContactLaw, ContactPoint, RollingModel};
 use crate::geometry::{Feature, Geometry};
 use crate::material::MaterialTable;
+use crate::parallel::Shared;
 use crate::particles::Particles;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -127,17 +128,36 @@ impl WallLists {
                 (counts, cands)
             })
             .collect();
-        let mut start = Vec::with_capacity(n + 1);
-        start.push(0u32);
-        let mut walls = Vec::new();
-        for (counts, cands) in blocks {
-            for c in counts {
-                start.push(start.last().unwrap() + c);
-            }
-            walls.extend(cands);
+        // Each block's rows and candidates go in at the block's offset, in parallel.
+        let mut offsets = Vec::with_capacity(blocks.len() + 1);
+        offsets.push(0usize);
+        for (_, cands) in &blocks {
+            offsets.push(offsets.last().unwrap() + cands.len());
         }
+        let total = *offsets.last().unwrap();
+        let mut start = old_start;
+        start.resize(n + 1, 0);
+        start[n] = total as u32;
+        let mut walls = old_walls;
+        walls.resize(total, WallCandidate::default());
+        let (rows, slots) = (Shared(start.as_mut_ptr()), Shared(walls.as_mut_ptr()));
+        blocks
+            .par_iter()
+            .enumerate()
+            .for_each(|(b, (counts, cands))| {
+                let mut at = offsets[b];
+                // SAFETY: rows b * BLOCK.. and slots offsets[b].. belong to this block alone.
+                let dst =
+                    unsafe { std::slice::from_raw_parts_mut(slots.ptr().add(at), cands.len()) };
+                dst.copy_from_slice(cands);
+                for (r, &c) in counts.iter().enumerate() {
+                    unsafe { rows.ptr().add(b * super::BLOCK + r).write(at as u32) };
+                    at += c as usize;
+                }
+            });
         self.output.clear();
-        self.output.resize(walls.len(), WallOutput::default());
+        self.output
+            .par_extend((0..total).into_par_iter().map(|_| WallOutput::default()));
         self.candidates = walls;
         self.start = start;
     }

@@ -1,5 +1,5 @@
 //! Creating particles: size distributions, regions and lattice fills (random fills of mixtures are
-//! in [`crate::mixture`]).
+//! in [`crate::random_fill`]).
 
 use glam::DVec3;
 use rand::Rng;
@@ -145,6 +145,43 @@ impl FillRegion {
                 let ext = crate::geometry::disc_extent(axis, radius);
                 (base.min(top) - ext, base.max(top) + ext)
             }
+        }
+    }
+
+    /// The nearest place to `x` for the centre of a sphere of radius `r` inside (`x` itself when
+    /// the sphere is inside). The region must be at least `2 r` wide ([`Self::smallest_width`]).
+    pub fn clamp(&self, x: DVec3, r: f64) -> DVec3 {
+        if self.contains(x, r) {
+            return x;
+        }
+        match *self {
+            FillRegion::Box { min, max } => x.clamp(min + DVec3::splat(r), max - DVec3::splat(r)),
+            FillRegion::Cylinder {
+                base,
+                axis,
+                radius,
+                length,
+            } => {
+                let rel = x - base;
+                let h = rel.dot(axis);
+                let radial = rel - h * axis;
+                let rho = radial.length();
+                let reach = radius - r;
+                let radial = if rho > reach {
+                    radial * (reach / rho)
+                } else {
+                    radial
+                };
+                base + h.clamp(r, length - r) * axis + radial
+            }
+        }
+    }
+
+    /// The smallest width across: the box's shortest side, or the cylinder's diameter or length.
+    pub fn smallest_width(&self) -> f64 {
+        match *self {
+            FillRegion::Box { min, max } => (max - min).min_element(),
+            FillRegion::Cylinder { radius, length, .. } => (2.0 * radius).min(length),
         }
     }
 

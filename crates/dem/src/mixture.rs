@@ -6,14 +6,16 @@
 //! takes the type furthest below its share so far, so that 500 particles of a 13.86 / 47.53 /
 //! 38.61 % mixture hold those shares to within one particle, which random draws would not.
 //!
-//! Placement tests every member sphere of a candidate (random position, random orientation)
-//! against the spheres already there, so long rods pack as densely as their shape allows rather
-//! than as their bounding spheres would.
+//! Random fills of a mixture are in [`crate::random_fill`] ([`fill_region`]): each member sphere
+//! of a candidate (random position, random orientation) is tested against the spheres already
+//! there, so long rods pack as densely as their shape allows rather than as their bounding spheres
+//! would.
 
 use crate::clump::{ClumpTemplate, MassProperties};
-use crate::fill::{FillRegion, SizeDistribution};
+use crate::fill::SizeDistribution;
+pub use crate::random_fill::fill_region;
 use glam::{DQuat, DVec3};
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_pcg::Pcg64;
 use std::f64::consts::PI;
 
@@ -314,141 +316,11 @@ pub fn random_orientation(rng: &mut Pcg64) -> DQuat {
     DQuat::from_xyzw(a * t2.sin(), a * t2.cos(), b * t3.sin(), b * t3.cos()).normalize()
 }
 
-/// A uniform grid of spheres for overlap queries; cells are as wide as the largest diameter.
-pub struct SphereGrid {
-    lo: DVec3,
-    cell: f64,
-    dims: [usize; 3],
-    cells: Vec<Vec<u32>>,
-    pub spheres: Vec<(DVec3, f64)>,
-}
-
-impl SphereGrid {
-    pub fn new(lo: DVec3, hi: DVec3, max_radius: f64) -> Result<SphereGrid, String> {
-        let cell = 2.0 * max_radius;
-        let d = ((hi - lo) / cell).ceil().max(DVec3::ONE);
-        if d.x * d.y * d.z > 2e8 {
-            return Err("region is too large for its particle size".into());
-        }
-        let dims = [d.x as usize, d.y as usize, d.z as usize];
-        Ok(SphereGrid {
-            lo,
-            cell,
-            dims,
-            cells: vec![Vec::new(); dims[0] * dims[1] * dims[2]],
-            spheres: Vec::new(),
-        })
-    }
-
-    fn coords(&self, x: DVec3) -> [i64; 3] {
-        let c = ((x - self.lo) / self.cell).floor();
-        [c.x as i64, c.y as i64, c.z as i64]
-    }
-
-    fn index(&self, c: [i64; 3]) -> Option<usize> {
-        let ok = c
-            .iter()
-            .zip(self.dims)
-            .all(|(&v, d)| v >= 0 && (v as usize) < d);
-        ok.then(|| c[0] as usize + self.dims[0] * (c[1] as usize + self.dims[1] * c[2] as usize))
-    }
-
-    /// Adds a sphere (one outside the grid is kept but never found; it cannot touch one inside).
-    pub fn insert(&mut self, x: DVec3, r: f64) {
-        if let Some(k) = self.index(self.coords(x)) {
-            self.cells[k].push(self.spheres.len() as u32);
-        }
-        self.spheres.push((x, r));
-    }
-
-    /// Whether a sphere at x of radius r (at most the grid's largest) overlaps none stored.
-    pub fn is_free(&self, x: DVec3, r: f64) -> bool {
-        let c = self.coords(x);
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    if let Some(k) = self.index([c[0] + dx, c[1] + dy, c[2] + dz]) {
-                        for &s in &self.cells[k] {
-                            let (y, q) = self.spheres[s as usize];
-                            if (x - y).length_squared() < (r + q) * (r + q) {
-                                return false;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        true
-    }
-}
-
-/// Seeded random sequential insertion of a mixture wholly inside `region`, avoiding `existing`
-/// spheres. Particles are drawn first and placed largest first, which packs better.
-pub fn fill_region(
-    region: &FillRegion,
-    mixture: &Mixture,
-    target: FillTarget,
-    seed: u64,
-    existing: &[(DVec3, f64)],
-) -> Result<Vec<Item>, String> {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let mut items = mixture.draw_all(target, &mut rng)?;
-    let bound = |it: &Item| {
-        mixture.types[it.kind].bounding_radius() * it.size
-            / mixture.types[it.kind].size.max_radius()
-    };
-    items.sort_by(|a, b| bound(b).total_cmp(&bound(a)));
-    let max_r = mixture
-        .max_sphere_radius()
-        .max(existing.iter().map(|e| e.1).fold(0.0, f64::max));
-    let (lo, hi) = region.bounds();
-    let mut grid = SphereGrid::new(lo, hi, max_r)?;
-    for &(x, r) in existing {
-        grid.insert(x, r);
-    }
-    let mut members = Vec::new();
-    for k in 0..items.len() {
-        let t = &mixture.types[items[k].kind];
-        let mut ok = false;
-        for _ in 0..2000 {
-            let centre = lo + (hi - lo) * DVec3::new(rng.gen(), rng.gen(), rng.gen());
-            // Cheap rejection before looking at members.
-            if !region.contains(centre, 0.0) {
-                continue;
-            }
-            items[k].position = centre;
-            items[k].orientation = random_orientation(&mut rng);
-            t.spheres(&items[k], &mut members);
-            if members
-                .iter()
-                .all(|(x, r)| region.contains(*x, *r) && grid.is_free(*x, *r))
-            {
-                for (x, r) in &members {
-                    grid.insert(*x, *r);
-                }
-                ok = true;
-                break;
-            }
-        }
-        if !ok {
-            let solid: f64 = items
-                .iter()
-                .map(|it| mixture.types[it.kind].mass(it.size) / mixture.types[it.kind].density)
-                .sum();
-            return Err(format!(
-                "placed only {k} of {} particles without overlap: the region is too small \
-                 (requested solid fraction {:.2}; random insertion reaches about 0.3 for spheres, less for elongated clumps)",
-                items.len(),
-                solid / region.volume()
-            ));
-        }
-    }
-    Ok(items)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fill::FillRegion;
+    use rand::SeedableRng;
 
     fn bead(size: SizeDistribution) -> Mixture {
         Mixture::single(ParticleType::sphere("bead", 0, 1200.0, size))

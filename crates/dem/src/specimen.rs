@@ -28,7 +28,8 @@
 //!   distribution, scatters the centres in the cylinder with every radius scaled down (to a
 //!   solid fraction of 0.3), and then alternates overlap relaxation with projection back into the
 //!   cylinder, growing the radius scale toward 1 by 0.4 % whenever the largest overlap is small.
-//!   Relaxation moves each overlapping pair apart along its line of centres, half each, to a hair
+//!   Relaxation (`packing.rs`, shared with random fills; here on one thread) moves each
+//!   overlapping pair apart along its line of centres, half each, to a hair
 //!   (0.2 %) beyond touching, so overlaps fall below the tolerance in fewer passes than an exact
 //!   target would take. Pairs come from a Verlet list (a cell grid, a skin of a quarter of the
 //!   smallest radius, rebuilt when spheres may have moved that far), so a pass is O(N); pairs are
@@ -49,6 +50,7 @@
 //!   (pith) spheres, the others rind (epidermis): the scene gives them the core material.
 
 use crate::fill::{self, FillRegion, Lattice, SizeDistribution};
+use crate::packing::{Bodies, Grid, Relaxation};
 use glam::{DQuat, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -396,33 +398,29 @@ struct Relaxed {
 /// The solid fraction a random packing starts from (radii scaled down to it): loose enough that
 /// the first passes untangle quickly, dense enough that few growth steps remain.
 const START_FRACTION: f64 = 0.3;
-/// How much the radius scale grows in one step, as a fraction: small enough that a step's new
-/// overlaps (about this fraction of a radius) are undone in a few passes.
-const GROWTH: f64 = 0.004;
-/// Pairs are pushed apart to this fraction beyond touching, so that the overlaps fall below the
-/// tolerance in fewer passes than an exact target (approached ever more slowly) would take.
-const AIM_BEYOND: f64 = 0.002;
-/// The pair list holds pairs up to this fraction of the smallest radius apart, and is rebuilt
-/// when spheres may have moved that far toward each other.
-const SKIN: f64 = 0.25;
-/// Passes without progress after which a packing is declared jammed.
-const STALL_PASSES: usize = 4000;
+/// The relaxation (see the module notes): radius steps of 0.4 %, small enough that a step's new
+/// overlaps (about this fraction of a radius) are undone in a few passes; pairs pushed to 0.2 %
+/// beyond touching; a skin of a quarter of the smallest radius; jammed after 4 000 passes without
+/// progress; one thread.
+const RELAXATION: Relaxation = Relaxation {
+    tolerance: RANDOM_OVERLAP_TOLERANCE,
+    growth: 0.004,
+    stall_passes: 4000,
+    aim_beyond: 0.002,
+    skin: 0.25,
+    slabs: false,
+};
 
-/// Overlap relaxation with a growing radius scale (see the module notes). Pairs are visited in
-/// the order of a pair list (a Verlet list with a skin, built from a cell grid), each moving its
-/// two spheres apart at once, so later pairs see the earlier moves; the order is fixed by the
-/// grid, so the result depends on the seed alone.
+/// Overlap relaxation with a growing radius scale (see the module notes and [`crate::packing`])
+/// from centres scattered at random in the cylinder.
 fn relax(
     cyl: &Cylinder,
     radii: &[f64],
     fraction: f64,
     rng: &mut Pcg64,
 ) -> Result<Relaxed, SpecimenError> {
-    let n = radii.len();
-    let r_max = radii.iter().cloned().fold(0.0, f64::max);
-    let r_min = radii.iter().cloned().fold(f64::INFINITY, f64::min);
-    let mut scale = (START_FRACTION / fraction).cbrt().min(1.0);
-    let mut positions: Vec<DVec3> = radii
+    let scale = (START_FRACTION / fraction).cbrt().min(1.0);
+    let positions: Vec<DVec3> = radii
         .iter()
         .map(|&r| {
             let r = scale * r;
@@ -434,225 +432,34 @@ fn relax(
             DVec3::new(x, rho * theta.cos(), rho * theta.sin())
         })
         .collect();
-    let mut grid = Grid::new(cyl, n);
-    let mut pairs: Vec<(u32, u32)> = Vec::new();
-    // Where each sphere was and the scale when the list was built; None: build it.
-    let mut built: Option<(Vec<DVec3>, f64)> = None;
-    let mut iterations = 0;
-    // Progress: the pass that last grew the scale or, at full scale, lowered the best overlap.
-    let mut best = f64::INFINITY;
-    let mut last_progress = 0;
-    loop {
-        for (p, &r) in positions.iter_mut().zip(radii) {
-            *p = clamp_into(*p, scale * r, cyl.half, cyl.inner, cyl.outer);
-        }
-        let skin = SKIN * scale * r_min;
-        let stale = match &built {
-            None => true,
-            Some((at, s)) => {
-                let moved = positions
-                    .iter()
-                    .zip(at)
-                    .map(|(p, q)| (*p - *q).length_squared())
-                    .fold(0.0, f64::max)
-                    .sqrt();
-                // Two spheres approach by at most twice the largest move, and a growing scale
-                // adds to every contact distance.
-                2.0 * moved + 2.0 * (scale - s) * r_max > skin
-            }
-        };
-        if stale {
-            grid.sort(&positions, 2.0 * scale * r_max + skin);
-            pairs.clear();
-            grid.for_each_pair(|i, j| {
-                let reach = scale * (radii[i] + radii[j]) + skin;
-                if (positions[i] - positions[j]).length_squared() < reach * reach {
-                    pairs.push((i as u32, j as u32));
-                }
-            });
-            built = Some((positions.clone(), scale));
-        }
-        let mut largest = 0.0f64;
-        for &(i, j) in &pairs {
-            let (i, j) = (i as usize, j as usize);
-            let contact = scale * (radii[i] + radii[j]);
-            let aim = contact * (1.0 + AIM_BEYOND);
-            let d = positions[j] - positions[i];
-            let dist2 = d.length_squared();
-            if dist2 >= aim * aim {
-                continue;
-            }
-            let dist = dist2.sqrt();
-            // Coincident centres (rare: a projection onto the same wall point) part along x.
-            let normal = if dist > 0.0 { d / dist } else { DVec3::X };
-            largest = largest.max((contact - dist) / (scale * radii[i].min(radii[j])));
-            let half_push = 0.5 * (aim - dist) * normal;
-            positions[i] -= half_push;
-            positions[j] += half_push;
-        }
-        if scale == 1.0 && largest < RANDOM_OVERLAP_TOLERANCE {
-            // The pass measured the overlaps before its moves and moved only pairs closer than
-            // aimed for; put the spheres back inside and check once more, with no moves.
-            for (p, &r) in positions.iter_mut().zip(radii) {
-                *p = clamp_into(*p, r, cyl.half, cyl.inner, cyl.outer);
-            }
-            grid.sort(&positions, 2.0 * r_max);
-            let mut largest = 0.0f64;
-            grid.for_each_pair(|i, j| {
-                let overlap = radii[i] + radii[j] - (positions[i] - positions[j]).length();
-                largest = largest.max(overlap / radii[i].min(radii[j]));
-            });
-            if largest < RANDOM_OVERLAP_TOLERANCE {
-                return Ok(Relaxed {
-                    positions,
-                    iterations,
-                    largest_overlap: largest,
-                });
-            }
-        }
-        iterations += 1;
-        if scale == 1.0 && largest < 0.99 * best {
-            best = largest;
-            last_progress = iterations;
-        }
-        if iterations - last_progress > STALL_PASSES {
-            let reached = fraction * scale.powi(3);
-            return Err(err(
-                "count",
-                if scale < 1.0 {
-                    format!(
-                        "the spheres jam at a solid fraction of {reached:.3} of the stalk, below the {fraction:.3} asked for; expected fewer or smaller spheres"
-                    )
-                } else {
-                    format!(
-                        "the spheres at a solid fraction of {fraction:.3} keep overlapping by {:.2} % of a radius (at most {:.2} % wanted); expected fewer or smaller spheres",
-                        100.0 * largest,
-                        100.0 * RANDOM_OVERLAP_TOLERANCE
-                    )
-                },
-            ));
-        }
-        if scale < 1.0 && largest < RANDOM_OVERLAP_TOLERANCE {
-            scale = (scale * (1.0 + GROWTH)).min(1.0);
-            last_progress = iterations;
-        }
+    let mut bodies = Bodies::spheres(positions, radii.to_vec());
+    let lo = DVec3::new(-cyl.half, -cyl.outer, -cyl.outer);
+    let out = RELAXATION.run(&mut bodies, lo, -lo, scale, |p, r| {
+        clamp_into(p, r, cyl.half, cyl.inner, cyl.outer)
+    });
+    if out.done {
+        return Ok(Relaxed {
+            positions: bodies.position,
+            iterations: out.passes,
+            largest_overlap: out.largest_overlap,
+        });
     }
+    let reached = fraction * out.scale.powi(3);
+    Err(err(
+        "count",
+        if out.scale < 1.0 {
+            format!(
+                "the spheres jam at a solid fraction of {reached:.3} of the stalk, below the {fraction:.3} asked for; expected fewer or smaller spheres"
+            )
+        } else {
+            format!(
+                "the spheres at a solid fraction of {fraction:.3} keep overlapping by {:.2} % of a radius (at most {:.2} % wanted); expected fewer or smaller spheres",
+                100.0 * out.largest_overlap,
+                100.0 * RANDOM_OVERLAP_TOLERANCE
+            )
+        },
+    ))
 }
-
-/// A cell grid over the cylinder's box, counting-sorted each pass: cells at least as wide as
-/// the largest contact distance, and never more cells than about twice the spheres (a sparse
-/// specimen gets wider cells), so a pass is O(N) in time and memory.
-struct Grid {
-    lo: DVec3,
-    extent: DVec3,
-    max_cells: f64,
-    cell: f64,
-    dims: [usize; 3],
-    start: Vec<u32>,
-    order: Vec<u32>,
-    cell_of: Vec<u32>,
-}
-
-impl Grid {
-    fn new(cyl: &Cylinder, n: usize) -> Grid {
-        let lo = DVec3::new(-cyl.half, -cyl.outer, -cyl.outer);
-        Grid {
-            lo,
-            extent: -2.0 * lo,
-            max_cells: 2.0 * n as f64 + 27.0,
-            cell: 0.0,
-            dims: [1; 3],
-            start: Vec::new(),
-            order: vec![0; n],
-            cell_of: vec![0; n],
-        }
-    }
-
-    fn coord(&self, x: f64, lo: f64, dim: usize) -> usize {
-        (((x - lo) / self.cell).floor().max(0.0) as usize).min(dim - 1)
-    }
-
-    fn sort(&mut self, positions: &[DVec3], reach: f64) {
-        let volume = self.extent.element_product();
-        self.cell = reach.max((volume / self.max_cells).cbrt());
-        let d = (self.extent / self.cell).floor().max(DVec3::ONE);
-        self.dims = [d.x as usize, d.y as usize, d.z as usize];
-        let cells = self.dims[0] * self.dims[1] * self.dims[2];
-        self.start.clear();
-        self.start.resize(cells + 1, 0);
-        for (k, p) in positions.iter().enumerate() {
-            let c = self.coord(p.x, self.lo.x, self.dims[0])
-                + self.dims[0]
-                    * (self.coord(p.y, self.lo.y, self.dims[1])
-                        + self.dims[1] * self.coord(p.z, self.lo.z, self.dims[2]));
-            self.cell_of[k] = c as u32;
-            self.start[c + 1] += 1;
-        }
-        for c in 0..cells {
-            self.start[c + 1] += self.start[c];
-        }
-        let mut fill = self.start.clone();
-        for (k, &c) in self.cell_of.iter().enumerate() {
-            self.order[fill[c as usize] as usize] = k as u32;
-            fill[c as usize] += 1;
-        }
-    }
-
-    /// Calls `f(i, j)` once for every pair in the same or neighbouring cells.
-    fn for_each_pair(&self, mut f: impl FnMut(usize, usize)) {
-        let [nx, ny, nz] = self.dims;
-        for cz in 0..nz {
-            for cy in 0..ny {
-                for cx in 0..nx {
-                    let c = cx + nx * (cy + ny * cz);
-                    let own = &self.order[self.start[c] as usize..self.start[c + 1] as usize];
-                    for (a, &i) in own.iter().enumerate() {
-                        for &j in &own[a + 1..] {
-                            f(i as usize, j as usize);
-                        }
-                    }
-                    // Half of the 26 neighbours: those after this cell in index order.
-                    for (dx, dy, dz) in FORWARD {
-                        let (x, y, z) = (cx as i64 + dx, cy as i64 + dy, cz as i64 + dz);
-                        if x < 0
-                            || y < 0
-                            || z < 0
-                            || x >= nx as i64
-                            || y >= ny as i64
-                            || z >= nz as i64
-                        {
-                            continue;
-                        }
-                        let o = x as usize + nx * (y as usize + ny * z as usize);
-                        let other = &self.order[self.start[o] as usize..self.start[o + 1] as usize];
-                        for &i in own {
-                            for &j in other {
-                                f(i as usize, j as usize);
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// The 13 neighbour offsets after a cell in (x, y, z) index order.
-const FORWARD: [(i64, i64, i64); 13] = [
-    (1, 0, 0),
-    (-1, 1, 0),
-    (0, 1, 0),
-    (1, 1, 0),
-    (-1, -1, 1),
-    (0, -1, 1),
-    (1, -1, 1),
-    (-1, 0, 1),
-    (0, 0, 1),
-    (1, 0, 1),
-    (-1, 1, 1),
-    (0, 1, 1),
-    (1, 1, 1),
-];
 
 /// The pairs of spheres whose contact spheres overlap: centres closer than
 /// `contact_factor * (r_i + r_j)` (a contact radius of `contact_factor` times the radius). For
@@ -671,16 +478,7 @@ pub fn pairs_within(spheres: &[SpecimenSphere], contact_factor: f64) -> Vec<(usi
     let centre = 0.5 * (lo + hi);
     // A grid over the box of centres, as the packing's (its cylinder stands in for the box).
     let half_extent = 0.5 * (hi - lo) + pad;
-    let mut grid = Grid {
-        lo: centre - half_extent,
-        extent: 2.0 * half_extent,
-        max_cells: 2.0 * spheres.len() as f64 + 27.0,
-        cell: 0.0,
-        dims: [1; 3],
-        start: Vec::new(),
-        order: vec![0; spheres.len()],
-        cell_of: vec![0; spheres.len()],
-    };
+    let mut grid = Grid::new(centre - half_extent, 2.0 * half_extent, spheres.len());
     let positions: Vec<DVec3> = spheres.iter().map(|s| s.position).collect();
     grid.sort(&positions, reach);
     let mut pairs = Vec::new();

@@ -135,7 +135,7 @@ fn file_errors_name_the_key() {
         ),
         (
             file("", 10).replace("fill = { count = 10 }", "fill = { count = 100000 }"),
-            "heap.toml: angle_of_repose.fill: placed only",
+            "heap.toml: angle_of_repose.fill: the region is too small",
         ),
         (
             file("time_step_percent = 150", 10),

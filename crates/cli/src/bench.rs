@@ -84,10 +84,29 @@ pub fn batch(
     Ok(())
 }
 
-pub fn steps(name: &str, steps: Option<u64>, backend: &str) -> Result<(), String> {
+/// `demcal bench fill`: a random fill of `count` spheres, timed.
+pub fn fill(count: usize) -> Result<(), String> {
+    // A fill this size is about 80 bytes a sphere for its lists; 100 million is 8 GB.
+    if count == 0 || count > 100_000_000 {
+        return Err(format!("--count: expected 1 to 100000000, got {count}"));
+    }
+    let r = dem::random_fill::fill_benchmark(count)?;
+    println!(
+        "fill: spheres={} solid_fraction={:.3} wall_s={:.2} spheres_per_s={:.2e} relaxation_passes={}",
+        r.count,
+        r.solid_fraction,
+        r.seconds,
+        r.count as f64 / r.seconds.max(1e-9),
+        r.report.passes
+    );
+    Ok(())
+}
+
+pub fn steps(name: &str, steps: Option<u64>, backend: &str, scale: u32) -> Result<(), String> {
     let total = steps.unwrap_or(match name {
         "bonded" => 20_000,
         "settle-wide" => dem::bench::SETTLE_WIDE_STEPS,
+        _ if scale > 1 => dem::bench::SETTLE_WIDE_STEPS,
         _ => 50_000,
     });
     let bar = progress_bar(total);
@@ -101,7 +120,7 @@ pub fn steps(name: &str, steps: Option<u64>, backend: &str) -> Result<(), String
     let r = match name {
         "bonded" => dem::bench::bonded(steps, backend, progress)?,
         "settle-wide" => dem::bench::settle_wide(steps, backend, progress)?,
-        _ => dem::bench::settle(steps, backend, progress)?,
+        _ => dem::bench::settle_scaled(scale, steps, backend, progress)?,
     };
     bar.finish_and_clear();
     for w in &r.remarks {

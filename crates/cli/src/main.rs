@@ -201,12 +201,20 @@ enum Command {
     /// Run a peer benchmark and print particle-steps per second (batch: simulations per hour).
     #[command(after_help = "Example:\n  demcal bench settle --threads 2")]
     Bench {
-        /// settle: 21 160 spheres settling in a box; settle-wide: the box widened 8 times in x
-        /// and y (1 444 000 spheres, 5 000 steps); bonded: the seed-000 stalk specimen crushed;
-        /// batch: 32 quickstart repose tests (seeds 1-32) made as a study stage makes them, on
-        /// the back end chosen, then on the CPU runner.
-        #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch"])]
+        /// settle: 21 160 spheres settling in a box (--scale widens it); settle-wide: the box
+        /// widened 8 times in x and y (1 444 000 spheres, 5 000 steps); bonded: the seed-000
+        /// stalk specimen crushed; batch: 32 quickstart repose tests (seeds 1-32) made as a study
+        /// stage makes them, on the back end chosen, then on the CPU runner; fill: a random fill
+        /// of 1 000 000 spheres at a solid fraction of 0.35.
+        #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch", "fill"])]
         name: String,
+        /// settle: widen the box this many times in x and y, for scale² times the spheres
+        /// (8: the 1 444 000 spheres of settle-wide; 5 000 steps unless --steps).
+        #[arg(long, default_value_t = 1)]
+        scale: u32,
+        /// fill: how many spheres.
+        #[arg(long, default_value_t = 1_000_000)]
+        count: usize,
         /// Time steps to run (default: the benchmark's own, 20 000 for settle).
         #[arg(long)]
         steps: Option<u64>,
@@ -455,12 +463,18 @@ fn main() -> ExitCode {
                 jobs,
                 cpu_jobs,
                 test,
+                scale,
+                count,
             } => set_threads(threads).and_then(|_| match name.as_str() {
+                _ if scale != 1 && name != "settle" => {
+                    Err(format!("--scale: only bench settle is widened, not {name}"))
+                }
                 "batch" if steps.is_some() => Err(
                     "--steps: bench batch runs whole tests (use --test for a shorter one)".into(),
                 ),
                 "batch" => bench::batch(test.as_deref(), runs, jobs, cpu_jobs, &backend),
-                _ => bench::steps(&name, steps, &backend),
+                "fill" => bench::fill(count),
+                _ => bench::steps(&name, steps, &backend, scale),
             }),
         };
     match result {

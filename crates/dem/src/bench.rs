@@ -94,39 +94,77 @@ pub fn settle(
     )
 }
 
-/// The settle scene widened 8 times in x and y: 1 444 000 spheres (the scaled scene of the GPU
-/// benchmarks).
-pub fn settle_wide_scene() -> String {
-    WIDENED
+/// Largest `--scale` of the settle scene: 16 times wider in x and y is 5.8 million spheres,
+/// a few GiB of state.
+pub const MAX_SETTLE_SCALE: u32 = 16;
+
+/// The settle scene widened `scale` times in x and y (the lattice, the box and the domain), so
+/// it holds about `scale`² times the spheres (the lattice keeps its spacing): 21 160 at 1,
+/// 88 360 at 2, 1 444 000 at 8 (the scaled scene of the
+/// GPU benchmarks and the engine's 16-core figures).
+pub fn settle_scene(scale: u32) -> Result<String, String> {
+    if !(1..=MAX_SETTLE_SCALE).contains(&scale) {
+        return Err(format!(
+            "--scale: expected 1 to {MAX_SETTLE_SCALE}, got {scale}"
+        ));
+    }
+    if scale == 1 {
+        return Ok(SETTLE_SCENE.to_string());
+    }
+    // Millimetres, so that the numbers are exact in the text.
+    let mm = 100 * scale;
+    let widened = [
+        (BOX_MAX, format!("max = [{mm}e-3, {mm}e-3, 0.4]")),
+        (LATTICE_MAX, format!("max = [{0}e-3, {0}e-3, 0.17]", mm - 2)),
+        (DOMAIN_MAX, format!("max = [{0}e-3, {0}e-3, 0.41]", mm + 10)),
+    ];
+    Ok(widened
         .iter()
-        .fold(SETTLE_SCENE.to_string(), |s, (from, to)| {
-            s.replace(from, to)
-        })
+        .fold(SETTLE_SCENE.to_string(), |text, (from, to)| {
+            text.replace(from, to)
+        }))
+}
+
+/// The settle scene widened 8 times in x and y: 1 444 000 spheres.
+pub fn settle_wide_scene() -> String {
+    settle_scene(8).expect("8 is a valid scale")
 }
 
 /// What widening the settle scene changes: the box, the lattice region and the domain.
-const WIDENED: [(&str, &str); 3] = [
-    ("max = [0.1, 0.1, 0.4]", "max = [0.8, 0.8, 0.4]"),
-    ("max = [0.098, 0.098, 0.17]", "max = [0.798, 0.798, 0.17]"),
-    ("max = [0.11, 0.11, 0.41]", "max = [0.81, 0.81, 0.41]"),
-];
+const BOX_MAX: &str = "max = [0.1, 0.1, 0.4]";
+const LATTICE_MAX: &str = "max = [0.098, 0.098, 0.17]";
+const DOMAIN_MAX: &str = "max = [0.11, 0.11, 0.41]";
 
-/// Steps of the widened settle scene when not asked (a tenth of the settle scene's).
+/// Steps of a widened settle scene when not asked (a tenth of the settle scene's).
 pub const SETTLE_WIDE_STEPS: u64 = 5_000;
 
-/// Runs the widened settle scene for `steps` steps (default [`SETTLE_WIDE_STEPS`]).
-pub fn settle_wide(
+/// Runs the settle scene widened `scale` times for `steps` steps (default: 50 000 at scale 1,
+/// else [`SETTLE_WIDE_STEPS`]).
+pub fn settle_scaled(
+    scale: u32,
     steps: Option<u64>,
     backend: &str,
     progress: impl FnMut(u64),
 ) -> Result<BenchResult, String> {
+    if scale == 1 {
+        return settle(steps, backend, progress);
+    }
     run(
-        &settle_wide_scene(),
+        &settle_scene(scale)?,
         "the widened settle scene",
         Some(steps.unwrap_or(SETTLE_WIDE_STEPS)),
         backend,
         progress,
     )
+}
+
+/// Runs the settle scene widened 8 times (`settle_scaled(8, ..)`).
+pub fn settle_wide(
+    steps: Option<u64>,
+    backend: &str,
+    progress: impl FnMut(u64),
+) -> Result<BenchResult, String> {
+    settle_scaled(8, steps, backend, progress)
 }
 
 /// Runs the bonded scene for `steps` steps (default: the scene's 20 000).
@@ -204,16 +242,33 @@ mod tests {
     use super::*;
     use glam::DVec3;
 
-    /// The widened scene changes the box, the lattice region and the domain, each once.
+    /// The widened scene changes the box, the lattice region and the domain, each once, and
+    /// holds about scale² times the spheres.
     #[test]
     fn the_wide_settle_scene_is_the_settle_scene_widened() {
-        for (from, _) in WIDENED {
+        for from in [BOX_MAX, LATTICE_MAX, DOMAIN_MAX] {
             assert_eq!(SETTLE_SCENE.matches(from).count(), 1, "{from}");
         }
+        assert_eq!(settle_scene(1).unwrap(), SETTLE_SCENE);
         let wide = settle_wide_scene();
-        for (from, to) in WIDENED {
-            assert!(!wide.contains(from) && wide.contains(to), "{to}");
+        for to in [
+            "max = [800e-3, 800e-3, 0.4]",
+            "max = [798e-3, 798e-3, 0.17]",
+            "max = [810e-3, 810e-3, 0.41]",
+        ] {
+            assert!(wide.contains(to), "{to}");
         }
+        let count = |text: &str| {
+            Scene::from_toml(text, "settle", Path::new("."))
+                .unwrap()
+                .simulation
+                .particles
+                .len()
+        };
+        assert_eq!(count(SETTLE_SCENE), 21_160);
+        // The lattice keeps its spacing, so a side holds 94 spheres, not 2 x 46.
+        assert_eq!(count(&settle_scene(2).unwrap()), 88_360);
+        assert!(settle_scene(0).is_err() && settle_scene(MAX_SETTLE_SCALE + 1).is_err());
     }
 
     /// The bed height of a state with a NaN position (a diverged run) is NaN, not a panic.

@@ -139,6 +139,7 @@ impl MaterialTable {
                 let mut p = PairParams {
                     e_star,
                     g_star,
+                    tangential_damping_ratio: (4.0 * g_star / e_star).sqrt(),
                     ..Default::default()
                 };
                 if let Some(i) = &self.interactions[a * n + b] {

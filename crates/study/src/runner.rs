@@ -81,7 +81,15 @@ impl Execute for LocalExecutor<'_> {
             .map(|n| n.get())
             .unwrap_or(1);
         let jobs = self.jobs.min(runs.len()).max(1);
+        // A stage with fewer runs than jobs gives its runs all the cores: each gets an equal
+        // share, and the first `cores % jobs` one thread more, so no core idles.
         let threads = (cores / jobs).max(1);
+        let extra = if cores > jobs { cores % jobs } else { 0 };
+        let share = if extra > 0 {
+            format!("{threads}-{}", threads + 1)
+        } else {
+            threads.to_string()
+        };
         let stage_name = format!(
             "stage {}/{} {}",
             stage.index + 1,
@@ -101,13 +109,17 @@ impl Execute for LocalExecutor<'_> {
         bar.reset_eta();
         if !self.terminal {
             eprintln!(
-                "{stage_name}: {} runs to make ({} stored), {jobs} at a time with {threads} thread(s) each",
+                "{stage_name}: {} runs to make ({} stored), {jobs} at a time with {share} thread(s) each",
                 runs.len(),
                 stage.runs.len() - runs.len()
             );
         }
         let pools = (0..jobs)
-            .map(|_| rayon::ThreadPoolBuilder::new().num_threads(threads).build())
+            .map(|job| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads + usize::from(job < extra))
+                    .build()
+            })
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| format!("cannot start {jobs} job(s) of {threads} thread(s): {e}"))?;
         let every = log_interval();

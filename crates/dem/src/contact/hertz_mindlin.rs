@@ -42,7 +42,11 @@ impl ContactLaw for HertzMindlin {
 
         let v_t = c.v_rel - v_n * n;
         let v_c = v_t - c.spin_lever.cross(n);
-        let gamma_t = p.hertz_damping * (s_t * c.m_eff).sqrt();
+        let gamma_t = if p.tangential_damping_ratio > 0.0 {
+            gamma_n * p.tangential_damping_ratio
+        } else {
+            p.hertz_damping * (s_t * c.m_eff).sqrt()
+        };
         let load = f_n + pull_off;
         let limit = p.static_friction * load.abs();
         let f_t = tangential_spring(&mut history.tangential, n, v_c, s_t, gamma_t, limit, dt);

@@ -34,6 +34,10 @@ pub struct PairParams {
     /// Hertz-Mindlin's damping factor 2 sqrt(5/6) zeta: times sqrt(S m*) it gives a damping
     /// coefficient. Cached because the Hertz-Mindlin law needs it for every contact.
     pub hertz_damping: f64,
+    /// sqrt(8 G* / (2 E*)): the tangential damping coefficient over the normal one, which saves a
+    /// square root per contact. Derived by `MaterialTable`; 0 (not derived) makes the law
+    /// compute it from the stiffnesses.
+    pub tangential_damping_ratio: f64,
     pub static_friction: f64,
     pub rolling_friction: f64,
     /// JKR surface energy gamma (J/m^2); 0: no cohesion.

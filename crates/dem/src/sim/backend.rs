@@ -108,4 +108,19 @@ pub trait Backend: Send + Sync {
         self.wall_forces(particles, walls, inputs);
         self.particle_sums(particles, lists, walls, inputs, kick);
     }
+
+    /// [`Self::wall_forces_and_sums`] with the kick, then the next step's [`Self::integrate`]
+    /// (against `lists.built_at`), for a step that follows at once with nothing in between (no
+    /// clumps, extensions or device segments: the pipeline checks). A back end may do it all in
+    /// one pass over the particles (the CPU does).
+    fn gather_and_integrate(
+        &self,
+        particles: &mut Particles,
+        lists: &NeighbourList,
+        walls: &mut WallLists,
+        inputs: &StepInputs,
+    ) -> Result<f64, usize> {
+        self.wall_forces_and_sums(particles, lists, walls, inputs, true);
+        self.integrate(particles, &lists.built_at, inputs.params, inputs.clumps)
+    }
 }

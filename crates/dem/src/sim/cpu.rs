@@ -80,7 +80,7 @@ impl Backend for CpuBackend {
                         xs[k] += vs[k] * dt;
                     }
                     let d2 = (xs[k] - at[k]).length_squared();
-                    finite &= d2 <= f64::MAX;
+                    finite &= d2.is_finite();
                     worst = if d2 > worst { d2 } else { worst };
                     lo = lo.min(xs[k]);
                     hi = hi.max(xs[k]);
@@ -93,7 +93,7 @@ impl Backend for CpuBackend {
                     (0..len)
                         .find(|&k| {
                             let x = xs[k];
-                            !((x - at[k]).length_squared() <= f64::MAX)
+                            !(x - at[k]).length_squared().is_finite()
                                 || domain.is_some_and(|(dlo, dhi)| {
                                     x.cmplt(dlo).any() || x.cmpgt(dhi).any()
                                 })
@@ -140,7 +140,8 @@ impl Backend for CpuBackend {
         kick: bool,
     ) {
         let out = Shared(walls.output.as_ptr() as *mut WallOutput);
-        sums(p, nl, out, &walls.start, inputs, kick, |_, _, _, _| {});
+        let no_walls = |_: &Particles, _: usize, _: &Motion| {};
+        sums(p, nl, out, &walls.start, inputs, kick, None, no_walls);
     }
 
     fn wall_forces_and_sums(
@@ -151,8 +152,37 @@ impl Backend for CpuBackend {
         inputs: &StepInputs,
         kick: bool,
     ) {
+        self.gather(p, nl, walls, inputs, kick, None);
+    }
+
+    fn gather_and_integrate(
+        &self,
+        p: &mut Particles,
+        nl: &NeighbourList,
+        walls: &mut WallLists,
+        inputs: &StepInputs,
+    ) -> Result<f64, usize> {
+        let built = &nl.built_at;
+        self.gather(p, nl, walls, inputs, true, Some(built))
+            .expect("the pass integrates when asked to")
+    }
+}
+
+impl CpuBackend {
+    /// The gather stage (see [`sums`]), with the wall contacts when there are geometries.
+    fn gather(
+        &self,
+        p: &mut Particles,
+        nl: &NeighbourList,
+        walls: &mut WallLists,
+        inputs: &StepInputs,
+        kick: bool,
+        ahead: Option<&[DVec3]>,
+    ) -> Option<Result<f64, usize>> {
         if walls.candidates.is_empty() {
-            return self.particle_sums(p, nl, walls, inputs, kick);
+            let out = Shared(walls.output.as_ptr() as *mut WallOutput);
+            let no_walls = |_: &Particles, _: usize, _: &Motion| {};
+            return sums(p, nl, out, &walls.start, inputs, kick, ahead, no_walls);
         }
         inputs.params.contact_model.dispatch(GatherStage {
             p,
@@ -160,14 +190,29 @@ impl Backend for CpuBackend {
             walls,
             inputs,
             kick,
-        });
+            ahead,
+        })
     }
 }
 
+/// A particle's position, velocity and spin as a stage began.
+struct Motion {
+    x: DVec3,
+    v: DVec3,
+    w: DVec3,
+}
+
 /// Each particle sums gravity, its pair slots (as i, then as j) and its wall slots, in that
-/// fixed order, then gets the second half kick when `kick`. `before(i, v, w)` runs first for
-/// each particle with its velocity and spin as they were when the stage began (the fused gather
-/// stage computes the particle's wall contacts there, into the particle's own wall slots).
+/// fixed order, then gets the second half kick when `kick`. `before(p, i, motion)` runs first
+/// for each particle with its state as the stage began (the fused gather stage computes the
+/// particle's wall contacts there, into the particle's own wall slots).
+///
+/// With `ahead` (the positions at the last list build), the pass goes on into the next step's
+/// half kick and drift ([`Backend::integrate`]) with the same force, the same operations in the
+/// same order as that stage, and returns what it returns. This is sound because nothing between
+/// the end of one step and the next one's integration reads or writes the particles when the
+/// pipeline asks for it (no clumps, extensions or device segments).
+#[allow(clippy::too_many_arguments)]
 fn sums(
     p: &mut Particles,
     nl: &NeighbourList,
@@ -175,31 +220,47 @@ fn sums(
     wall_start: &[u32],
     inputs: &StepInputs,
     kick: bool,
-    before: impl Fn(&Particles, usize, DVec3, DVec3) + Sync,
-) {
-    let half = 0.5 * inputs.params.time_step;
-    let gravity = inputs.params.gravity;
+    ahead: Option<&[DVec3]>,
+    before: impl Fn(&Particles, usize, &Motion) + Sync,
+) -> Option<Result<f64, usize>> {
+    let params = inputs.params;
+    let dt = params.time_step;
+    let half = 0.5 * dt;
+    let gravity = params.gravity;
     let clumps = inputs.clumps;
+    let domain = params.domain;
     // The arrays this stage writes are taken out of the particles for the pass, so that the rest
-    // (positions, radii, masses, ...) can be read through a shared reference beside them.
+    // (radii, masses, ...) can be read through a shared reference beside them.
+    let mut position = std::mem::take(&mut p.position);
     let mut force = std::mem::take(&mut p.force);
     let mut torque = std::mem::take(&mut p.torque);
     let mut limit = std::mem::take(&mut p.rolling_torque_limit);
     let mut velocity = std::mem::take(&mut p.velocity);
     let mut spin = std::mem::take(&mut p.angular_velocity);
     let shared: &Particles = p;
-    force
+    let (max_d2, bad) = position
         .par_chunks_mut(BLOCK)
+        .zip(force.par_chunks_mut(BLOCK))
         .zip(torque.par_chunks_mut(BLOCK))
         .zip(limit.par_chunks_mut(BLOCK))
         .zip(velocity.par_chunks_mut(BLOCK))
         .zip(spin.par_chunks_mut(BLOCK))
         .enumerate()
-        .for_each(|(b, ((((fs, ts), ls), vs), ws))| {
+        .map(|(b, (((((xs, fs), ts), ls), vs), ws))| {
             let p = shared;
+            let mut worst: f64 = 0.0;
+            let mut bad = None;
             for k in 0..fs.len() {
                 let i = b * BLOCK + k;
-                before(p, i, vs[k], ws[k]);
+                before(
+                    p,
+                    i,
+                    &Motion {
+                        x: xs[k],
+                        v: vs[k],
+                        w: ws[k],
+                    },
+                );
                 let mut f = gravity * p.mass[i];
                 let mut t = DVec3::ZERO;
                 let mut lim = 0.0;
@@ -236,17 +297,44 @@ fn sums(
                 fs[k] = f;
                 ts[k] = t;
                 ls[k] = lim;
-                if kick && (!clumps || p.body[i] == NO_BODY) {
+                let free = !clumps || p.body[i] == NO_BODY;
+                if kick && free {
                     vs[k] += f * (p.inv_mass[i] * half);
                     ws[k] = kick_spin(ws[k], t, lim, p.inv_inertia[i] * half);
                 }
+                if let Some(built) = ahead {
+                    // The next step's integration, as `CpuBackend::integrate` does it.
+                    if free {
+                        vs[k] += f * (p.inv_mass[i] * half);
+                        ws[k] = kick_spin(ws[k], t, lim, p.inv_inertia[i] * half);
+                        xs[k] += vs[k] * dt;
+                    }
+                    let x = xs[k];
+                    let d2 = (x - built[i]).length_squared();
+                    worst = if d2 > worst { d2 } else { worst };
+                    let outside =
+                        domain.is_some_and(|(lo, hi)| x.cmplt(lo).any() || x.cmpgt(hi).any());
+                    if bad.is_none() && (!d2.is_finite() || outside) {
+                        bad = Some(i);
+                    }
+                }
             }
-        });
+            (worst, bad)
+        })
+        .reduce(
+            || (0.0, None),
+            |a, b| (a.0.max(b.0), a.1.min(b.1).or(a.1).or(b.1)),
+        );
+    p.position = position;
     p.force = force;
     p.torque = torque;
     p.rolling_torque_limit = limit;
     p.velocity = velocity;
     p.angular_velocity = spin;
+    ahead.map(|_| match bad {
+        Some(i) => Err(i),
+        None => Ok(max_d2.sqrt()),
+    })
 }
 
 /// The wall stage and the particle sums in one pass, compiled for one contact law: each particle
@@ -257,17 +345,18 @@ struct GatherStage<'a> {
     walls: &'a mut WallLists,
     inputs: &'a StepInputs<'a>,
     kick: bool,
+    ahead: Option<&'a [DVec3]>,
 }
 
 impl LawVisitor for GatherStage<'_> {
-    type Output = ();
+    type Output = Option<Result<f64, usize>>;
 
-    fn visit<L: ContactLaw>(self, law: &L) {
+    fn visit<L: ContactLaw>(self, law: &L) -> Self::Output {
         let start = &self.walls.start;
         let cands = Shared(self.walls.candidates.as_mut_ptr());
         let outs = Shared(self.walls.output.as_mut_ptr());
         let inputs = self.inputs;
-        let before = |p: &Particles, i: usize, v: DVec3, w: DVec3| {
+        let before = |p: &Particles, i: usize, m: &Motion| {
             let (w0, w1) = (start[i] as usize, start[i + 1] as usize);
             if w1 == w0 {
                 return;
@@ -276,9 +365,11 @@ impl LawVisitor for GatherStage<'_> {
             // handled by exactly one task.
             let cands = unsafe { std::slice::from_raw_parts_mut(cands.ptr().add(w0), w1 - w0) };
             let outs = unsafe { std::slice::from_raw_parts_mut(outs.ptr().add(w0), w1 - w0) };
-            particle_walls(law, p, i, v, w, cands, outs, inputs);
+            particle_walls(law, p, i, m, cands, outs, inputs);
         };
-        sums(self.p, self.nl, outs, start, inputs, self.kick, before);
+        sums(
+            self.p, self.nl, outs, start, inputs, self.kick, self.ahead, before,
+        )
     }
 }
 
@@ -321,12 +412,12 @@ impl LawVisitor for PairStage<'_> {
                     let (ri, rj) = (p.radius[i], p.radius[j]);
                     let sum = ri + rj;
                     let dist2 = delta.length_squared();
-                    let r_eff = ri * rj / sum;
                     // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off.
-                    // Without any cohesion, non-touching candidates leave before the lookup.
+                    // Without any cohesion, non-touching candidates leave before the lookup (and
+                    // before any division).
                     let reach = if cohesive {
                         let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
-                        sum - law.cutoff_overlap(q, r_eff)
+                        sum - law.cutoff_overlap(q, ri * rj / sum)
                     } else {
                         sum
                     };
@@ -334,6 +425,7 @@ impl LawVisitor for PairStage<'_> {
                         clear(pair, out, active);
                         continue;
                     }
+                    let r_eff = ri * rj / sum;
                     if let Some(frames) = polyhedra {
                         if let Some(o) = polyhedral_pair(
                             law,
@@ -352,7 +444,8 @@ impl LawVisitor for PairStage<'_> {
                         }
                     }
                     let dist = dist2.sqrt();
-                    let n = delta / dist;
+                    // One division, not three (the step is bound by divisions and square roots).
+                    let n = delta * (1.0 / dist);
                     let d = sum - dist;
                     let (ci, cj) = (ri - 0.5 * d, rj - 0.5 * d);
                     let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
@@ -432,45 +525,40 @@ impl LawVisitor for WallStage<'_> {
                 // handled by exactly one task.
                 let cands = unsafe { std::slice::from_raw_parts_mut(cands.ptr().add(w0), w1 - w0) };
                 let outs = unsafe { std::slice::from_raw_parts_mut(outs.ptr().add(w0), w1 - w0) };
-                particle_walls(
-                    law,
-                    p,
-                    i,
-                    p.velocity[i],
-                    p.angular_velocity[i],
-                    cands,
-                    outs,
-                    inputs,
-                );
+                let m = Motion {
+                    x: p.position[i],
+                    v: p.velocity[i],
+                    w: p.angular_velocity[i],
+                };
+                particle_walls(law, p, i, &m, cands, outs, inputs);
             }
         });
     }
 }
 
-/// The contacts of particle `i` (moving with velocity `v` and spin `w`) with its geometry
-/// candidates, into their slots.
+/// The contacts of particle `i` (in the state `m`) with its geometry candidates, into their
+/// slots.
 #[inline]
-#[allow(clippy::too_many_arguments)]
 fn particle_walls<L: ContactLaw>(
     law: &L,
     p: &Particles,
     i: usize,
-    v: DVec3,
-    w: DVec3,
+    m: &Motion,
     cands: &mut [super::walls::WallCandidate],
     outs: &mut [WallOutput],
     inputs: &StepInputs,
 ) {
     let rolling = inputs.params.rolling_model;
     let dt = inputs.params.time_step;
+    let (x, v, w) = (m.x, m.v, m.w);
     if let Some(frames) = inputs.polyhedra {
-        if let Some(poly) = frames.placed(p.body[i], p.position[i]) {
+        if let Some(poly) = frames.placed(p.body[i], x) {
             polyhedron_wall_contacts(
                 law,
                 rolling,
                 &poly,
                 &Kinematics {
-                    x: p.position[i],
+                    x,
                     v,
                     w,
                     m: p.mass[i],
@@ -486,7 +574,7 @@ fn particle_walls<L: ContactLaw>(
         }
     }
     let body = WallBody {
-        x: p.position[i],
+        x,
         v,
         w,
         r: p.radius[i],

@@ -89,6 +89,9 @@ pub struct Simulation {
     segment_backoff: u64,
     /// Per-chunk partial geometry loads (see `geometry_loads`), kept between steps.
     load_partials: Vec<Load>,
+    /// The next step's integration (its largest displacement or failing particle), when the
+    /// last step did it in its final pass.
+    integrated_ahead: Option<Result<f64, usize>>,
 }
 
 impl Simulation {
@@ -122,6 +125,7 @@ impl Simulation {
             segments_declined_until: 0,
             segment_backoff: 0,
             load_partials: Vec::new(),
+            integrated_ahead: None,
         };
         let max_r = sim.particles.radius.iter().cloned().fold(0.0, f64::max);
         sim.prepare_radius(max_r);
@@ -386,6 +390,15 @@ impl Simulation {
     /// Advances `n` steps: as segments on the back end's device where it runs them (see
     /// [`segment`]), else step by step.
     pub fn run(&mut self, n: u64) -> Result<(), SimError> {
+        if rayon::current_thread_index().is_none() {
+            // Driven from a thread outside the pool, every parallel stage would hand its work
+            // to the pool and sleep until it is done: a wake-up each way, three times a step,
+            // which cost 7 % of a one-thread settle run in system time. From a pool thread, the
+            // driver works on each stage itself and the others join in.
+            let mut result = Ok(());
+            rayon::scope(|_| result = self.run(n));
+            return result;
+        }
         let mut left = n;
         while left > 0 {
             let steps = self.segment_steps(left);
@@ -393,7 +406,13 @@ impl Simulation {
                 left -= steps;
                 continue;
             }
-            self.step()?;
+            // A step that another follows at once, with nothing in between, does the next
+            // step's integration in its last pass (see `Backend::gather_and_integrate`).
+            let ahead = left > 1
+                && self.extensions.is_empty()
+                && self.bodies.is_empty()
+                && !self.backend.runs_segments(&self.inputs(false));
+            self.step_then(ahead)?;
             left -= 1;
         }
         Ok(())
@@ -422,29 +441,37 @@ impl Simulation {
 
     /// One velocity-Verlet step through the pipeline (see the module documentation).
     pub fn step(&mut self) -> Result<(), SimError> {
+        self.step_then(false)
+    }
+
+    /// One step; with `integrate_next`, the next step's integration is done in this step's
+    /// last pass and kept for it (only where the next step follows with nothing in between).
+    fn step_then(&mut self, integrate_next: bool) -> Result<(), SimError> {
         if !self.forces_ready {
             self.ensure_lists();
-            self.compute_forces(false);
+            self.compute_forces(false, false);
             self.forces_ready = true;
         }
         let dt = self.params.time_step;
 
         let t0 = Instant::now();
-        if !self.bodies.is_empty() {
+        let ahead = self.integrated_ahead.take();
+        if ahead.is_none() && !self.bodies.is_empty() {
             self.bodies_first_half(dt);
         }
         let t1 = Instant::now();
         self.timers.bodies += t1 - t0;
         let clumps = !self.bodies.is_empty();
-        let max_disp = self
-            .backend
-            .integrate(
+        let integrated = match ahead {
+            Some(done) => done,
+            None => self.backend.integrate(
                 &mut self.particles,
                 &self.neighbours.built_at,
                 &self.params,
                 clumps,
-            )
-            .map_err(|i| self.failure(i, self.time + dt))?;
+            ),
+        };
+        let max_disp = integrated.map_err(|i| self.failure(i, self.time + dt))?;
         let t2 = Instant::now();
         self.timers.integrate += t2 - t1;
 
@@ -464,7 +491,7 @@ impl Simulation {
         }
         self.timers.neighbour += t3.elapsed();
 
-        self.compute_forces(true);
+        self.compute_forces(true, integrate_next);
         self.time = (self.steps + 1) as f64 * dt;
         self.steps += 1;
         if !self.extensions.is_empty() {
@@ -509,7 +536,7 @@ impl Simulation {
         result
     }
 
-    fn compute_forces(&mut self, kick: bool) {
+    fn compute_forces(&mut self, kick: bool, integrate_next: bool) {
         let clumps = !self.bodies.is_empty();
         let force_hooks = self.extensions.iter().any(|e| e.adds_forces());
         let extension_before = self.timers.extension_forces;
@@ -537,13 +564,24 @@ impl Simulation {
         self.pair_forces_current = true;
         let t2 = Instant::now();
         self.timers.pair_forces += t2 - t0;
-        self.backend.wall_forces_and_sums(
-            &mut self.particles,
-            &self.neighbours,
-            &mut self.walls,
-            &inputs,
-            kick && !force_hooks,
-        );
+        let mut ahead = None;
+        if integrate_next && kick && !force_hooks && !clumps {
+            ahead = Some(self.backend.gather_and_integrate(
+                &mut self.particles,
+                &self.neighbours,
+                &mut self.walls,
+                &inputs,
+            ));
+        } else {
+            self.backend.wall_forces_and_sums(
+                &mut self.particles,
+                &self.neighbours,
+                &mut self.walls,
+                &inputs,
+                kick && !force_hooks,
+            );
+        }
+        self.integrated_ahead = ahead;
         if force_hooks {
             // With the kick the forces are those at the end of the step being taken.
             let dt = self.params.time_step;

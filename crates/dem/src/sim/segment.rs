@@ -209,7 +209,7 @@ impl super::Simulation {
     pub(super) fn run_segment(&mut self, steps: u64) -> Result<bool, SimError> {
         if !self.forces_ready {
             self.ensure_lists();
-            self.compute_forces(false);
+            self.compute_forces(false, false);
             self.forces_ready = true;
         }
         let t0 = Instant::now();

@@ -135,3 +135,29 @@ pub fn steps(name: &str, steps: Option<u64>, backend: &str, scale: u32) -> Resul
     println!("{}", r.line(name));
     Ok(())
 }
+
+/// `demcal bench stages`: each stage of the step timed on its own on a settled bed.
+pub fn stages(scale: u32, steps: Option<u64>, calls: usize) -> Result<(), String> {
+    let total = steps.unwrap_or(if scale == 1 {
+        dem::bench::STAGES_SETTLE_STEPS
+    } else {
+        dem::bench::SETTLE_WIDE_STEPS
+    });
+    let bar = progress_bar(total);
+    let (particles, costs) =
+        dem::bench::stage_costs(scale, steps, calls, |done| bar.set_position(done))?;
+    bar.finish_and_clear();
+    println!(
+        "stages of the settle scene (scale {scale}, {particles} spheres, after {total} steps), {calls} calls each, threads: {}",
+        rayon::current_num_threads()
+    );
+    for c in &costs {
+        println!(
+            "  {:<40} {:>10.1} us/call {:>8.1} ns/particle",
+            c.stage,
+            1e6 * c.seconds_per_call,
+            c.ns_per_particle(particles)
+        );
+    }
+    Ok(())
+}

@@ -205,8 +205,9 @@ enum Command {
         /// widened 8 times in x and y (1 444 000 spheres, 5 000 steps); bonded: the seed-000
         /// stalk specimen crushed; batch: 32 quickstart repose tests (seeds 1-32) made as a study
         /// stage makes them, on the back end chosen, then on the CPU runner; fill: a random fill
-        /// of 1 000 000 spheres at a solid fraction of 0.35.
-        #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch", "fill"])]
+        /// of 1 000 000 spheres at a solid fraction of 0.35; stages: each stage of the step timed
+        /// on its own on the settle scene's bed (after 20 000 steps; --scale, --steps, --calls).
+        #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch", "fill", "stages"])]
         name: String,
         /// settle: widen the box this many times in x and y, for scale² times the spheres
         /// (8: the 1 444 000 spheres of settle-wide; 5 000 steps unless --steps).
@@ -215,6 +216,9 @@ enum Command {
         /// fill: how many spheres.
         #[arg(long, default_value_t = 1_000_000)]
         count: usize,
+        /// stages: how many times each stage runs while timed.
+        #[arg(long, default_value_t = 200)]
+        calls: usize,
         /// Time steps to run (default: the benchmark's own, 20 000 for settle).
         #[arg(long)]
         steps: Option<u64>,
@@ -465,10 +469,15 @@ fn main() -> ExitCode {
                 test,
                 scale,
                 count,
+                calls,
             } => set_threads(threads).and_then(|_| match name.as_str() {
-                _ if scale != 1 && name != "settle" => {
-                    Err(format!("--scale: only bench settle is widened, not {name}"))
+                _ if scale != 1 && name != "settle" && name != "stages" => Err(format!(
+                    "--scale: only bench settle and stages are widened, not {name}"
+                )),
+                "stages" if backend != "cpu" => {
+                    Err("--backend: bench stages times the CPU stages".into())
                 }
+                "stages" => bench::stages(scale, steps, calls),
                 "batch" if steps.is_some() => Err(
                     "--steps: bench batch runs whole tests (use --test for a shorter one)".into(),
                 ),

@@ -163,7 +163,7 @@ fn study(dir: &Path, backend: &str) -> PathBuf {
         &path,
         format!(
             r#"name = "small heap"
-seed = 2
+seed = 5
 test = "repose.toml"
 backend = "{backend}"
 plan = [{{ stage = "validate", replicates = 2 }}]
@@ -264,7 +264,13 @@ fn a_gpu_study_killed_mid_way_resumes_and_matches_the_cpu() {
     }
     for (g, c) in after.iter().zip(&want) {
         assert_eq!((&g.0, &g.1), (&c.0, &c.1));
-        let parse = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
+        // An empty response is a failed run: a heap of 120 spheres is small enough that some
+        // seeds give a profile too short to measure (seeds 2, 3 and 7 did once), and the study's
+        // seed is one whose two runs measure on the CPU.
+        let parse = |s: &str| {
+            s.parse::<f64>()
+                .unwrap_or_else(|_| panic!("run {} failed: {g:?} {c:?}", g.1))
+        };
         // A 120-sphere heap scatters by degrees from seed to seed, and the GPU's run is another
         // draw of that scatter (the physics is checked to round-off in crates/gpu/tests); 5°
         // still catches a lost law (a heap without friction lies below 5°).

@@ -237,6 +237,48 @@ fn run(
     })
 }
 
+/// Steps the settle scene runs before its stages are timed (`demcal bench stages`): by then the
+/// spheres lie in a bed, with the contacts of a packed state.
+pub const STAGES_SETTLE_STEPS: u64 = 20_000;
+
+/// The stage micro-benchmarks (`demcal bench stages`): the settle scene widened `scale` times
+/// runs `steps` steps on the CPU (default [`STAGES_SETTLE_STEPS`], or [`SETTLE_WIDE_STEPS`]
+/// widened), then each stage runs `calls` times on that state
+/// ([`crate::sim::Simulation::stage_costs`]). Returns the particle count and the costs.
+pub fn stage_costs(
+    scale: u32,
+    steps: Option<u64>,
+    calls: usize,
+    mut progress: impl FnMut(u64),
+) -> Result<(usize, Vec<crate::sim::StageCost>), String> {
+    if !(1..=10_000).contains(&calls) {
+        return Err(format!("--calls: expected 1 to 10000, got {calls}"));
+    }
+    let default = if scale == 1 {
+        STAGES_SETTLE_STEPS
+    } else {
+        SETTLE_WIDE_STEPS
+    };
+    let steps = steps.unwrap_or(default);
+    if steps > MAX_BENCH_STEPS {
+        return Err(format!(
+            "--steps: expected 0 to {MAX_BENCH_STEPS}, got {steps}"
+        ));
+    }
+    let scene = Scene::from_toml(&settle_scene(scale)?, "the settle scene", Path::new("."))
+        .map_err(|e| e.to_string())?;
+    let mut sim = scene.simulation;
+    let mut done = 0;
+    while done < steps {
+        let n = 1000.min(steps - done);
+        sim.run(n).map_err(|e| e.to_string())?;
+        done += n;
+        progress(done);
+    }
+    let costs = sim.stage_costs(calls)?;
+    Ok((sim.particles.len(), costs))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,6 +28,7 @@ mod extension;
 mod params;
 mod registry;
 pub mod segment;
+mod stage_bench;
 pub mod walls;
 
 pub use backend::{Backend, StepInputs};
@@ -40,6 +41,7 @@ pub use registry::{
     resolve_backend, BackendMaker, BACKEND_NAMES,
 };
 pub use segment::{GeometryTrack, Segment, SegmentEnd};
+pub use stage_bench::StageCost;
 
 use crate::clump::Bodies;
 use crate::geometry::{ElementGrid, Geometry, Load};

@@ -36,7 +36,7 @@ pub struct WallOutput {
 /// The rows are only built here ([`WallLists::rebuild`]): the CPU back end hands each row to one
 /// task as a mutable slice, which is sound only while rows are increasing and end at the
 /// candidates' length, so other code reads them and writes slots but cannot change the rows.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub struct WallLists {
     pub(crate) start: Vec<u32>,
     pub(crate) candidates: Vec<WallCandidate>,

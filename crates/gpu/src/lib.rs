@@ -340,7 +340,7 @@ fn pair_table(inputs: &StepInputs) -> Vec<f64> {
             [
                 q.e_star,
                 q.g_star,
-                q.damping_ratio,
+                q.tangential_damping_ratio,
                 q.hertz_damping,
                 q.static_friction,
                 q.rolling_friction,

@@ -392,15 +392,6 @@ impl Simulation {
     /// Advances `n` steps: as segments on the back end's device where it runs them (see
     /// [`segment`]), else step by step.
     pub fn run(&mut self, n: u64) -> Result<(), SimError> {
-        if rayon::current_thread_index().is_none() {
-            // Driven from a thread outside the pool, every parallel stage would hand its work
-            // to the pool and sleep until it is done: a wake-up each way, three times a step,
-            // which cost 7 % of a one-thread settle run in system time. From a pool thread, the
-            // driver works on each stage itself and the others join in.
-            let mut result = Ok(());
-            rayon::scope(|_| result = self.run(n));
-            return result;
-        }
         let mut left = n;
         while left > 0 {
             let steps = self.segment_steps(left);

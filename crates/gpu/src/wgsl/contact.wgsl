@@ -102,6 +102,7 @@ fn hertz_mindlin(
 ) -> Contact {
     let e_star = table[t];
     let g_star = table[t + 1u];
+    let tangential_damping_ratio = table[t + 2u];
     let hertz_damping = table[t + 3u];
     let static_friction = table[t + 4u];
     let rolling_friction = table[t + 5u];
@@ -128,7 +129,11 @@ fn hertz_mindlin(
     let f_n = f_elastic - gamma_n * v_n;
     let v_t = v_rel - v_n * nrm;
     let v_c = v_t - cross3(spin_lever, nrm);
-    let gamma_t = hertz_damping * sqrt(s_t * m_eff);
+    // As the CPU: the normal coefficient times sqrt(S_t / S_n) where the table has that ratio.
+    var gamma_t = hertz_damping * sqrt(s_t * m_eff);
+    if (tangential_damping_ratio > 0.0lf) {
+        gamma_t = gamma_n * tangential_damping_ratio;
+    }
     let load = f_n + pull_off;
     let limit = static_friction * abs(load);
 

@@ -3,7 +3,7 @@
 //
 // history (per pair, 6): tangential spring xyz, rolling moment xyz
 // output (per pair, 11): force on i xyz, torque on i xyz, torque on j xyz, rolling i, rolling j
-// table (per material pair, 7): e_star, g_star, damping ratio, hertz damping, static friction,
+// table (per material pair, 7): e_star, g_star, tangential damping ratio, hertz damping, static friction,
 // rolling friction, surface energy
 
 @group(0) @binding(0) var<storage, read> state: array<f64>;
@@ -65,7 +65,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let dist = sqrt(dist2);
-    let nrm = delta / dist;
+    // As the CPU: one division, then products.
+    let nrm = delta * (1.0lf / dist);
     let d = sum - dist;
     let ci = ri - 0.5lf * d;
     let cj = rj - 0.5lf * d;

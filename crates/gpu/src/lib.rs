@@ -821,12 +821,11 @@ impl Backend for GpuStages {
         // Pairs the CPU evaluated (a law the GPU does not run) are summed where they are.
         if lists.layout != OutputLayout::Full
             || !c.fits(
-                (72 * n)
-                    .max(88 * lists.output.len())
-                    .max(80 * walls.output().len())
-                    .max(4 * csr_len),
-            )
-        {
+            (72 * n)
+                .max(88 * lists.output.len())
+                .max(80 * walls.output().len())
+                .max(4 * csr_len),
+        ) {
             return self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
         }
         let threads = n as u32;

@@ -401,16 +401,10 @@ impl LawVisitor for PairStage<'_> {
 
     fn visit<L: ContactLaw>(self, law: &L) {
         let p = self.p;
-        let params = self.inputs.params;
+        let gravity = self.inputs.params.gravity;
         let contact = PairContact {
             p,
-            materials: self.inputs.materials,
-            polyhedra: self.inputs.polyhedra,
-            gravity: params.gravity,
-            dt: params.time_step,
-            rolling: params.rolling_model,
-            clumps: self.inputs.clumps,
-            cohesive: self.inputs.cohesive,
+            inputs: self.inputs,
         };
         let nl = self.nl;
         nl.use_layout(OutputLayout::Split);
@@ -418,23 +412,56 @@ impl LawVisitor for PairStage<'_> {
         let pairs = Shared(nl.pairs.as_mut_ptr());
         let split = Shared(nl.split.as_mut_ptr());
         let active = Shared(nl.active.as_mut_ptr());
+        // Row by row, so that each particle's share as i is summed here, in row order, starting
+        // from gravity: the same additions in the same order as summing its slots afterwards.
         nl.row_sums
             .par_chunks_mut(BLOCK)
             .enumerate()
             .for_each(|(b, sums)| {
-                let first = b * BLOCK;
-                let rows = &row_start[first..=first + sums.len()];
-                let (q0, q1) = (rows[0] as usize, rows[sums.len()] as usize);
-                // SAFETY: the rows of a block of particles are one range of the pair arrays,
-                // disjoint from every other block's, and each block is handled by one task.
-                let (pairs, outs, actives) = unsafe {
-                    (
-                        std::slice::from_raw_parts_mut(pairs.ptr().add(q0), q1 - q0),
-                        std::slice::from_raw_parts_mut(split.ptr().add(q0), q1 - q0),
-                        std::slice::from_raw_parts_mut(active.ptr().add(q0), q1 - q0),
-                    )
-                };
-                contact.rows(law, first, rows, sums, pairs, outs, actives);
+                for (k, sum) in sums.iter_mut().enumerate() {
+                    let i = b * BLOCK + k;
+                    let (q0, q1) = (row_start[i] as usize, row_start[i + 1] as usize);
+                    // SAFETY: rows of different particles are disjoint ranges of the pair
+                    // arrays, and each particle's row is handled by exactly one task.
+                    let (pairs, outs, actives) = unsafe {
+                        (
+                            std::slice::from_raw_parts_mut(pairs.ptr().add(q0), q1 - q0),
+                            std::slice::from_raw_parts_mut(split.ptr().add(q0), q1 - q0),
+                            std::slice::from_raw_parts_mut(active.ptr().add(q0), q1 - q0),
+                        )
+                    };
+                    let mut acc = RowSum {
+                        force: gravity * p.mass[i],
+                        ..Default::default()
+                    };
+                    for ((pair, out), active) in
+                        pairs.iter_mut().zip(outs.iter_mut()).zip(actives.iter_mut())
+                    {
+                        match contact.evaluate(law, pair) {
+                            Some(o) => {
+                                acc.force += o.force;
+                                acc.torque += o.torque_i;
+                                acc.rolling += o.rolling_i;
+                                *out = SplitOutput {
+                                    force: o.force,
+                                    torque_j: o.torque_j,
+                                    rolling_j: o.rolling_j,
+                                };
+                                *active = 1;
+                            }
+                            None => {
+                                // Cleared unless clear already (see `NeighbourList::active`):
+                                // its slots are then neither read nor written.
+                                if *active != 0 {
+                                    pair.history = Default::default();
+                                    *out = SplitOutput::default();
+                                    *active = 0;
+                                }
+                            }
+                        }
+                    }
+                    *sum = acc;
+                }
             });
     }
 }
@@ -442,74 +469,10 @@ impl LawVisitor for PairStage<'_> {
 /// What the pair stage reads to evaluate one pair.
 struct PairContact<'a> {
     p: &'a Particles,
-    materials: &'a crate::material::MaterialTable,
-    polyhedra: Option<&'a PolyFrames>,
-    gravity: DVec3,
-    dt: f64,
-    rolling: crate::contact::RollingModel,
-    clumps: bool,
-    cohesive: bool,
+    inputs: &'a StepInputs<'a>,
 }
 
 impl PairContact<'_> {
-    /// The rows of particles `first..first + sums.len()` (`rows`: their row starts, and the end
-    /// of the last; the slices hold those rows' pairs): each particle's row is summed, starting
-    /// from gravity and in row order, into its `sums` entry (the same additions in the same
-    /// order as summing its slots afterwards), and each pair keeps j's share in its slot.
-    ///
-    /// A function of its own (not inlined) so that the compiler knows the slices it writes
-    /// alias nothing it reads, and keeps the particle arrays' addresses in registers.
-    #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
-    fn rows<L: ContactLaw>(
-        &self,
-        law: &L,
-        first: usize,
-        rows: &[u32],
-        sums: &mut [RowSum],
-        pairs: &mut [crate::neighbour::Pair],
-        outs: &mut [SplitOutput],
-        actives: &mut [u8],
-    ) {
-        let q0 = rows[0] as usize;
-        for (k, sum) in sums.iter_mut().enumerate() {
-            let row = rows[k] as usize - q0..rows[k + 1] as usize - q0;
-            let mut acc = RowSum {
-                force: self.gravity * self.p.mass[first + k],
-                ..Default::default()
-            };
-            for ((pair, out), active) in pairs[row.clone()]
-                .iter_mut()
-                .zip(&mut outs[row.clone()])
-                .zip(&mut actives[row])
-            {
-                match self.evaluate(law, pair) {
-                    Some(o) => {
-                        acc.force += o.force;
-                        acc.torque += o.torque_i;
-                        acc.rolling += o.rolling_i;
-                        *out = SplitOutput {
-                            force: o.force,
-                            torque_j: o.torque_j,
-                            rolling_j: o.rolling_j,
-                        };
-                        *active = 1;
-                    }
-                    None => {
-                        // Cleared unless clear already (see `NeighbourList::active`): its slots
-                        // are then neither read nor written.
-                        if *active != 0 {
-                            pair.history = Default::default();
-                            *out = SplitOutput::default();
-                            *active = 0;
-                        }
-                    }
-                }
-            }
-            *sum = acc;
-        }
-    }
-
     /// The pair's contributions, or None when its spheres do not touch (nor attract) or belong
     /// to one clump.
     #[inline(always)]
@@ -519,9 +482,11 @@ impl PairContact<'_> {
         pair: &mut crate::neighbour::Pair,
     ) -> Option<PairOutput> {
         let p = self.p;
-        let (materials, dt, rolling) = (self.materials, self.dt, self.rolling);
+        let materials = self.inputs.materials;
+        let dt = self.inputs.params.time_step;
+        let rolling = self.inputs.params.rolling_model;
         let (i, j) = (pair.i as usize, pair.j as usize);
-        if self.clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
+        if self.inputs.clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
             // Members of one clump overlap by design.
             return None;
         }
@@ -531,7 +496,7 @@ impl PairContact<'_> {
         let dist2 = delta.length_squared();
         // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off. Without any
         // cohesion, non-touching candidates leave before the lookup (and before any division).
-        let reach = if self.cohesive {
+        let reach = if self.inputs.cohesive {
             let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
             sum - law.cutoff_overlap(q, ri * rj / sum)
         } else {
@@ -541,7 +506,7 @@ impl PairContact<'_> {
             return None;
         }
         let r_eff = ri * rj / sum;
-        if let Some(frames) = self.polyhedra {
+        if let Some(frames) = self.inputs.polyhedra {
             if let Some(o) = polyhedral_pair(
                 law,
                 rolling,

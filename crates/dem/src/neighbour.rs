@@ -33,52 +33,11 @@ pub struct PairOutput {
     pub rolling_j: f64,
 }
 
-/// What the CPU pair stage keeps of a pair for its j (the split layout, [`OutputLayout`]): i's
-/// share went into i's [`RowSum`] there and then.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct SplitOutput {
-    /// Force on i (j gets the opposite).
-    pub force: DVec3,
-    pub torque_j: DVec3,
-    pub rolling_j: f64,
-}
-
-/// Per particle, written by the CPU pair stage: gravity plus every pair of the particle's row
-/// (as i), added in row order.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RowSum {
-    pub force: DVec3,
-    pub torque: DVec3,
-    pub rolling: f64,
-}
-
-/// How the last pair stage left its results.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum OutputLayout {
-    /// The CPU's: each particle's row summed into [`NeighbourList::row_sums`] by the pair stage,
-    /// and per pair only j's share ([`NeighbourList::split`]). The sums then read a pair once
-    /// (through the reverse index) and 56 bytes of it, not twice 88: the slots are most of the
-    /// step's memory traffic once a bed has formed.
-    #[default]
-    Split,
-    /// Every pair's whole [`PairOutput`] in [`NeighbourList::output`], for stages that write
-    /// pairs one by one (a GPU).
-    Full,
-}
-
 #[derive(Default)]
 pub struct NeighbourList {
     pub skin: f64,
     pub pairs: Vec<Pair>,
-    /// Which of `output` or `split` + `row_sums` holds the pair stage's results; the other is
-    /// left empty.
-    pub layout: OutputLayout,
-    /// [`OutputLayout::Full`]: one slot per pair.
     pub output: Vec<PairOutput>,
-    /// [`OutputLayout::Split`]: one slot per pair.
-    pub split: Vec<SplitOutput>,
-    /// [`OutputLayout::Split`]: one per particle.
-    pub row_sums: Vec<RowSum>,
     /// Per pair, 0 when its output slot is zero and its history empty (the pair has been apart
     /// since the last build, or since it last touched), so that the pair and sum stages pass it
     /// by without touching either: while a bed forms most listed pairs are apart, and their
@@ -139,45 +98,6 @@ impl NeighbourList {
     pub fn mark_all_active(&mut self) {
         self.active.clear();
         self.active.resize(self.pairs.len(), 1);
-    }
-
-    /// Makes `layout` the one the pair stage writes, with its slots sized (zero when new: a
-    /// layout changes only when another back end takes over the pair stage, not step by step).
-    pub fn use_layout(&mut self, layout: OutputLayout) {
-        let pairs = self.pairs.len();
-        let particles = self.row_start.len().saturating_sub(1);
-        if layout != self.layout || self.active.len() != pairs {
-            self.layout = layout;
-            // Slots of the new layout (or of a list put together by hand) start at zero: every
-            // pair may have a value to write.
-            self.mark_all_active();
-        }
-        match layout {
-            OutputLayout::Full => {
-                self.split = Vec::new();
-                self.row_sums = Vec::new();
-                if self.output.len() != pairs {
-                    self.output.clear();
-                    self.output.resize(pairs, PairOutput::default());
-                }
-            }
-            OutputLayout::Split => {
-                self.output = Vec::new();
-                if self.split.len() != pairs {
-                    self.split.clear();
-                    self.split.resize(pairs, SplitOutput::default());
-                }
-                self.row_sums.resize(particles, RowSum::default());
-            }
-        }
-    }
-
-    /// The contact force on pair `q`'s i from its j, as the last pair stage left it.
-    pub fn pair_force(&self, q: usize) -> DVec3 {
-        match self.layout {
-            OutputLayout::Full => self.output[q].force,
-            OutputLayout::Split => self.split[q].force,
-        }
     }
 
     pub fn new(skin: f64) -> Self {
@@ -375,20 +295,9 @@ impl NeighbourList {
         self.reverse.clear();
         self.reverse
             .par_extend(self.keys.par_iter().map(|&k| k as u32));
-        // The layout's slots, zero (the other layout's stay empty).
-        match self.layout {
-            OutputLayout::Full => {
-                self.output.clear();
-                self.output
-                    .par_extend((0..total).into_par_iter().map(|_| PairOutput::default()));
-            }
-            OutputLayout::Split => {
-                self.split.clear();
-                self.split
-                    .par_extend((0..total).into_par_iter().map(|_| SplitOutput::default()));
-                self.row_sums.resize(n, RowSum::default());
-            }
-        }
+        self.output.clear();
+        self.output
+            .par_extend((0..total).into_par_iter().map(|_| PairOutput::default()));
         self.active.clear();
         self.active.par_extend(
             self.pairs

@@ -58,7 +58,7 @@ use std::sync::{Arc, OnceLock};
 
 use dem::contact::{ContactHistory, ContactModel, RollingModel};
 use dem::geometry::Element;
-use dem::neighbour::{NeighbourList, OutputLayout};
+use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
 use dem::sim::walls::WallLists;
 use dem::sim::{Backend, CpuBackend, Segment, SegmentEnd, SimulationParams, StepInputs};
@@ -692,7 +692,6 @@ impl Backend for GpuStages {
         );
         let h = f64s(&out[0]);
         let o = f64s(&out[1]);
-        lists.use_layout(OutputLayout::Full);
         for (q, pair) in lists.pairs.iter_mut().enumerate() {
             pair.history.tangential = vec3_at(&h, 6 * q);
             pair.history.rolling = vec3_at(&h, 6 * q + 3);
@@ -818,9 +817,7 @@ impl Backend for GpuStages {
         }
         let c = &self.ctx;
         let csr_len = 6 * n + lists.reverse.len();
-        // Pairs the CPU evaluated (a law the GPU does not run) are summed where they are.
-        if lists.layout != OutputLayout::Full
-            || !c.fits(
+        if !c.fits(
             (72 * n)
                 .max(88 * lists.output.len())
                 .max(80 * walls.output().len())

@@ -77,9 +77,7 @@ pub trait Backend: Send + Sync {
     ) -> Result<f64, usize>;
 
     /// Every candidate pair computes its contact once, into its own output slot, updating its
-    /// history, in the layout of its choice (`NeighbourList::use_layout`): the whole output per
-    /// pair, or (the CPU) j's share per pair and each particle's row summed with gravity.
-    /// [`Self::particle_sums`] reads either.
+    /// history.
     fn pair_forces(&self, particles: &Particles, lists: &mut NeighbourList, inputs: &StepInputs);
 
     /// Every particle's geometry candidates compute their contacts into their output slots.

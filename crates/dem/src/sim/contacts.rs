@@ -1,7 +1,7 @@
 //! The contact network of the current state, for output: which spheres touch and with what force.
 
 use super::{Backend, CpuBackend, Simulation};
-use crate::neighbour::{NeighbourList, OutputLayout};
+use crate::neighbour::{NeighbourList, PairOutput};
 use glam::DVec3;
 
 /// Two spheres in contact (or attracting, with cohesion): their indices in the current particle
@@ -26,27 +26,27 @@ impl Simulation {
         // The first step would build the lists at this same state: building them now is the same.
         self.ensure_lists();
         let fresh;
-        let list: &NeighbourList = if self.pair_forces_current {
-            &self.neighbours
+        let outputs: &[PairOutput] = if self.pair_forces_current {
+            &self.neighbours.output
         } else {
             let mut copy = NeighbourList::new(self.params.skin);
             copy.pairs = self.neighbours.pairs.clone();
-            copy.row_start = self.neighbours.row_start.clone();
-            copy.use_layout(OutputLayout::Split);
+            copy.output = vec![PairOutput::default(); copy.pairs.len()];
+            copy.mark_all_active();
             let inputs = self.inputs(!self.bodies.is_empty());
             CpuBackend.pair_forces(&self.particles, &mut copy, &inputs);
-            fresh = copy;
+            fresh = copy.output;
             &fresh
         };
-        list.pairs
+        self.neighbours
+            .pairs
             .iter()
-            .enumerate()
-            .map(|(q, pair)| (pair, list.pair_force(q)))
-            .filter(|(_, force)| *force != DVec3::ZERO)
-            .map(|(pair, force)| PairContact {
+            .zip(outputs)
+            .filter(|(_, o)| o.force != DVec3::ZERO)
+            .map(|(pair, o)| PairContact {
                 i: pair.i as usize,
                 j: pair.j as usize,
-                force,
+                force: o.force,
             })
             .collect()
     }

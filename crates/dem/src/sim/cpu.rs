@@ -6,7 +6,7 @@ use super::backend::{Backend, StepInputs};
 use super::walls::{wall_contacts, WallBody, WallLists, WallOutput};
 use super::{SimulationParams, BLOCK};
 use crate::contact::{evaluate, ContactLaw, ContactPoint, LawVisitor};
-use crate::neighbour::{NeighbourList, OutputLayout, PairOutput, RowSum, SplitOutput};
+use crate::neighbour::{NeighbourList, PairOutput};
 use crate::parallel::Shared;
 use crate::particles::{Particles, NO_BODY};
 use crate::polyhedron::contact::{
@@ -261,43 +261,27 @@ fn sums(
                         w: ws[k],
                     },
                 );
+                let mut f = gravity * p.mass[i];
+                let mut t = DVec3::ZERO;
+                let mut lim = 0.0;
                 // Inactive slots are zero (see `NeighbourList::active`): passing them by adds
                 // nothing, so the sum is the same as over every slot.
-                let reverse =
-                    &nl.reverse[nl.reverse_start[i] as usize..nl.reverse_start[i + 1] as usize];
-                let (mut f, mut t, mut lim);
-                match nl.layout {
-                    OutputLayout::Split => {
-                        // Gravity and the row were summed by the pair stage, in this order.
-                        let row = &nl.row_sums[i];
-                        (f, t, lim) = (row.force, row.torque, row.rolling);
-                        for &q in reverse {
-                            if nl.active[q as usize] != 0 {
-                                let o = &nl.split[q as usize];
-                                f -= o.force;
-                                t += o.torque_j;
-                                lim += o.rolling_j;
-                            }
-                        }
+                let row = nl.row_start[i] as usize..nl.row_start[i + 1] as usize;
+                for (o, &a) in nl.output[row.clone()].iter().zip(&nl.active[row]) {
+                    if a != 0 {
+                        f += o.force;
+                        t += o.torque_i;
+                        lim += o.rolling_i;
                     }
-                    OutputLayout::Full => {
-                        (f, t, lim) = (gravity * p.mass[i], DVec3::ZERO, 0.0);
-                        let row = nl.row_start[i] as usize..nl.row_start[i + 1] as usize;
-                        for (o, &a) in nl.output[row.clone()].iter().zip(&nl.active[row]) {
-                            if a != 0 {
-                                f += o.force;
-                                t += o.torque_i;
-                                lim += o.rolling_i;
-                            }
-                        }
-                        for &q in reverse {
-                            if nl.active[q as usize] != 0 {
-                                let o = &nl.output[q as usize];
-                                f -= o.force;
-                                t += o.torque_j;
-                                lim += o.rolling_j;
-                            }
-                        }
+                }
+                for &q in
+                    &nl.reverse[nl.reverse_start[i] as usize..nl.reverse_start[i + 1] as usize]
+                {
+                    if nl.active[q as usize] != 0 {
+                        let o = &nl.output[q as usize];
+                        f -= o.force;
+                        t += o.torque_j;
+                        lim += o.rolling_j;
                     }
                 }
                 let (w0, w1) = (wall_start[i] as usize, wall_start[i + 1] as usize);
@@ -401,165 +385,117 @@ impl LawVisitor for PairStage<'_> {
 
     fn visit<L: ContactLaw>(self, law: &L) {
         let p = self.p;
-        let gravity = self.inputs.params.gravity;
-        let contact = PairContact {
-            p,
-            inputs: self.inputs,
-        };
+        let materials = self.inputs.materials;
+        let dt = self.inputs.params.time_step;
+        let rolling = self.inputs.params.rolling_model;
+        let cohesive = self.inputs.cohesive;
+        let clumps = self.inputs.clumps;
+        let polyhedra = self.inputs.polyhedra;
         let nl = self.nl;
-        nl.use_layout(OutputLayout::Split);
-        let row_start = &nl.row_start;
-        let pairs = Shared(nl.pairs.as_mut_ptr());
-        let split = Shared(nl.split.as_mut_ptr());
-        let active = Shared(nl.active.as_mut_ptr());
-        // Row by row, so that each particle's share as i is summed here, in row order, starting
-        // from gravity: the same additions in the same order as summing its slots afterwards.
-        nl.row_sums
-            .par_chunks_mut(BLOCK)
-            .enumerate()
-            .for_each(|(b, sums)| {
-                for (k, sum) in sums.iter_mut().enumerate() {
-                    let i = b * BLOCK + k;
-                    let (q0, q1) = (row_start[i] as usize, row_start[i + 1] as usize);
-                    // SAFETY: rows of different particles are disjoint ranges of the pair
-                    // arrays, and each particle's row is handled by exactly one task.
-                    let (pairs, outs, actives) = unsafe {
-                        (
-                            std::slice::from_raw_parts_mut(pairs.ptr().add(q0), q1 - q0),
-                            std::slice::from_raw_parts_mut(split.ptr().add(q0), q1 - q0),
-                            std::slice::from_raw_parts_mut(active.ptr().add(q0), q1 - q0),
-                        )
+        nl.pairs
+            .par_chunks_mut(BLOCK * 4)
+            .zip(nl.output.par_chunks_mut(BLOCK * 4))
+            .zip(nl.active.par_chunks_mut(BLOCK * 4))
+            .for_each(|((pairs, outs), actives)| {
+                for ((pair, out), active) in pairs
+                    .iter_mut()
+                    .zip(outs.iter_mut())
+                    .zip(actives.iter_mut())
+                {
+                    let (i, j) = (pair.i as usize, pair.j as usize);
+                    if clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
+                        // Members of one clump overlap by design.
+                        clear(pair, out, active);
+                        continue;
+                    }
+                    let delta = p.position[i] - p.position[j];
+                    let (ri, rj) = (p.radius[i], p.radius[j]);
+                    let sum = ri + rj;
+                    let dist2 = delta.length_squared();
+                    // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off.
+                    // Without any cohesion, non-touching candidates leave before the lookup (and
+                    // before any division).
+                    let reach = if cohesive {
+                        let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
+                        sum - law.cutoff_overlap(q, ri * rj / sum)
+                    } else {
+                        sum
                     };
-                    let mut acc = RowSum {
-                        force: gravity * p.mass[i],
-                        ..Default::default()
-                    };
-                    for ((pair, out), active) in
-                        pairs.iter_mut().zip(outs.iter_mut()).zip(actives.iter_mut())
-                    {
-                        match contact.evaluate(law, pair) {
-                            Some(o) => {
-                                acc.force += o.force;
-                                acc.torque += o.torque_i;
-                                acc.rolling += o.rolling_i;
-                                *out = SplitOutput {
-                                    force: o.force,
-                                    torque_j: o.torque_j,
-                                    rolling_j: o.rolling_j,
-                                };
-                                *active = 1;
-                            }
-                            None => {
-                                // Cleared unless clear already (see `NeighbourList::active`):
-                                // its slots are then neither read nor written.
-                                if *active != 0 {
-                                    pair.history = Default::default();
-                                    *out = SplitOutput::default();
-                                    *active = 0;
-                                }
-                            }
+                    if dist2 >= reach * reach {
+                        clear(pair, out, active);
+                        continue;
+                    }
+                    let r_eff = ri * rj / sum;
+                    if let Some(frames) = polyhedra {
+                        if let Some(o) = polyhedral_pair(
+                            law,
+                            rolling,
+                            p,
+                            i,
+                            j,
+                            frames,
+                            materials,
+                            &mut pair.history,
+                            dt,
+                        ) {
+                            *out = o;
+                            *active = 1;
+                            continue;
                         }
                     }
-                    *sum = acc;
+                    let dist = dist2.sqrt();
+                    // One division, not three (the step is bound by divisions and square roots).
+                    let n = delta * (1.0 / dist);
+                    let d = sum - dist;
+                    let (ci, cj) = (ri - 0.5 * d, rj - 0.5 * d);
+                    let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
+                    let m_eff = 1.0 / (p.inv_mass[i] + p.inv_mass[j]);
+                    let params = materials.pair(p.material[i] as usize, p.material[j] as usize);
+                    let cp = ContactPoint {
+                        normal: n,
+                        overlap: d,
+                        r_eff,
+                        m_eff,
+                        v_rel: p.velocity[i] - p.velocity[j],
+                        spin_lever: ci * wi + cj * wj,
+                    };
+                    let inertia = || {
+                        let ai = p.mass[i] * ri * ri;
+                        let aj = p.mass[j] * rj * rj;
+                        1.4 * ai * aj / (ai + aj)
+                    };
+                    let c = evaluate(
+                        law,
+                        rolling,
+                        params,
+                        &cp,
+                        wi - wj,
+                        inertia,
+                        &mut pair.history,
+                        dt,
+                    );
+                    let nxf = n.cross(c.law.tangential);
+                    *active = 1;
+                    *out = PairOutput {
+                        force: c.force,
+                        torque_i: -ci * nxf + c.rolling_torque,
+                        torque_j: -cj * nxf - c.rolling_torque,
+                        rolling_i: c.rolling_resistance * ci,
+                        rolling_j: c.rolling_resistance * cj,
+                    };
                 }
             });
     }
 }
 
-/// What the pair stage reads to evaluate one pair.
-struct PairContact<'a> {
-    p: &'a Particles,
-    inputs: &'a StepInputs<'a>,
-}
-
-impl PairContact<'_> {
-    /// The pair's contributions, or None when its spheres do not touch (nor attract) or belong
-    /// to one clump.
-    #[inline(always)]
-    fn evaluate<L: ContactLaw>(
-        &self,
-        law: &L,
-        pair: &mut crate::neighbour::Pair,
-    ) -> Option<PairOutput> {
-        let p = self.p;
-        let materials = self.inputs.materials;
-        let dt = self.inputs.params.time_step;
-        let rolling = self.inputs.params.rolling_model;
-        let (i, j) = (pair.i as usize, pair.j as usize);
-        if self.inputs.clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
-            // Members of one clump overlap by design.
-            return None;
-        }
-        let delta = p.position[i] - p.position[j];
-        let (ri, rj) = (p.radius[i], p.radius[j]);
-        let sum = ri + rj;
-        let dist2 = delta.length_squared();
-        // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off. Without any
-        // cohesion, non-touching candidates leave before the lookup (and before any division).
-        let reach = if self.inputs.cohesive {
-            let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
-            sum - law.cutoff_overlap(q, ri * rj / sum)
-        } else {
-            sum
-        };
-        if dist2 >= reach * reach {
-            return None;
-        }
-        let r_eff = ri * rj / sum;
-        if let Some(frames) = self.inputs.polyhedra {
-            if let Some(o) = polyhedral_pair(
-                law,
-                rolling,
-                p,
-                i,
-                j,
-                frames,
-                materials,
-                &mut pair.history,
-                dt,
-            ) {
-                return Some(o);
-            }
-        }
-        let dist = dist2.sqrt();
-        // One division, not three (the step is bound by divisions and square roots).
-        let n = delta * (1.0 / dist);
-        let d = sum - dist;
-        let (ci, cj) = (ri - 0.5 * d, rj - 0.5 * d);
-        let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
-        let m_eff = 1.0 / (p.inv_mass[i] + p.inv_mass[j]);
-        let params = materials.pair(p.material[i] as usize, p.material[j] as usize);
-        let cp = ContactPoint {
-            normal: n,
-            overlap: d,
-            r_eff,
-            m_eff,
-            v_rel: p.velocity[i] - p.velocity[j],
-            spin_lever: ci * wi + cj * wj,
-        };
-        let inertia = || {
-            let ai = p.mass[i] * ri * ri;
-            let aj = p.mass[j] * rj * rj;
-            1.4 * ai * aj / (ai + aj)
-        };
-        let c = evaluate(
-            law,
-            rolling,
-            params,
-            &cp,
-            wi - wj,
-            inertia,
-            &mut pair.history,
-            dt,
-        );
-        let nxf = n.cross(c.law.tangential);
-        Some(PairOutput {
-            force: c.force,
-            torque_i: -ci * nxf + c.rolling_torque,
-            torque_j: -cj * nxf - c.rolling_torque,
-            rolling_i: c.rolling_resistance * ci,
-            rolling_j: c.rolling_resistance * cj,
-        })
+/// Clears a pair that does not touch, unless it was clear already (see
+/// [`NeighbourList::active`]): its slots are then neither read nor written.
+#[inline(always)]
+fn clear(pair: &mut crate::neighbour::Pair, out: &mut PairOutput, active: &mut u8) {
+    if *active != 0 {
+        pair.history = Default::default();
+        *out = PairOutput::default();
+        *active = 0;
     }
 }
 

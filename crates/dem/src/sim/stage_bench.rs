@@ -107,10 +107,7 @@ impl Simulation {
         self.rebuild();
         let motion = Motion::of(&self.particles);
         let pairs = self.neighbours.pairs.clone();
-        let layout = self.neighbours.layout;
         let pair_output = self.neighbours.output.clone();
-        let split = self.neighbours.split.clone();
-        let row_sums = self.neighbours.row_sums.clone();
         let active = self.neighbours.active.clone();
         let walls = self.walls.clone();
         let per_round = calls.div_ceil(ROUNDS);
@@ -162,10 +159,7 @@ impl Simulation {
             *b = (*b - restore).max(0.0);
         }
         self.neighbours.pairs = pairs;
-        self.neighbours.layout = layout;
         self.neighbours.output = pair_output;
-        self.neighbours.split = split;
-        self.neighbours.row_sums = row_sums;
         self.neighbours.active = active;
         self.walls = walls;
         motion.restore(&mut self.particles);

@@ -19,8 +19,10 @@ while [ $# -gt 0 ]; do
 done
 cargo build --release -q -p demcal-cli
 lig=$(tools/peers/liggghts_settle.sh ${both[@]+"${both[@]}"} ${lig_only[@]+"${lig_only[@]}"} | tail -n 1)
-dem=$(./target/release/demcal bench settle ${both[@]+"${both[@]}"} ${dem_only[@]+"${dem_only[@]}"} | tail -n 1)
+dem_out=$(./target/release/demcal bench settle ${both[@]+"${both[@]}"} ${dem_only[@]+"${dem_only[@]}"})
+dem=$(echo "$dem_out" | tail -n 1)
 echo "$lig"
+echo "$dem_out" | grep '^stages:' || true
 echo "$dem"
 python3 - "$lig" "$dem" <<'PY'
 import sys

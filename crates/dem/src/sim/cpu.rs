@@ -139,9 +139,7 @@ impl Backend for CpuBackend {
         inputs: &StepInputs,
         kick: bool,
     ) {
-        let out = Shared(walls.output.as_ptr() as *mut WallOutput);
-        let no_walls = |_: &Particles, _: usize, _: &Motion| {};
-        sums(p, nl, out, &walls.start, inputs, kick, None, no_walls);
+        sums_of_slots(p, nl, walls, inputs, kick, None);
     }
 
     fn wall_forces_and_sums(
@@ -180,9 +178,7 @@ impl CpuBackend {
         ahead: Option<&[DVec3]>,
     ) -> Option<Result<f64, usize>> {
         if walls.candidates.is_empty() {
-            let out = Shared(walls.output.as_ptr() as *mut WallOutput);
-            let no_walls = |_: &Particles, _: usize, _: &Motion| {};
-            return sums(p, nl, out, &walls.start, inputs, kick, ahead, no_walls);
+            return sums_of_slots(p, nl, walls, inputs, kick, ahead);
         }
         inputs.params.contact_model.dispatch(GatherStage {
             p,
@@ -193,6 +189,22 @@ impl CpuBackend {
             ahead,
         })
     }
+}
+
+/// [`sums`] of the slots as they are, without computing any wall contact first (the wall slots
+/// were written by the wall stage, or there are none).
+fn sums_of_slots(
+    p: &mut Particles,
+    nl: &NeighbourList,
+    walls: &WallLists,
+    inputs: &StepInputs,
+    kick: bool,
+    ahead: Option<&[DVec3]>,
+) -> Option<Result<f64, usize>> {
+    // `sums` only reads the wall slots when it is given no `before` that writes them.
+    let out = Shared(walls.output.as_ptr() as *mut WallOutput);
+    let no_walls = |_: &Particles, _: usize, _: &Motion| {};
+    sums(p, nl, out, &walls.start, inputs, kick, ahead, no_walls)
 }
 
 /// A particle's position, velocity and spin as a stage began.

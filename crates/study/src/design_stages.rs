@@ -8,7 +8,10 @@ use doe::optimize::{Criterion, Goal, Problem, Subject};
 use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 
 use crate::spec::{Combine, RsmDesign, ScreeningDesign, Stage, Study};
-use crate::stages::{run_seed, sig, tidy, Context, RunSpec, StageResult, Validation};
+use crate::stages::{
+    run_seed, sig, target_values, tidy, Context, RunSpec, StageResult, Validation,
+};
+use crate::store::{RunRecord, Status};
 use crate::surrogate_stages;
 
 fn factors_of(study: &Study, ctx: &Context) -> Result<Vec<Factor>, String> {
@@ -181,24 +184,48 @@ pub(crate) fn plan_stage(
         Stage::BayesOpt { .. } | Stage::GaBp { .. } | Stage::Smc { .. } => {
             surrogate_stages::plan(study, stage, &mut st, ctx)?;
         }
-        Stage::Validate { replicates } => {
+        Stage::Validate {
+            replicates,
+            candidates,
+        } => {
             // The optimum; without an optimisation, the best run so far; else the middle.
             let point = ctx
                 .calibrated
                 .clone()
                 .or_else(|| ctx.best.clone())
                 .unwrap_or_else(|| ctx.values.clone());
-            st.title = format!("{replicates} replicate simulations at the calibrated point");
-            for i in 0..*replicates {
-                st.runs.push(RunSpec {
-                    stage: si,
-                    stage_kind: st.kind,
-                    index: i,
-                    label: format!("replicate {}", i + 1),
-                    coded: Vec::new(),
-                    values: point.clone(),
-                    seed: run_seed(study.seed, si, i),
-                });
+            // With several candidates, the optimisation's next solutions after it (as many as
+            // it found).
+            let points: Vec<Vec<f64>> = if ctx.candidates.first() == Some(&point) {
+                ctx.candidates.iter().take(*candidates).cloned().collect()
+            } else {
+                vec![point.clone()]
+            };
+            st.title = if points.len() == 1 {
+                format!("{replicates} replicate simulations at the calibrated point")
+            } else {
+                format!(
+                    "{replicates} replicate simulations at each of the {} best solutions",
+                    points.len()
+                )
+            };
+            for (c, values) in points.iter().enumerate() {
+                for r in 0..*replicates {
+                    let i = c * replicates + r;
+                    st.runs.push(RunSpec {
+                        stage: si,
+                        stage_kind: st.kind,
+                        index: i,
+                        label: if points.len() == 1 {
+                            format!("replicate {}", r + 1)
+                        } else {
+                            format!("solution {} replicate {}", c + 1, r + 1)
+                        },
+                        coded: Vec::new(),
+                        values: values.clone(),
+                        seed: run_seed(study.seed, si, i),
+                    });
+                }
             }
             st.calibrated = Some(point);
         }
@@ -531,10 +558,16 @@ pub(crate) fn conclude(
             st.equally_good = equally_good;
 
             let best = found.first().ok_or("the search found no solution")?.clone();
-            let mut point = ctx.values.clone();
-            for (j, &pi) in active.iter().enumerate() {
-                point[pi] = best.actual.as_ref().map(|a| a[j]).unwrap_or(point[pi]);
-            }
+            // Every solution as every parameter's value, for a validation of several.
+            let full = |s: &doe::optimize::Solution| {
+                let mut point = ctx.values.clone();
+                for (j, &pi) in active.iter().enumerate() {
+                    point[pi] = s.actual.as_ref().map(|a| a[j]).unwrap_or(point[pi]);
+                }
+                point
+            };
+            let point = full(&best);
+            ctx.candidates = found.iter().map(full).collect();
             if best.desirability <= 0.0 && !study.target.minimised() {
                 st.notes.push("the model does not reach the lab value inside the ranges; the closest setting is taken".into());
             }
@@ -551,23 +584,50 @@ pub(crate) fn conclude(
         Stage::BayesOpt { .. } | Stage::GaBp { .. } | Stage::Smc { .. } => {
             surrogate_stages::conclude(study, stage, st, ctx)?;
         }
-        Stage::Validate { .. } => {
+        Stage::Validate { replicates, .. } => {
             enough(st, 1, "validation")?;
-            let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
-            let mut v = Validation::of(&ys, &study.target);
-            let per_run = st.target_values(study.targets.len());
-            if study.combine.is_some() && per_run.len() == ys.len() {
-                v.targets = study
-                    .targets
-                    .iter()
-                    .enumerate()
-                    .map(|(i, t)| {
-                        let ys: Vec<f64> = per_run.iter().map(|r| r[i]).collect();
-                        Validation::of(&ys, t)
-                    })
-                    .collect();
+            // With several candidates, the one whose runs come nearest the lab value (lowest,
+            // for a minimised response) is validated and calibrated.
+            let candidates = st.runs.len().div_ceil(*replicates);
+            let found: Vec<Option<Validation>> = (0..candidates)
+                .map(|c| candidate_validation(study, st, *replicates, c))
+                .collect();
+            let miss = |v: &Validation| {
+                if study.target.minimised() {
+                    v.mean
+                } else {
+                    (v.mean - study.target.value).abs()
+                }
+            };
+            let chosen = (0..candidates)
+                .filter_map(|c| found[c].as_ref().map(|v| (c, miss(v))))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(c, _)| c)
+                .ok_or("no validation run gave a response")?;
+            if candidates > 1 {
+                for (c, v) in found.iter().enumerate() {
+                    st.notes.push(match v {
+                        Some(v) => format!(
+                            "solution {}: {} = {}{} over {} run(s){}",
+                            c + 1,
+                            study.target.response,
+                            sig(v.mean),
+                            v.std.map(|s| format!(" ± {}", sig(s))).unwrap_or_default(),
+                            v.runs,
+                            v.relative_error_percent
+                                .map(|e| format!(", {e:.2} % from the lab value"))
+                                .unwrap_or_default()
+                        ),
+                        None => format!("solution {}: no run gave a response", c + 1),
+                    });
+                }
+                st.notes.push(format!(
+                    "solution {} validates nearest the lab value: it is the calibrated point",
+                    chosen + 1
+                ));
+                st.calibrated = Some(st.runs[chosen * replicates].values.clone());
             }
-            st.validation = Some(v);
+            st.validation = found[chosen].clone();
         }
     }
     Ok(())
@@ -676,4 +736,44 @@ fn target_fits(
                 .map_err(|e| format!("the model of {}: {e}", exp.response_name))
         })
         .collect()
+}
+
+/// The validation of candidate `c` of a validation stage (its runs are `c * replicates ..`):
+/// `None` when none of them gave a response.
+fn candidate_validation(
+    study: &Study,
+    st: &StageResult,
+    replicates: usize,
+    c: usize,
+) -> Option<Validation> {
+    let runs: Vec<&RunRecord> = st
+        .runs
+        .iter()
+        .zip(&st.records)
+        .filter(|(s, _)| s.index / replicates == c)
+        .filter_map(|(_, r)| r.as_ref())
+        .filter(|r| r.status == Status::Done && r.response.is_some())
+        .collect();
+    let ys: Vec<f64> = runs.iter().filter_map(|r| r.response).collect();
+    if ys.is_empty() {
+        return None;
+    }
+    let mut v = Validation::of(&ys, &study.target);
+    let per_run: Vec<Vec<f64>> = runs
+        .iter()
+        .filter_map(|r| target_values(r))
+        .filter(|t| t.len() == study.targets.len())
+        .collect();
+    if study.combine.is_some() && per_run.len() == ys.len() {
+        v.targets = study
+            .targets
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let ys: Vec<f64> = per_run.iter().map(|r| r[i]).collect();
+                Validation::of(&ys, t)
+            })
+            .collect();
+    }
+    Some(v)
 }

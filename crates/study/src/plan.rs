@@ -54,6 +54,10 @@ pub enum Stage {
     },
     Validate {
         replicates: usize,
+        /// How many of the optimisation's distinct solutions are replicated, best first: all
+        /// their runs go at once (they fill the cores of a large machine that three replicates
+        /// would leave idle), and the one whose mean comes nearest the lab value is calibrated.
+        candidates: usize,
     },
     /// Gaussian-process Bayesian optimisation: a Latin hypercube, then rounds of `batch` points
     /// by expected improvement until `iterations`, `budget` or `patience` says stop.
@@ -126,7 +130,7 @@ pub fn stage_keys(kind: &str) -> Option<&'static [&'static str]> {
         "steepest" => &["steps", "direction"],
         "rsm" => &["design", "alpha", "center_points", "reduce", "alpha_out"],
         "optimize" => &["solutions", "starts"],
-        "validate" => &["replicates"],
+        "validate" => &["replicates", "candidates"],
         "bayesopt" => &[
             "initial",
             "iterations",
@@ -395,6 +399,7 @@ pub(crate) fn parse_plan(
             },
             "validate" => Stage::Validate {
                 replicates: count("replicates", 3, 1, Some(MAX_REPLICATES))?,
+                candidates: count("candidates", 1, 1, Some(MAX_SOLUTIONS))?,
             },
             "bayesopt" => Stage::BayesOpt {
                 initial: t

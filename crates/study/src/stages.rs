@@ -300,6 +300,9 @@ pub(crate) struct Context {
     /// Screening: first-order coefficient of each selected parameter.
     pub(crate) direction: Vec<f64>,
     pub(crate) calibrated: Option<Vec<f64>>,
+    /// The optimisation's distinct solutions as every parameter's value, best first (the first
+    /// is `calibrated`): what a validation with several candidates replicates.
+    pub(crate) candidates: Vec<Vec<f64>>,
     /// Every parameter's value in the finished run nearest the lab value so far.
     pub(crate) best: Option<Vec<f64>>,
     /// Every finished run of the completed stages that gave a response: its values and
@@ -355,6 +358,7 @@ pub fn replay(
         model_quadratic: false,
         direction: Vec::new(),
         calibrated: None,
+        candidates: Vec::new(),
         best: None,
         finished: Vec::new(),
     };

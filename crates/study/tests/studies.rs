@@ -742,3 +742,77 @@ fn the_scene_is_built_before_a_study_runs() {
         .unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A validation of several candidates replicates each of the optimisation's best solutions (all
+/// their runs go to the executor at once) and calibrates the one whose runs come nearest the lab
+/// value.
+#[test]
+fn a_validation_of_several_candidates_calibrates_the_nearest() {
+    let dir = fresh_dir("candidates");
+    let path = write_study(
+        &dir,
+        &BOWL
+            .replace(
+                "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+                "plan = [{ stage = \"rsm\", design = \"ccd\", alpha = 1.5 }, { stage = \"optimize\", solutions = 3 }, { stage = \"validate\", replicates = 2, candidates = 3 }]",
+            )
+            .replace("fail_when = \"c + d - 1.7\"", ""),
+    );
+    let out = run(&path, 2).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let study = Study::load(&path).unwrap();
+    let stored = study::store::Store::open(&study.store_path(), false)
+        .unwrap()
+        .runs()
+        .unwrap();
+    let r = study::replay(&study, &stored, None).unwrap();
+    let optimum = &r.stages[1];
+    let validation = &r.stages[2];
+    assert_eq!(optimum.solutions.len(), 3);
+    assert_eq!(validation.runs.len(), 6);
+    assert_eq!(validation.runs[3].label, "solution 2 replicate 2");
+    // Each candidate's mean, the one nearest 30 chosen, and its point calibrated.
+    let means: Vec<f64> = (0..3)
+        .map(|c| {
+            let ys: Vec<f64> = validation
+                .records
+                .iter()
+                .skip(2 * c)
+                .take(2)
+                .map(|r| r.as_ref().unwrap().response.unwrap())
+                .collect();
+            (ys[0] + ys[1]) / 2.0
+        })
+        .collect();
+    let chosen = (0..3)
+        .min_by(|&a, &b| (means[a] - 30.0).abs().total_cmp(&(means[b] - 30.0).abs()))
+        .unwrap();
+    let v = validation.validation.as_ref().unwrap();
+    assert_eq!(v.runs, 2);
+    assert!(
+        (v.mean - means[chosen]).abs() < 1e-12,
+        "{} vs {means:?}",
+        v.mean
+    );
+    assert_eq!(
+        validation.calibrated.as_ref(),
+        Some(&validation.runs[2 * chosen].values)
+    );
+    assert_eq!(
+        validation.notes.last().unwrap(),
+        &format!(
+            "solution {} validates nearest the lab value: it is the calibrated point",
+            chosen + 1
+        )
+    );
+    assert!(
+        validation.notes[0].starts_with("solution 1: value = "),
+        "{:?}",
+        validation.notes
+    );
+    let s = summary(&dir);
+    let a = s["calibrated"]["a"].as_f64().unwrap();
+    let a_index = study.parameters.iter().position(|p| p.name == "a").unwrap();
+    assert_eq!(a, validation.runs[2 * chosen].values[a_index]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

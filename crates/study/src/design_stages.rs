@@ -201,6 +201,16 @@ pub(crate) fn plan_stage(
             } else {
                 vec![point.clone()]
             };
+            if *candidates > points.len() {
+                st.notes.push(if ctx.candidates.first() == Some(&point) {
+                    format!(
+                        "{candidates} candidates asked for, the optimisation found {} distinct solution(s): all are replicated",
+                        points.len()
+                    )
+                } else {
+                    format!("{candidates} candidates asked for, but no optimisation since the last validation gave solutions: the calibrated point alone is replicated")
+                });
+            }
             st.title = if points.len() == 1 {
                 format!("{replicates} replicate simulations at the calibrated point")
             } else {
@@ -625,9 +635,14 @@ pub(crate) fn conclude(
                     "solution {} validates nearest the lab value: it is the calibrated point",
                     chosen + 1
                 ));
+                st.notes.push("the runs that chose it also measure its error, which therefore reads a little low; a second validate stage replicates the chosen point with new seeds".into());
                 st.calibrated = Some(st.runs[chosen * replicates].values.clone());
             }
+            st.chosen_solution = chosen;
             st.validation = found[chosen].clone();
+            // A later stage (another validation) starts from the chosen point alone.
+            ctx.calibrated = st.calibrated.clone();
+            ctx.candidates.clear();
         }
     }
     Ok(())

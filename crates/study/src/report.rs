@@ -419,7 +419,7 @@ fn validation_html(
         .then(|| report_model::interval_at_optimum(stages))
         .flatten();
     if let Some((pi, _)) = &interval {
-        let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
+        let ys: Vec<f64> = st.validation_successes().iter().map(|(_, y)| *y).collect();
         let inside = ys
             .iter()
             .filter(|y| **y >= pi.low && **y <= pi.high)

@@ -179,6 +179,8 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         "validation_mean": validation.as_ref().map(|v| v.mean),
         "validation_std": validation.as_ref().and_then(|v| v.std),
         "validation_runs": validation.as_ref().map(|v| v.runs),
+        // Which of the optimisation's solutions the validation chose (1: the first).
+        "validation_solution": r.stages.iter().rev().find(|s| s.validation.is_some()).map(|s| s.chosen_solution + 1),
         "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
         "objective": targets_report::summary(study, validation.as_ref()),
         "runs_made": where_ran(stored),

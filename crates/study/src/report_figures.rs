@@ -212,10 +212,13 @@ pub(crate) fn validation_plot(
     st: &StageResult,
     interval: Option<Interval>,
 ) -> Result<String, String> {
+    // With several candidates, the chosen solution's runs (those at the calibrated point).
     let sims: Vec<(f64, Option<(f64, usize)>)> = st
-        .records
+        .runs
         .iter()
-        .filter_map(|r| {
+        .zip(&st.records)
+        .filter(|(s, _)| st.calibrated.as_ref().is_none_or(|c| &s.values == c))
+        .filter_map(|(_, r)| {
             let r = r.as_ref()?;
             Some((r.response?, flank_spread(&r.outputs)))
         })

@@ -47,14 +47,20 @@ pub(crate) fn optimum_after<'a>(
         .find(|s| s.kind == "optimize" && s.target_fits.is_empty() && !s.solutions.is_empty())
 }
 
-/// The model's 95 % prediction interval at the optimisation's first solution.
+/// The model's 95 % prediction interval at the validated solution of the last optimisation (the
+/// first, unless a validation of several candidates chose another).
 pub(crate) fn interval_at_optimum(stages: &[StageResult]) -> Option<(Interval, &StageResult)> {
-    let st = stages
+    let at = stages
         .iter()
-        .rev()
-        .find(|s| s.kind == "optimize" && s.target_fits.is_empty() && !s.solutions.is_empty())?;
+        .rposition(|s| s.kind == "optimize" && s.target_fits.is_empty() && !s.solutions.is_empty())?;
+    let st = &stages[at];
+    let chosen = stages
+        .get(at + 1)
+        .filter(|s| s.kind == "validate")
+        .map_or(0, |v| v.chosen_solution);
     let fit = st.fit.as_ref()?;
-    Some((fit.prediction_interval(&st.solutions[0].coded, 0.95)?, st))
+    let solution = st.solutions.get(chosen)?;
+    Some((fit.prediction_interval(&solution.coded, 0.95)?, st))
 }
 
 /// The screening stage's model and figures.
@@ -274,7 +280,7 @@ pub(crate) fn optimize(h: &mut String, study: &Study, st: &StageResult, fit: &Fi
     };
     write!(
         h,
-        "<p>Goal: {} {goal}, each factor within its coded range −1 to +1. The first solution is validated.</p>",
+        "<p>Goal: {} {goal}, each factor within its coded range −1 to +1. The first solution is validated (with several candidates, the one whose runs come nearest the lab value).</p>",
         esc(&fit.experiment.response_name),
     )
     .unwrap();

@@ -151,6 +151,9 @@ pub struct StageResult {
     /// Optimize and validate: every parameter's value at the calibrated point.
     pub calibrated: Option<Vec<f64>>,
     pub validation: Option<Validation>,
+    /// Validate: which of the optimisation's solutions was validated and calibrated (0: the
+    /// first; another only with `candidates`).
+    pub chosen_solution: usize,
     /// What a surrogate stage (bayesopt, ga_bp, smc) fitted and found.
     pub surrogate: Option<SurrogateOutcome>,
     pub notes: Vec<String>,
@@ -177,6 +180,7 @@ impl StageResult {
             target_fits: Vec::new(),
             calibrated: None,
             validation: None,
+            chosen_solution: 0,
             surrogate: None,
             notes: Vec::new(),
             complete: false,
@@ -214,6 +218,15 @@ impl StageResult {
                     .and_then(|r| r.response)
                     .map(|y| (s, y))
             })
+            .collect()
+    }
+
+    /// Validate: the finished runs at the calibrated point, with their responses (with several
+    /// candidates, the chosen solution's runs; the others were made at other points).
+    pub(crate) fn validation_successes(&self) -> Vec<(&RunSpec, f64)> {
+        self.successes()
+            .into_iter()
+            .filter(|(s, _)| self.calibrated.as_ref().is_none_or(|c| &s.values == c))
             .collect()
     }
 

@@ -754,7 +754,7 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
         &BOWL
             .replace(
                 "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
-                "plan = [{ stage = \"rsm\", design = \"ccd\", alpha = 1.5 }, { stage = \"optimize\", solutions = 3 }, { stage = \"validate\", replicates = 2, candidates = 3 }]",
+                "plan = [{ stage = \"rsm\", design = \"ccd\", alpha = 1.5 }, { stage = \"optimize\", solutions = 3 }, { stage = \"validate\", replicates = 2, candidates = 3 }, { stage = \"validate\", replicates = 2, candidates = 3 }]",
             )
             .replace("fail_when = \"c + d - 1.7\"", ""),
     );
@@ -798,13 +798,11 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
         validation.calibrated.as_ref(),
         Some(&validation.runs[2 * chosen].values)
     );
-    assert_eq!(
-        validation.notes.last().unwrap(),
-        &format!(
-            "solution {} validates nearest the lab value: it is the calibrated point",
-            chosen + 1
-        )
+    let verdict = format!(
+        "solution {} validates nearest the lab value: it is the calibrated point",
+        chosen + 1
     );
+    assert!(validation.notes.contains(&verdict), "{:?}", validation.notes);
     assert!(
         validation.notes[0].starts_with("solution 1: value = "),
         "{:?}",
@@ -813,6 +811,17 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
     let s = summary(&dir);
     let a = s["calibrated"]["a"].as_f64().unwrap();
     let a_index = study.parameters.iter().position(|p| p.name == "a").unwrap();
+    assert_eq!(s["validation_solution"], serde_json::json!(chosen + 1));
+    // A second validation replicates the chosen point alone, with new seeds, and says why.
+    let again = &r.stages[3];
+    assert_eq!(again.runs.len(), 2);
+    assert!(again
+        .runs
+        .iter()
+        .all(|s| s.values == validation.runs[2 * chosen].values));
+    assert_ne!(again.runs[0].seed, validation.runs[0].seed);
+    assert!(again.notes[0].contains("no optimisation since the last validation"), "{:?}", again.notes);
     assert_eq!(a, validation.runs[2 * chosen].values[a_index]);
+    assert_eq!(s["validation_runs"], 2);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -589,6 +589,7 @@ pub(crate) fn conclude(
             st.solutions = found;
             st.fit = Some(fit);
             ctx.calibrated = Some(point.clone());
+            ctx.chosen_solution = 0;
             st.calibrated = Some(point);
         }
         Stage::BayesOpt { .. } | Stage::GaBp { .. } | Stage::Smc { .. } => {
@@ -638,7 +639,13 @@ pub(crate) fn conclude(
                 st.notes.push("the runs that chose it also measure its error, which therefore reads a little low; a second validate stage replicates the chosen point with new seeds".into());
                 st.calibrated = Some(st.runs[chosen * replicates].values.clone());
             }
-            st.chosen_solution = chosen;
+            // A validation of one point replicates what the context calibrated.
+            st.chosen_solution = if candidates > 1 {
+                chosen
+            } else {
+                ctx.chosen_solution
+            };
+            ctx.chosen_solution = st.chosen_solution;
             st.validation = found[chosen].clone();
             // A later stage (another validation) starts from the chosen point alone.
             ctx.calibrated = st.calibrated.clone();

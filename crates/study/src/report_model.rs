@@ -50,9 +50,9 @@ pub(crate) fn optimum_after<'a>(
 /// The model's 95 % prediction interval at the validated solution of the last optimisation (the
 /// first, unless a validation of several candidates chose another).
 pub(crate) fn interval_at_optimum(stages: &[StageResult]) -> Option<(Interval, &StageResult)> {
-    let at = stages
-        .iter()
-        .rposition(|s| s.kind == "optimize" && s.target_fits.is_empty() && !s.solutions.is_empty())?;
+    let at = stages.iter().rposition(|s| {
+        s.kind == "optimize" && s.target_fits.is_empty() && !s.solutions.is_empty()
+    })?;
     let st = &stages[at];
     let chosen = stages
         .get(at + 1)

@@ -316,6 +316,8 @@ pub(crate) struct Context {
     /// The optimisation's distinct solutions as every parameter's value, best first (the first
     /// is `calibrated`): what a validation with several candidates replicates.
     pub(crate) candidates: Vec<Vec<f64>>,
+    /// Which of the last optimisation's solutions `calibrated` is (0: the first).
+    pub(crate) chosen_solution: usize,
     /// Every parameter's value in the finished run nearest the lab value so far.
     pub(crate) best: Option<Vec<f64>>,
     /// Every finished run of the completed stages that gave a response: its values and
@@ -372,6 +374,7 @@ pub fn replay(
         direction: Vec::new(),
         calibrated: None,
         candidates: Vec::new(),
+        chosen_solution: 0,
         best: None,
         finished: Vec::new(),
     };

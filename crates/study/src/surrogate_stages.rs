@@ -610,6 +610,7 @@ pub(crate) fn conclude(
         _ => unreachable!("surrogate conclude of a {} stage", stage.kind()),
     }
     ctx.calibrated = Some(point.clone());
+    ctx.chosen_solution = 0;
     st.calibrated = Some(point);
     Ok(())
 }

@@ -802,7 +802,11 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
         "solution {} validates nearest the lab value: it is the calibrated point",
         chosen + 1
     );
-    assert!(validation.notes.contains(&verdict), "{:?}", validation.notes);
+    assert!(
+        validation.notes.contains(&verdict),
+        "{:?}",
+        validation.notes
+    );
     assert!(
         validation.notes[0].starts_with("solution 1: value = "),
         "{:?}",
@@ -820,7 +824,11 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
         .iter()
         .all(|s| s.values == validation.runs[2 * chosen].values));
     assert_ne!(again.runs[0].seed, validation.runs[0].seed);
-    assert!(again.notes[0].contains("no optimisation since the last validation"), "{:?}", again.notes);
+    assert!(
+        again.notes[0].contains("no optimisation since the last validation"),
+        "{:?}",
+        again.notes
+    );
     assert_eq!(a, validation.runs[2 * chosen].values[a_index]);
     assert_eq!(s["validation_runs"], 2);
     std::fs::remove_dir_all(&dir).unwrap();

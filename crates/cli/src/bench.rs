@@ -128,8 +128,10 @@ pub fn steps(name: &str, steps: Option<u64>, backend: &str, scale: u32) -> Resul
     }
     println!("stages: {}", r.stages);
     println!(
-        "neighbour rebuilds: {}, threads: {}",
+        "neighbour rebuilds: {}, pair passes over every pair: {}, over the near pairs: {}, threads: {}",
         r.neighbour_rebuilds,
+        r.pair_passes.0,
+        r.pair_passes.1,
         rayon::current_num_threads()
     );
     println!("{}", r.line(name));

@@ -23,6 +23,8 @@ pub struct BenchResult {
     pub kinetic_energy_j: f64,
     pub stages: String,
     pub neighbour_rebuilds: u64,
+    /// Pair stages over every listed pair, and over the near pairs only.
+    pub pair_passes: (u64, u64),
     /// Bonds formed and broken (0 without bonds).
     pub bonds: usize,
     pub bonds_broken: usize,
@@ -228,6 +230,7 @@ fn run(
         kinetic_energy_j: sim.kinetic_energy(),
         stages: sim.timers.breakdown(),
         neighbour_rebuilds: sim.neighbour_rebuilds(),
+        pair_passes: sim.pair_passes(),
         bonds,
         bonds_broken,
         bond_share: sim.timers.extension_forces.as_secs_f64()

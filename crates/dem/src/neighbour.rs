@@ -33,6 +33,53 @@ pub struct PairOutput {
     pub rolling_j: f64,
 }
 
+/// Pairs per task of the pair stage, and per stretch of [`NearList::slots`] (so a chunk-local index
+/// fits a u16).
+pub const PAIR_CHUNK: usize = 1024;
+
+/// The listed pairs that may touch before the particles have moved much: those closer than
+/// `margin` (beyond touching, or beyond a cohesive law's reach) when the pair stage last went
+/// over every pair. While no particle has moved half the margin since that scan, no other
+/// pair can touch, so the pair stage visits only these; the others stay cleared, exactly as a
+/// pass over them would leave them, so the results are the same bits. In a formed bed most
+/// listed pairs are a skin's fraction apart and stay so: the near pairs are about the
+/// touching ones.
+#[derive(Clone, Debug, Default)]
+pub struct NearList {
+    /// The gap (m) below which the scan kept a pair (the pair stage takes it from
+    /// [`crate::sim::SimulationParams::near_margin_fraction`]; 0: no near list).
+    pub margin: f64,
+    /// For each chunk of [`PAIR_CHUNK`] pairs, the chunk-local indices of its near pairs, at the
+    /// start of the chunk's own stretch (`counts` of them).
+    pub slots: Vec<u16>,
+    pub counts: Vec<u32>,
+    /// Positions at the scan.
+    pub anchor: Vec<DVec3>,
+    /// Whether `slots` hold a scan of the current pairs (a rebuild, or a stage that writes output
+    /// slots and calls [`NeighbourList::mark_all_active`], clears it).
+    pub current: bool,
+    /// The largest displacement of any particle since the scan: the integration measures it
+    /// against `anchor` and the pipeline sets it here; infinite when not measured.
+    pub moved: f64,
+    /// Pair stages that went over every pair, and over the near pairs only.
+    pub full_passes: u64,
+    pub near_passes: u64,
+}
+
+impl NearList {
+    /// Whether the pair stage may visit the near pairs only: no particle has moved half the
+    /// margin since the scan, so no two have closed the margin between them (with a little to
+    /// spare for the rounding of the distances).
+    pub fn usable(&self) -> bool {
+        self.current && self.moved < 0.49 * self.margin
+    }
+
+    /// The positions to measure the displacement against, while there is a scan.
+    pub fn anchor(&self) -> Option<&[DVec3]> {
+        self.current.then_some(&self.anchor[..])
+    }
+}
+
 #[derive(Default)]
 pub struct NeighbourList {
     pub skin: f64,
@@ -51,6 +98,8 @@ pub struct NeighbourList {
     pub reverse: Vec<u32>,
     /// Positions at the last build, for the displacement check.
     pub built_at: Vec<DVec3>,
+    /// The pairs the pair stage visits between full passes (see [`NearList`]).
+    pub near: NearList,
     pub rebuilds: u64,
     // Reused buffers.
     keys: Vec<u64>,
@@ -98,6 +147,7 @@ impl NeighbourList {
     pub fn mark_all_active(&mut self) {
         self.active.clear();
         self.active.resize(self.pairs.len(), 1);
+        self.near.current = false;
     }
 
     pub fn new(skin: f64) -> Self {
@@ -307,6 +357,7 @@ impl NeighbourList {
         self.built_at.clear();
         self.built_at
             .par_extend(particles.position.par_iter().copied());
+        self.near.current = false;
         self.rebuilds += 1;
         Reorder {
             order: &self.order,

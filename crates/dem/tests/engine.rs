@@ -245,9 +245,19 @@ fn settle_positions(threads: usize) -> Vec<DVec3> {
     settle_state(threads, true).0
 }
 
-/// Positions and velocities by stable id after the determinism scene, run with `run` (which does
-/// each next step's integration in the step before's last pass) or step by step (which does not).
 fn settle_state(threads: usize, whole_run: bool) -> (Vec<DVec3>, Vec<DVec3>) {
+    settle_state_with(threads, whole_run, None).0
+}
+
+/// Positions and velocities by stable id after the determinism scene, run with `run` (which does
+/// each next step's integration in the step before's last pass) or step by step (which does not),
+/// and the pair passes over every pair and over the near pairs; with `near_margin`, that
+/// fraction of the skin for the near list.
+fn settle_state_with(
+    threads: usize,
+    whole_run: bool,
+    near_margin: Option<f64>,
+) -> ((Vec<DVec3>, Vec<DVec3>), (u64, u64)) {
     let scene = r#"
         [simulation]
         steps = 1500
@@ -281,6 +291,9 @@ fn settle_state(threads: usize, whole_run: bool) -> (Vec<DVec3>, Vec<DVec3>) {
         .unwrap();
     pool.install(|| {
         let mut s = Scene::from_toml(scene, "det.toml", Path::new(".")).unwrap();
+        if let Some(m) = near_margin {
+            s.simulation.params.near_margin_fraction = m;
+        }
         if whole_run {
             s.simulation.run(s.steps).unwrap();
         } else {
@@ -295,8 +308,27 @@ fn settle_state(threads: usize, whole_run: bool) -> (Vec<DVec3>, Vec<DVec3>) {
             x[p.id[k] as usize] = p.position[k];
             v[p.id[k] as usize] = p.velocity[k];
         }
-        (x, v)
+        ((x, v), s.simulation.pair_passes())
     })
+}
+
+/// The near list is an optimisation only: the pairs it leaves out cannot touch until it is
+/// scanned again, so the run without it (every pair visited at every step) gives the same bits,
+/// whatever its margin.
+#[test]
+fn the_near_list_changes_nothing() {
+    let (reference, (full, near)) = settle_state_with(2, true, Some(0.0));
+    assert_eq!(near, 0, "no near list without a margin");
+    assert!(full > 1000, "{full} full passes");
+    for margin in [0.125, 0.5] {
+        let (state, (full, near)) = settle_state_with(2, true, Some(margin));
+        assert_eq!(state, reference, "margin {margin} of the skin");
+        eprintln!("margin {margin}: {full} full passes, {near} near ones");
+        assert!(
+            near > 100,
+            "margin {margin}: the near list was used ({near} passes)"
+        );
+    }
 }
 
 /// Doing the next step's half kick and drift in the last pass of a step (what `run` does) is the

@@ -9,7 +9,8 @@ use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
 use dem::sim::walls::WallLists;
 use dem::sim::{
-    Backend, CpuBackend, SimError, Simulation, SimulationParams, StepExtension, StepInputs,
+    Anchors, Backend, CpuBackend, Moved, SimError, Simulation, SimulationParams, StepExtension,
+    StepInputs,
 };
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -116,12 +117,12 @@ impl Backend for Counting {
     fn integrate(
         &self,
         p: &mut Particles,
-        built_at: &[DVec3],
+        anchors: Anchors,
         params: &SimulationParams,
         clumps: bool,
-    ) -> Result<f64, usize> {
+    ) -> Result<Moved, usize> {
         self.calls.fetch_add(1, Ordering::Relaxed);
-        CpuBackend.integrate(p, built_at, params, clumps)
+        CpuBackend.integrate(p, anchors, params, clumps)
     }
     fn pair_forces(&self, p: &Particles, lists: &mut NeighbourList, inputs: &StepInputs) {
         self.calls.fetch_add(1, Ordering::Relaxed);

@@ -61,7 +61,9 @@ use dem::geometry::Element;
 use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
 use dem::sim::walls::WallLists;
-use dem::sim::{Backend, CpuBackend, Segment, SegmentEnd, SimulationParams, StepInputs};
+use dem::sim::{
+    Anchors, Backend, CpuBackend, Moved, Segment, SegmentEnd, SimulationParams, StepInputs,
+};
 use glam::DVec3;
 use wgpu::util::DeviceExt;
 
@@ -601,13 +603,20 @@ impl Backend for GpuStages {
     fn integrate(
         &self,
         p: &mut Particles,
-        built_at: &[DVec3],
+        anchors: Anchors,
         params: &SimulationParams,
         clumps: bool,
-    ) -> Result<f64, usize> {
+    ) -> Result<Moved, usize> {
+        // The kernel measures the displacement since the list build only: without the one since
+        // the near scan, the CPU pair stage (where it runs) goes over every pair.
+        let built_at = anchors.build;
+        let moved_since = |build: f64| Moved {
+            since_build: build,
+            since_near: f64::INFINITY,
+        };
         let n = p.len();
         if n == 0 {
-            return Ok(0.0);
+            return Ok(moved_since(0.0));
         }
         assert_eq!(
             built_at.len(),
@@ -616,7 +625,7 @@ impl Backend for GpuStages {
         );
         let c = &self.ctx;
         if !c.fits(72 * n) {
-            return self.to_cpu().integrate(p, built_at, params, clumps);
+            return self.to_cpu().integrate(p, anchors, params, clumps);
         }
         let threads = n as u32;
         let state = c.storage(&state_of(p));
@@ -648,7 +657,9 @@ impl Backend for GpuStages {
         let outside: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
         match (0..n).find(|&i| !moved[i].is_finite() || outside[i] != 0) {
             Some(i) => Err(i),
-            None => Ok(moved[..n].iter().copied().fold(0.0, f64::max).sqrt()),
+            None => Ok(moved_since(
+                moved[..n].iter().copied().fold(0.0, f64::max).sqrt(),
+            )),
         }
     }
 

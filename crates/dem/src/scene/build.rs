@@ -410,6 +410,7 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
         // What the chosen values are as fractions, for whoever reads the parameters back.
         time_step_fraction: dt / rayleigh,
         skin_fraction: skin / min_r,
+        ..SimulationParams::default()
     };
 
     // Place the particles group by group, each avoiding those before it.

@@ -37,6 +37,34 @@ pub struct StepInputs<'a> {
     pub polyhedra: Option<&'a crate::polyhedron::PolyFrames>,
 }
 
+/// Where the particles were when the lists were made: what [`Backend::integrate`] measures the
+/// displacements against.
+#[derive(Clone, Copy)]
+pub struct Anchors<'a> {
+    /// At the last list build (a rebuild is due past half the skin).
+    pub build: &'a [DVec3],
+    /// At the near list's last scan, when there is one ([`crate::neighbour::NearList`]).
+    pub near: Option<&'a [DVec3]>,
+}
+
+impl<'a> Anchors<'a> {
+    pub fn of(lists: &'a NeighbourList) -> Self {
+        Anchors {
+            build: &lists.built_at,
+            near: lists.near.anchor(),
+        }
+    }
+}
+
+/// The largest displacement of any particle since each anchor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Moved {
+    pub since_build: f64,
+    /// Infinite without a near anchor (or from a back end that does not measure it: the pair
+    /// stage then goes over every pair).
+    pub since_near: f64,
+}
+
 /// The per-step arithmetic, in the order the pipeline calls it.
 pub trait Backend: Send + Sync {
     fn name(&self) -> &'static str;
@@ -65,16 +93,15 @@ pub trait Backend: Send + Sync {
     }
 
     /// Half kick (from the forces of the last step) and drift of every sphere that is not a clump
-    /// member. Returns the largest displacement since `built_at` (the positions at the last list
-    /// build), or the index of the first particle that is not finite or outside
-    /// `params.domain`.
+    /// member. Returns the largest displacements since the `anchors`, or the index of the first
+    /// particle that is not finite or outside `params.domain`.
     fn integrate(
         &self,
         particles: &mut Particles,
-        built_at: &[DVec3],
+        anchors: Anchors,
         params: &SimulationParams,
         clumps: bool,
-    ) -> Result<f64, usize>;
+    ) -> Result<Moved, usize>;
 
     /// Every candidate pair computes its contact once, into its own output slot, updating its
     /// history.
@@ -110,7 +137,7 @@ pub trait Backend: Send + Sync {
     }
 
     /// [`Self::wall_forces_and_sums`] with the kick, then the next step's [`Self::integrate`]
-    /// (against `lists.built_at`), for a step that follows at once with nothing in between (no
+    /// (against the lists' anchors), for a step that follows at once with nothing in between (no
     /// clumps, extensions or device segments: the pipeline checks). A back end may do it all in
     /// one pass over the particles (the CPU does).
     fn gather_and_integrate(
@@ -119,8 +146,8 @@ pub trait Backend: Send + Sync {
         lists: &NeighbourList,
         walls: &mut WallLists,
         inputs: &StepInputs,
-    ) -> Result<f64, usize> {
+    ) -> Result<Moved, usize> {
         self.wall_forces_and_sums(particles, lists, walls, inputs, true);
-        self.integrate(particles, &lists.built_at, inputs.params, inputs.clumps)
+        self.integrate(particles, Anchors::of(lists), inputs.params, inputs.clumps)
     }
 }

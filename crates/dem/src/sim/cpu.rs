@@ -2,11 +2,11 @@
 //! locks, no allocation; every contact writes its own slot and every particle sums its slots in a
 //! fixed order, so results do not depend on the number of threads.
 
-use super::backend::{Backend, StepInputs};
+use super::backend::{Anchors, Backend, Moved, StepInputs};
 use super::walls::{wall_contacts, WallBody, WallLists, WallOutput};
 use super::{SimulationParams, BLOCK};
 use crate::contact::{evaluate, ContactLaw, ContactPoint, LawVisitor};
-use crate::neighbour::{NeighbourList, PairOutput};
+use crate::neighbour::{NeighbourList, PairOutput, PAIR_CHUNK};
 use crate::parallel::Shared;
 use crate::particles::{Particles, NO_BODY};
 use crate::polyhedron::contact::{
@@ -28,10 +28,11 @@ impl Backend for CpuBackend {
     fn integrate(
         &self,
         p: &mut Particles,
-        built: &[DVec3],
+        anchors: Anchors,
         params: &SimulationParams,
         clumps: bool,
-    ) -> Result<f64, usize> {
+    ) -> Result<Moved, usize> {
+        let (built, near) = (anchors.build, anchors.near);
         let dt = params.time_step;
         let half = 0.5 * dt;
         let domain = params.domain;
@@ -43,7 +44,7 @@ impl Backend for CpuBackend {
             &p.rolling_torque_limit,
             &p.body,
         );
-        let (max_d2, bad) = p
+        let (max_d2, max_near_d2, bad) = p
             .position
             .par_chunks_mut(BLOCK)
             .zip(p.velocity.par_chunks_mut(BLOCK))
@@ -65,7 +66,9 @@ impl Backend for CpuBackend {
                     &body[base..][..len],
                     &built[base..][..len],
                 );
+                let nears = near.map(|a| &a[base..][..len]);
                 let mut worst: f64 = 0.0;
+                let mut worst_near: f64 = 0.0;
                 // Branch-free checks in the loop: a NaN or infinite displacement and the box
                 // around the block's positions; the block is searched for the culprit only when
                 // one of them fails.
@@ -82,6 +85,10 @@ impl Backend for CpuBackend {
                     let d2 = (xs[k] - at[k]).length_squared();
                     finite &= d2.is_finite();
                     worst = if d2 > worst { d2 } else { worst };
+                    if let Some(ns) = nears {
+                        let d2 = (xs[k] - ns[k]).length_squared();
+                        worst_near = if d2 > worst_near { d2 } else { worst_near };
+                    }
                     lo = lo.min(xs[k]);
                     hi = hi.max(xs[k]);
                 }
@@ -100,15 +107,12 @@ impl Backend for CpuBackend {
                         })
                         .map(|k| base + k)
                 };
-                (worst, bad)
+                (worst, worst_near, bad)
             })
-            .reduce(
-                || (0.0, None),
-                |a, b| (a.0.max(b.0), a.1.min(b.1).or(a.1).or(b.1)),
-            );
+            .reduce(|| (0.0, 0.0, None), merge_checks);
         match bad {
             Some(i) => Err(i),
-            None => Ok(max_d2.sqrt()),
+            None => Ok(moved(max_d2, max_near_d2, near.is_some())),
         }
     }
 
@@ -159,9 +163,8 @@ impl Backend for CpuBackend {
         nl: &NeighbourList,
         walls: &mut WallLists,
         inputs: &StepInputs,
-    ) -> Result<f64, usize> {
-        let built = &nl.built_at;
-        self.gather(p, nl, walls, inputs, true, Some(built))
+    ) -> Result<Moved, usize> {
+        self.gather(p, nl, walls, inputs, true, Some(Anchors::of(nl)))
             .expect("the pass integrates when asked to")
     }
 }
@@ -175,8 +178,8 @@ impl CpuBackend {
         walls: &mut WallLists,
         inputs: &StepInputs,
         kick: bool,
-        ahead: Option<&[DVec3]>,
-    ) -> Option<Result<f64, usize>> {
+        ahead: Option<Anchors>,
+    ) -> Option<Result<Moved, usize>> {
         if walls.candidates.is_empty() {
             return sums_of_slots(p, nl, walls, inputs, kick, ahead);
         }
@@ -199,12 +202,33 @@ fn sums_of_slots(
     walls: &WallLists,
     inputs: &StepInputs,
     kick: bool,
-    ahead: Option<&[DVec3]>,
-) -> Option<Result<f64, usize>> {
+    ahead: Option<Anchors>,
+) -> Option<Result<Moved, usize>> {
     // `sums` only reads the wall slots when it is given no `before` that writes them.
     let out = Shared(walls.output.as_ptr() as *mut WallOutput);
     let no_walls = |_: &Particles, _: usize, _: &Motion| {};
     sums(p, nl, out, &walls.start, inputs, kick, ahead, no_walls)
+}
+
+/// Merges two blocks' displacement checks: the larger squared displacements, the first culprit.
+fn merge_checks(
+    a: (f64, f64, Option<usize>),
+    b: (f64, f64, Option<usize>),
+) -> (f64, f64, Option<usize>) {
+    (a.0.max(b.0), a.1.max(b.1), a.2.min(b.2).or(a.2).or(b.2))
+}
+
+/// The displacements from the largest squared ones (infinite since the near scan when there is
+/// none to measure against).
+fn moved(max_d2: f64, max_near_d2: f64, near: bool) -> Moved {
+    Moved {
+        since_build: max_d2.sqrt(),
+        since_near: if near {
+            max_near_d2.sqrt()
+        } else {
+            f64::INFINITY
+        },
+    }
 }
 
 /// A particle's position, velocity and spin as a stage began.
@@ -219,11 +243,11 @@ struct Motion {
 /// for each particle with its state as the stage began (the fused gather stage computes the
 /// particle's wall contacts there, into the particle's own wall slots).
 ///
-/// With `ahead` (the positions at the last list build), the pass goes on into the next step's
-/// half kick and drift ([`Backend::integrate`]) with the same force, the same operations in the
-/// same order as that stage, and returns what it returns. This is sound because nothing between
-/// the end of one step and the next one's integration reads or writes the particles when the
-/// pipeline asks for it (no clumps, extensions or device segments).
+/// With `ahead` (the positions at the last list build and near scan), the pass goes on into the
+/// next step's half kick and drift ([`Backend::integrate`]) with the same force, the same
+/// operations in the same order as that stage, and returns what it returns. This is sound
+/// because nothing between the end of one step and the next one's integration reads or writes
+/// the particles when the pipeline asks for it (no clumps, extensions or device segments).
 #[allow(clippy::too_many_arguments)]
 fn sums(
     p: &mut Particles,
@@ -232,9 +256,9 @@ fn sums(
     wall_start: &[u32],
     inputs: &StepInputs,
     kick: bool,
-    ahead: Option<&[DVec3]>,
+    ahead: Option<Anchors>,
     before: impl Fn(&Particles, usize, &Motion) + Sync,
-) -> Option<Result<f64, usize>> {
+) -> Option<Result<Moved, usize>> {
     let params = inputs.params;
     let dt = params.time_step;
     let half = 0.5 * dt;
@@ -250,7 +274,8 @@ fn sums(
     let mut velocity = std::mem::take(&mut p.velocity);
     let mut spin = std::mem::take(&mut p.angular_velocity);
     let shared: &Particles = p;
-    let (max_d2, bad) = position
+    let near = ahead.and_then(|a| a.near);
+    let (max_d2, max_near_d2, bad) = position
         .par_chunks_mut(BLOCK)
         .zip(force.par_chunks_mut(BLOCK))
         .zip(torque.par_chunks_mut(BLOCK))
@@ -261,6 +286,7 @@ fn sums(
         .map(|(b, (((((xs, fs), ts), ls), vs), ws))| {
             let p = shared;
             let mut worst: f64 = 0.0;
+            let mut worst_near: f64 = 0.0;
             let mut bad = None;
             for k in 0..fs.len() {
                 let i = b * BLOCK + k;
@@ -314,7 +340,7 @@ fn sums(
                     vs[k] += f * (p.inv_mass[i] * half);
                     ws[k] = kick_spin(ws[k], t, lim, p.inv_inertia[i] * half);
                 }
-                if let Some(built) = ahead {
+                if let Some(Anchors { build: built, .. }) = ahead {
                     // The next step's integration, as `CpuBackend::integrate` does it.
                     if free {
                         vs[k] += f * (p.inv_mass[i] * half);
@@ -324,6 +350,10 @@ fn sums(
                     let x = xs[k];
                     let d2 = (x - built[i]).length_squared();
                     worst = if d2 > worst { d2 } else { worst };
+                    if let Some(anchor) = near {
+                        let d2 = (x - anchor[i]).length_squared();
+                        worst_near = if d2 > worst_near { d2 } else { worst_near };
+                    }
                     let outside =
                         domain.is_some_and(|(lo, hi)| x.cmplt(lo).any() || x.cmpgt(hi).any());
                     if bad.is_none() && (!d2.is_finite() || outside) {
@@ -331,12 +361,9 @@ fn sums(
                     }
                 }
             }
-            (worst, bad)
+            (worst, worst_near, bad)
         })
-        .reduce(
-            || (0.0, None),
-            |a, b| (a.0.max(b.0), a.1.min(b.1).or(a.1).or(b.1)),
-        );
+        .reduce(|| (0.0, 0.0, None), merge_checks);
     p.position = position;
     p.force = force;
     p.torque = torque;
@@ -345,7 +372,7 @@ fn sums(
     p.angular_velocity = spin;
     ahead.map(|_| match bad {
         Some(i) => Err(i),
-        None => Ok(max_d2.sqrt()),
+        None => Ok(moved(max_d2, max_near_d2, near.is_some())),
     })
 }
 
@@ -357,11 +384,11 @@ struct GatherStage<'a> {
     walls: &'a mut WallLists,
     inputs: &'a StepInputs<'a>,
     kick: bool,
-    ahead: Option<&'a [DVec3]>,
+    ahead: Option<Anchors<'a>>,
 }
 
 impl LawVisitor for GatherStage<'_> {
-    type Output = Option<Result<f64, usize>>;
+    type Output = Option<Result<Moved, usize>>;
 
     fn visit<L: ContactLaw>(self, law: &L) -> Self::Output {
         let start = &self.walls.start;
@@ -396,108 +423,188 @@ impl LawVisitor for PairStage<'_> {
     type Output = ();
 
     fn visit<L: ContactLaw>(self, law: &L) {
-        let p = self.p;
-        let materials = self.inputs.materials;
-        let dt = self.inputs.params.time_step;
-        let rolling = self.inputs.params.rolling_model;
-        let cohesive = self.inputs.cohesive;
-        let clumps = self.inputs.clumps;
-        let polyhedra = self.inputs.polyhedra;
-        let nl = self.nl;
-        nl.pairs
-            .par_chunks_mut(BLOCK * 4)
-            .zip(nl.output.par_chunks_mut(BLOCK * 4))
-            .zip(nl.active.par_chunks_mut(BLOCK * 4))
-            .for_each(|((pairs, outs), actives)| {
-                for ((pair, out), active) in pairs
-                    .iter_mut()
-                    .zip(outs.iter_mut())
-                    .zip(actives.iter_mut())
-                {
-                    let (i, j) = (pair.i as usize, pair.j as usize);
-                    if clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
-                        // Members of one clump overlap by design.
-                        clear(pair, out, active);
-                        continue;
-                    }
-                    let delta = p.position[i] - p.position[j];
-                    let (ri, rj) = (p.radius[i], p.radius[j]);
-                    let sum = ri + rj;
-                    let dist2 = delta.length_squared();
-                    // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off.
-                    // Without any cohesion, non-touching candidates leave before the lookup (and
-                    // before any division).
-                    let reach = if cohesive {
-                        let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
-                        sum - law.cutoff_overlap(q, ri * rj / sum)
-                    } else {
-                        sum
-                    };
-                    if dist2 >= reach * reach {
-                        clear(pair, out, active);
-                        continue;
-                    }
-                    let r_eff = ri * rj / sum;
-                    if let Some(frames) = polyhedra {
-                        if let Some(o) = polyhedral_pair(
+        let (p, inputs) = (self.p, self.inputs);
+        let NeighbourList {
+            pairs,
+            output,
+            active,
+            near,
+            ..
+        } = self.nl;
+        if near.usable() {
+            let margin = near.margin;
+            // Only the pairs that were near at the last scan can touch (see `NearList`).
+            pairs
+                .par_chunks_mut(PAIR_CHUNK)
+                .zip(output.par_chunks_mut(PAIR_CHUNK))
+                .zip(active.par_chunks_mut(PAIR_CHUNK))
+                .zip(near.slots.par_chunks(PAIR_CHUNK))
+                .zip(near.counts.par_iter())
+                .for_each(|((((pairs, outs), actives), slots), &count)| {
+                    for &q in &slots[..count as usize] {
+                        let q = q as usize;
+                        pair_contact(
                             law,
-                            rolling,
                             p,
-                            i,
-                            j,
-                            frames,
-                            materials,
-                            &mut pair.history,
-                            dt,
-                        ) {
-                            *out = o;
-                            *active = 1;
-                            continue;
-                        }
+                            &mut pairs[q],
+                            &mut outs[q],
+                            &mut actives[q],
+                            inputs,
+                            margin,
+                        );
                     }
-                    let dist = dist2.sqrt();
-                    // One division, not three (the step is bound by divisions and square roots).
-                    let n = delta * (1.0 / dist);
-                    let d = sum - dist;
-                    let (ci, cj) = (ri - 0.5 * d, rj - 0.5 * d);
-                    let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
-                    let m_eff = 1.0 / (p.inv_mass[i] + p.inv_mass[j]);
-                    let params = materials.pair(p.material[i] as usize, p.material[j] as usize);
-                    let cp = ContactPoint {
-                        normal: n,
-                        overlap: d,
-                        r_eff,
-                        m_eff,
-                        v_rel: p.velocity[i] - p.velocity[j],
-                        spin_lever: ci * wi + cj * wj,
-                    };
-                    let inertia = || {
-                        let ai = p.mass[i] * ri * ri;
-                        let aj = p.mass[j] * rj * rj;
-                        1.4 * ai * aj / (ai + aj)
-                    };
-                    let c = evaluate(
-                        law,
-                        rolling,
-                        params,
-                        &cp,
-                        wi - wj,
-                        inertia,
-                        &mut pair.history,
-                        dt,
-                    );
-                    let nxf = n.cross(c.law.tangential);
-                    *active = 1;
-                    *out = PairOutput {
-                        force: c.force,
-                        torque_i: -ci * nxf + c.rolling_torque,
-                        torque_j: -cj * nxf - c.rolling_torque,
-                        rolling_i: c.rolling_resistance * ci,
-                        rolling_j: c.rolling_resistance * cj,
-                    };
+                });
+            near.near_passes += 1;
+            return;
+        }
+        // Every pair, noting the near ones when there is a margin. The buffers grow with the
+        // list and are then reused.
+        let margin = inputs.params.near_margin_fraction * inputs.params.skin;
+        let record = margin > 0.0;
+        near.current = false;
+        near.full_passes += 1;
+        let chunks = pairs.len().div_ceil(PAIR_CHUNK);
+        if record {
+            near.slots.resize(pairs.len(), 0);
+            near.counts.resize(chunks, 0);
+        }
+        let (slots, counts) = (
+            Shared(near.slots.as_mut_ptr()),
+            Shared(near.counts.as_mut_ptr()),
+        );
+        pairs
+            .par_chunks_mut(PAIR_CHUNK)
+            .zip(output.par_chunks_mut(PAIR_CHUNK))
+            .zip(active.par_chunks_mut(PAIR_CHUNK))
+            .enumerate()
+            .for_each(|(c, ((pairs, outs), actives))| {
+                let mut count = 0;
+                for (k, ((pair, out), active)) in
+                    pairs.iter_mut().zip(outs).zip(actives).enumerate()
+                {
+                    let is_near = pair_contact(law, p, pair, out, active, inputs, margin);
+                    if record && is_near {
+                        // SAFETY: chunk c owns its stretch of the slots and its count.
+                        unsafe { *slots.ptr().add(c * PAIR_CHUNK + count) = k as u16 };
+                        count += 1;
+                    }
+                }
+                if record {
+                    // SAFETY: as above.
+                    unsafe { *counts.ptr().add(c) = count as u32 };
                 }
             });
+        if record {
+            near.anchor.resize(p.len(), DVec3::ZERO);
+            near.anchor
+                .par_chunks_mut(PAIR_CHUNK)
+                .zip(p.position.par_chunks(PAIR_CHUNK))
+                .for_each(|(a, x)| a.copy_from_slice(x));
+            near.margin = margin;
+            near.current = true;
+            near.moved = 0.0;
+        }
     }
+}
+
+/// One candidate pair: its contact into its output slot and history, or the slot cleared when
+/// the two do not touch. Returns whether the pair is near: touching, or closer than `margin`
+/// beyond touching (or beyond a cohesive law's reach).
+#[inline(always)]
+fn pair_contact<L: ContactLaw>(
+    law: &L,
+    p: &Particles,
+    pair: &mut crate::neighbour::Pair,
+    out: &mut PairOutput,
+    active: &mut u8,
+    inputs: &StepInputs,
+    margin: f64,
+) -> bool {
+    let materials = inputs.materials;
+    let dt = inputs.params.time_step;
+    let rolling = inputs.params.rolling_model;
+    let (i, j) = (pair.i as usize, pair.j as usize);
+    if inputs.clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
+        // Members of one clump overlap by design, and never come near.
+        clear(pair, out, active);
+        return false;
+    }
+    let delta = p.position[i] - p.position[j];
+    let (ri, rj) = (p.radius[i], p.radius[j]);
+    let sum = ri + rj;
+    let dist2 = delta.length_squared();
+    // A cohesive (JKR) pair attracts until the gap reaches the law's cut-off. Without any
+    // cohesion, non-touching candidates leave before the lookup (and before any division).
+    let reach = if inputs.cohesive {
+        let q = materials.pair(p.material[i] as usize, p.material[j] as usize);
+        sum - law.cutoff_overlap(q, ri * rj / sum)
+    } else {
+        sum
+    };
+    if dist2 >= reach * reach {
+        clear(pair, out, active);
+        let near = reach + margin;
+        return dist2 < near * near;
+    }
+    let r_eff = ri * rj / sum;
+    if let Some(frames) = inputs.polyhedra {
+        if let Some(o) = polyhedral_pair(
+            law,
+            rolling,
+            p,
+            i,
+            j,
+            frames,
+            materials,
+            &mut pair.history,
+            dt,
+        ) {
+            *out = o;
+            *active = 1;
+            return true;
+        }
+    }
+    let dist = dist2.sqrt();
+    // One division, not three (the step is bound by divisions and square roots).
+    let n = delta * (1.0 / dist);
+    let d = sum - dist;
+    let (ci, cj) = (ri - 0.5 * d, rj - 0.5 * d);
+    let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
+    let m_eff = 1.0 / (p.inv_mass[i] + p.inv_mass[j]);
+    let params = materials.pair(p.material[i] as usize, p.material[j] as usize);
+    let cp = ContactPoint {
+        normal: n,
+        overlap: d,
+        r_eff,
+        m_eff,
+        v_rel: p.velocity[i] - p.velocity[j],
+        spin_lever: ci * wi + cj * wj,
+    };
+    let inertia = || {
+        let ai = p.mass[i] * ri * ri;
+        let aj = p.mass[j] * rj * rj;
+        1.4 * ai * aj / (ai + aj)
+    };
+    let c = evaluate(
+        law,
+        rolling,
+        params,
+        &cp,
+        wi - wj,
+        inertia,
+        &mut pair.history,
+        dt,
+    );
+    let nxf = n.cross(c.law.tangential);
+    *active = 1;
+    *out = PairOutput {
+        force: c.force,
+        torque_i: -ci * nxf + c.rolling_torque,
+        torque_j: -cj * nxf - c.rolling_torque,
+        rolling_i: c.rolling_resistance * ci,
+        rolling_j: c.rolling_resistance * cj,
+    };
+    true
 }
 
 /// Clears a pair that does not touch, unless it was clear already (see

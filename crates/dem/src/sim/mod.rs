@@ -31,7 +31,7 @@ pub mod segment;
 mod stage_bench;
 pub mod walls;
 
-pub use backend::{Backend, StepInputs};
+pub use backend::{Anchors, Backend, Moved, StepInputs};
 pub use contacts::PairContact;
 pub use cpu::{kick_spin, CpuBackend};
 pub use extension::StepExtension;
@@ -93,7 +93,7 @@ pub struct Simulation {
     load_partials: Vec<Load>,
     /// The next step's integration (its largest displacement or failing particle), when the
     /// last step did it in its final pass.
-    integrated_ahead: Option<Result<f64, usize>>,
+    integrated_ahead: Option<Result<Moved, usize>>,
 }
 
 impl Simulation {
@@ -310,6 +310,13 @@ impl Simulation {
         self.neighbours.rebuilds
     }
 
+    /// Pair stages so far that went over every listed pair, and over the near pairs only
+    /// ([`crate::neighbour::NearList`]).
+    pub fn pair_passes(&self) -> (u64, u64) {
+        let near = &self.neighbours.near;
+        (near.full_passes, near.near_passes)
+    }
+
     /// Largest overlap between two particles divided by the smaller radius, and the pair's stable ids.
     pub fn largest_relative_overlap(&mut self) -> Option<(f64, u32, u32)> {
         self.ensure_lists();
@@ -459,12 +466,14 @@ impl Simulation {
             Some(done) => done,
             None => self.backend.integrate(
                 &mut self.particles,
-                &self.neighbours.built_at,
+                Anchors::of(&self.neighbours),
                 &self.params,
                 clumps,
             ),
         };
-        let max_disp = integrated.map_err(|i| self.failure(i, self.time + dt))?;
+        let moved = integrated.map_err(|i| self.failure(i, self.time + dt))?;
+        let max_disp = moved.since_build;
+        self.neighbours.near.moved = moved.since_near;
         let t2 = Instant::now();
         self.timers.integrate += t2 - t1;
 

@@ -26,6 +26,10 @@ pub struct SimulationParams {
     pub skin: f64,
     /// Skin as a fraction of the smallest sphere radius. Default 0.3.
     pub skin_fraction: f64,
+    /// The near list's margin as a fraction of the skin (`dem::neighbour::NearList`): between
+    /// full passes the pair stage visits only the pairs closer than this. Default 0.125; 0 turns
+    /// the near list off (the results are the same bits either way).
+    pub near_margin_fraction: f64,
     /// Particles outside this box stop the run (an exploding simulation). Default: none here;
     /// the scene builder puts a box around the set-up.
     pub domain: Option<(DVec3, DVec3)>,
@@ -44,6 +48,7 @@ impl Default for SimulationParams {
             rolling_viscous_damping: 0.3,
             skin: 0.0,
             skin_fraction: 0.3,
+            near_margin_fraction: 0.125,
             domain: None,
             max_initial_overlap: 0.01,
         }

@@ -3,7 +3,7 @@
 //! stage costs per particle with nothing else running beside it, so that a change to one stage
 //! is measured on its own (docs/benchmarks.md).
 
-use super::backend::StepInputs;
+use super::backend::{Anchors, StepInputs};
 use super::Simulation;
 use crate::particles::Particles;
 use glam::DVec3;
@@ -141,9 +141,9 @@ impl Simulation {
                 let _ = backend.gather_and_integrate(particles, neighbours, wall_lists, &inputs);
                 motion.restore(particles);
             });
-            let built = &neighbours.built_at;
+            let anchors = Anchors::of(neighbours);
             seconds[4] = time(per_round, || {
-                let _ = backend.integrate(particles, built, inputs.params, false);
+                let _ = backend.integrate(particles, anchors, inputs.params, false);
                 motion.restore(particles);
             });
             let copy = time(per_round, || motion.restore(particles));
@@ -161,6 +161,8 @@ impl Simulation {
         self.neighbours.pairs = pairs;
         self.neighbours.output = pair_output;
         self.neighbours.active = active;
+        // The next pair stage goes over every pair again.
+        self.neighbours.near.current = false;
         self.walls = walls;
         motion.restore(&mut self.particles);
         self.geometry_loads();

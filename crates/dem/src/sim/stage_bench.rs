@@ -70,21 +70,24 @@ fn time(calls: usize, mut f: impl FnMut()) -> f64 {
 const ROUNDS: usize = 5;
 
 /// The stages timed, in the order they run in a round.
-const STAGES: [&str; 6] = [
+const STAGES: [&str; 7] = [
     "neighbour rebuild",
     "pair forces",
     "wall forces + sums",
     "wall forces + sums + next integration",
     "integrate",
     "geometry loads",
+    "pair forces over every pair",
 ];
 
 impl Simulation {
     /// Runs each stage of the step `calls` times on the current state with this simulation's back
     /// end and says what one call costs: the neighbour rebuild, the pair forces, the gather (wall
     /// forces + sums, without the kick), the gather with the kick going on into the next step's
-    /// integration (the pass a run makes), the integration on its own, and the geometry loads.
-    /// The calls run in rounds, each stage in turn, and a stage's cost is its best round.
+    /// integration (the pass a run makes), the integration on its own, the geometry loads, and
+    /// the pair forces again over every listed pair (the pass that scans the near list anew; the
+    /// pair forces above visit the near pairs, as a run's steps between scans do). The calls run
+    /// in rounds, each stage in turn, and a stage's cost is its best round.
     ///
     /// The state is put back as it was afterwards (positions, velocities, forces, contact
     /// histories; the lists are rebuilt where it stands), so a run can go on from it.
@@ -145,6 +148,10 @@ impl Simulation {
             seconds[4] = time(per_round, || {
                 let _ = backend.integrate(particles, anchors, inputs.params, false);
                 motion.restore(particles);
+            });
+            seconds[6] = time(per_round, || {
+                neighbours.near.current = false;
+                backend.pair_forces(particles, neighbours, &inputs)
             });
             let copy = time(per_round, || motion.restore(particles));
             seconds[5] = time(per_round, || self.geometry_loads());

@@ -44,7 +44,13 @@ pub const PAIR_CHUNK: usize = 1024;
 /// pass over them would leave them, so the results are the same bits. In a formed bed most
 /// listed pairs are a skin's fraction apart and stay so: the near pairs are about the
 /// touching ones.
-#[derive(Clone, Debug, Default)]
+///
+/// Like the list itself, it assumes that between scans only positions change (radii,
+/// materials, clump membership and the contact law stay as they were), and that they change
+/// only where the integration measures them. Each measurement serves one pair stage: the stage
+/// sets `moved` back to infinite, so a pair stage that no integration preceded goes over every
+/// pair.
+#[derive(Clone, Debug)]
 pub struct NearList {
     /// The gap (m) below which the scan kept a pair (the pair stage takes it from
     /// [`crate::sim::SimulationParams::near_margin_fraction`]; 0: no near list).
@@ -59,11 +65,27 @@ pub struct NearList {
     /// slots and calls [`NeighbourList::mark_all_active`], clears it).
     pub current: bool,
     /// The largest displacement of any particle since the scan: the integration measures it
-    /// against `anchor` and the pipeline sets it here; infinite when not measured.
+    /// against `anchor`, the pipeline sets it here, and the pair stage that uses it sets it back
+    /// to infinite.
     pub moved: f64,
     /// Pair stages that went over every pair, and over the near pairs only.
     pub full_passes: u64,
     pub near_passes: u64,
+}
+
+impl Default for NearList {
+    fn default() -> Self {
+        NearList {
+            margin: 0.0,
+            slots: Vec::new(),
+            counts: Vec::new(),
+            anchor: Vec::new(),
+            current: false,
+            moved: f64::INFINITY,
+            full_passes: 0,
+            near_passes: 0,
+        }
+    }
 }
 
 impl NearList {

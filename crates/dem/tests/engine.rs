@@ -246,45 +246,19 @@ fn settle_positions(threads: usize) -> Vec<DVec3> {
 }
 
 fn settle_state(threads: usize, whole_run: bool) -> (Vec<DVec3>, Vec<DVec3>) {
-    settle_state_with(threads, whole_run, None).0
+    settle_state_with(DETERMINISM_SCENE, threads, whole_run, None).0
 }
 
-/// Positions and velocities by stable id after the determinism scene, run with `run` (which does
-/// each next step's integration in the step before's last pass) or step by step (which does not),
-/// and the pair passes over every pair and over the near pairs; with `near_margin`, that
-/// fraction of the skin for the near list.
+/// Positions and velocities by stable id after `scene`, run with `run` (which does each next
+/// step's integration in the step before's last pass) or step by step (which does not), and the
+/// pair passes over every pair and over the near pairs; with `near_margin`, that fraction of
+/// the skin for the near list.
 fn settle_state_with(
+    scene: &str,
     threads: usize,
     whole_run: bool,
     near_margin: Option<f64>,
 ) -> ((Vec<DVec3>, Vec<DVec3>), (u64, u64)) {
-    let scene = r#"
-        [simulation]
-        steps = 1500
-        time_step_percent = 20
-        [[material]]
-        name = "m"
-        density = 2500
-        poisson_ratio = 0.3
-        shear_modulus = 1e7
-        [[interaction]]
-        materials = ["m", "m"]
-        restitution = 0.4
-        static_friction = 0.5
-        dynamic_friction = 0.1
-        [[geometry]]
-        type = "cylinder"
-        material = "m"
-        base = [0.0, 0.0, 0.0]
-        radius = 0.03
-        length = 0.1
-        caps = "bottom"
-        [[particles]]
-        material = "m"
-        size = { type = "uniform", min = 0.0015, max = 0.0025 }
-        region = { type = "cylinder", base = [0.0, 0.0, 0.0], radius = 0.03, length = 0.1 }
-        fill = { type = "random", count = 1500, seed = 3 }
-    "#;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -312,23 +286,77 @@ fn settle_state_with(
     })
 }
 
+/// 1 500 spheres poured into a cylinder.
+const DETERMINISM_SCENE: &str = r#"
+        [simulation]
+        steps = 1500
+        time_step_percent = 20
+        [[material]]
+        name = "m"
+        density = 2500
+        poisson_ratio = 0.3
+        shear_modulus = 1e7
+        [[interaction]]
+        materials = ["m", "m"]
+        restitution = 0.4
+        static_friction = 0.5
+        dynamic_friction = 0.1
+        [[geometry]]
+        type = "cylinder"
+        material = "m"
+        base = [0.0, 0.0, 0.0]
+        radius = 0.03
+        length = 0.1
+        caps = "bottom"
+        [[particles]]
+        material = "m"
+        size = { type = "uniform", min = 0.0015, max = 0.0025 }
+        region = { type = "cylinder", base = [0.0, 0.0, 0.0], radius = 0.03, length = 0.1 }
+        fill = { type = "random", count = 1500, seed = 3 }
+    "#;
+
 /// The near list is an optimisation only: the pairs it leaves out cannot touch until it is
 /// scanned again, so the run without it (every pair visited at every step) gives the same bits,
 /// whatever its margin.
 #[test]
 fn the_near_list_changes_nothing() {
-    let (reference, (full, near)) = settle_state_with(2, true, Some(0.0));
-    assert_eq!(near, 0, "no near list without a margin");
-    assert!(full > 1000, "{full} full passes");
-    for margin in [0.125, 0.5] {
-        let (state, (full, near)) = settle_state_with(2, true, Some(margin));
-        assert_eq!(state, reference, "margin {margin} of the skin");
-        eprintln!("margin {margin}: {full} full passes, {near} near ones");
-        assert!(
-            near > 100,
-            "margin {margin}: the near list was used ({near} passes)"
-        );
+    // The spheres of the determinism scene; the same with JKR cohesion (pairs attract beyond
+    // touching, so the margin is beyond the law's reach); three-sphere rods (clumps, whose
+    // members are placed by their bodies and integrated apart from the gather).
+    let cohesive = DETERMINISM_SCENE.replace(
+        "dynamic_friction = 0.1",
+        "dynamic_friction = 0.1\nsurface_energy = 0.5",
+    );
+    let rods = DETERMINISM_SCENE
+        .replace(
+            "size = { type = \"uniform\", min = 0.0015, max = 0.0025 }",
+            "shape = { type = \"rod\", length = 0.005, diameter = 0.0025, count = 3 }",
+        )
+        .replace("count = 1500", "count = 400");
+    assert_ne!(cohesive, DETERMINISM_SCENE);
+    assert_ne!(rods, DETERMINISM_SCENE);
+    let mut references = Vec::new();
+    for (name, scene) in [
+        ("spheres", DETERMINISM_SCENE),
+        ("cohesive", &cohesive),
+        ("rods", &rods),
+    ] {
+        let (reference, (full, near)) = settle_state_with(scene, 2, true, Some(0.0));
+        references.push(reference.clone());
+        assert_eq!(near, 0, "{name}: no near list without a margin");
+        assert!(full > 1000, "{name}: {full} full passes");
+        for margin in [0.125, 0.5] {
+            let (state, (full, near)) = settle_state_with(scene, 2, true, Some(margin));
+            assert_eq!(state, reference, "{name}: margin {margin} of the skin");
+            eprintln!("{name}, margin {margin}: {full} full passes, {near} near ones");
+            assert!(
+                near > 100,
+                "{name}, margin {margin}: the near list was used ({near} passes)"
+            );
+        }
     }
+    // Cohesion did change the run.
+    assert_ne!(references[0], references[1]);
 }
 
 /// Doing the next step's half kick and drift in the last pass of a step (what `run` does) is the

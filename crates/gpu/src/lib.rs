@@ -610,13 +610,9 @@ impl Backend for GpuStages {
         // The kernel measures the displacement since the list build only: without the one since
         // the near scan, the CPU pair stage (where it runs) goes over every pair.
         let built_at = anchors.build;
-        let moved_since = |build: f64| Moved {
-            since_build: build,
-            since_near: f64::INFINITY,
-        };
         let n = p.len();
         if n == 0 {
-            return Ok(moved_since(0.0));
+            return Ok(Moved::since_build_only(0.0));
         }
         assert_eq!(
             built_at.len(),
@@ -657,7 +653,7 @@ impl Backend for GpuStages {
         let outside: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
         match (0..n).find(|&i| !moved[i].is_finite() || outside[i] != 0) {
             Some(i) => Err(i),
-            None => Ok(moved_since(
+            None => Ok(Moved::since_build_only(
                 moved[..n].iter().copied().fold(0.0, f64::max).sqrt(),
             )),
         }

@@ -65,6 +65,17 @@ pub struct Moved {
     pub since_near: f64,
 }
 
+impl Moved {
+    /// What a back end that measures only the displacement since the list build returns: the
+    /// near list is then never used (a smaller made-up `since_near` would skip pairs that touch).
+    pub fn since_build_only(since_build: f64) -> Self {
+        Moved {
+            since_build,
+            since_near: f64::INFINITY,
+        }
+    }
+}
+
 /// The per-step arithmetic, in the order the pipeline calls it.
 pub trait Backend: Send + Sync {
     fn name(&self) -> &'static str;
@@ -93,7 +104,8 @@ pub trait Backend: Send + Sync {
     }
 
     /// Half kick (from the forces of the last step) and drift of every sphere that is not a clump
-    /// member. Returns the largest displacements since the `anchors`, or the index of the first
+    /// member. Returns the largest displacements since the `anchors` (the one since the near
+    /// scan must be measured, or infinite: [`Moved::since_build_only`]), or the index of the first
     /// particle that is not finite or outside `params.domain`.
     fn integrate(
         &self,
@@ -104,7 +116,8 @@ pub trait Backend: Send + Sync {
     ) -> Result<Moved, usize>;
 
     /// Every candidate pair computes its contact once, into its own output slot, updating its
-    /// history.
+    /// history (a back end may skip the pairs the near list leaves out, which cannot touch:
+    /// [`crate::neighbour::NearList`]).
     fn pair_forces(&self, particles: &Particles, lists: &mut NeighbourList, inputs: &StepInputs);
 
     /// Every particle's geometry candidates compute their contacts into their output slots.

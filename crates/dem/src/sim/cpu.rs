@@ -431,7 +431,10 @@ impl LawVisitor for PairStage<'_> {
             near,
             ..
         } = self.nl;
-        if near.usable() {
+        let use_near = near.usable();
+        // A displacement measured by the integration serves this pair stage only.
+        near.moved = f64::INFINITY;
+        if use_near {
             let margin = near.margin;
             // Only the pairs that were near at the last scan can touch (see `NearList`).
             pairs
@@ -502,7 +505,6 @@ impl LawVisitor for PairStage<'_> {
                 .for_each(|(a, x)| a.copy_from_slice(x));
             near.margin = margin;
             near.current = true;
-            near.moved = 0.0;
         }
     }
 }
@@ -525,7 +527,7 @@ fn pair_contact<L: ContactLaw>(
     let rolling = inputs.params.rolling_model;
     let (i, j) = (pair.i as usize, pair.j as usize);
     if inputs.clumps && p.body[i] == p.body[j] && p.body[i] != NO_BODY {
-        // Members of one clump overlap by design, and never come near.
+        // Members of one clump overlap by design; their pair is never noted as near.
         clear(pair, out, active);
         return false;
     }

@@ -3,12 +3,14 @@
 //! A step is velocity Verlet split around the force computation. Each stage is timed
 //! ([`StageTimers`]); the arithmetic of the particle and contact stages is done by a [`Backend`]
 //! (the CPU one by default), over the struct-of-arrays state kept here:
-//! 1. **integrate**: half kick, drift, and the largest displacement since the last list build
-//!    (clump bodies first, **bodies**, then their members follow).
+//! 1. **integrate**: half kick, drift, and the largest displacements since the last list build
+//!    and since the near list's scan (clump bodies first, **bodies**, then their members follow).
 //! 2. **geometry motion**: geometries advance their pose.
 //! 3. **neighbour**: the pair and wall-candidate lists are rebuilt when some particle (or
 //!    geometry) has moved more than half the skin.
-//! 4. **pair forces**: every candidate pair evaluates its contact once, into its own slot.
+//! 4. **pair forces**: every candidate pair evaluates its contact once, into its own slot (between
+//!    passes over the whole list, only the pairs of the near list, which the others cannot
+//!    touch: [`crate::neighbour::NearList`]).
 //! 5. **wall forces + sums** (the gather): every particle evaluates its geometry candidates'
 //!    contacts into their slots, sums gravity and all its slots, then gets the second half kick
 //!    (**extension forces**, e.g. bonds, come in before the kick and are timed apart; clumps
@@ -91,7 +93,7 @@ pub struct Simulation {
     segment_backoff: u64,
     /// Per-chunk partial geometry loads (see `geometry_loads`), kept between steps.
     load_partials: Vec<Load>,
-    /// The next step's integration (its largest displacement or failing particle), when the
+    /// The next step's integration (its largest displacements or failing particle), when the
     /// last step did it in its final pass.
     integrated_ahead: Option<Result<Moved, usize>>,
 }

@@ -1,11 +1,14 @@
 //! Verification case V7 (docs/physics.md): bonded spheres. A straight chain bends as an
-//! Euler-Bernoulli cantilever with E = k_n x bond length and I = pi R_B^4 / 4, a simply supported
+//! Euler-Bernoulli cantilever with E = k_n x bond length and I = pi R_B^4 / 4 where its shear
+//! springs are stiff, and as the exact discrete chain (dem::bond::chain) where they are not
+//! (k_t = k_n / 40, the stalk bonds), a simply supported
 //! chain deflects as the three-point-bending beam formula, and a bond breaks in tension at exactly
 //! sigma_c A and in shear at tau_c A (to the step). Plus: same results for any thread count.
 
 mod common;
 
 use common::*;
+use dem::bond::chain::{Chain, ChainEnd};
 use dem::bond::{BondParams, BondRadius, Bonds, BreakMode, ContactRadius};
 use dem::contact::RollingModel;
 use dem::particles::Particles;
@@ -47,6 +50,7 @@ fn params(k_n: f64, k_t: f64, sigma_c: f64, tau_c: f64, damping: f64) -> BondPar
         radius: BondRadius::DiskScale(1.0),
         contact_radius: ContactRadius::Scale(1.05),
         formation_time: 0.0,
+        stiffness_range: 0.0,
         damping,
     }
 }
@@ -146,6 +150,41 @@ fn v7_cantilever_deflects_as_euler_bernoulli() {
     assert!(rel_err(tip, expected * (1.0 - 1.0 / 1600.0)) < 0.01);
     let bonds = sim.bonds().unwrap();
     assert_eq!(bonds.broken_count(), 0);
+}
+
+/// With k_t = k_n / 40, as in the stalk bonds, the shear springs soften the chain: the beam
+/// formula (EI = k_n I l) is several per cent too stiff, and the exact discrete chain (bending
+/// joints k_n I, shear springs k_t A at the bond mid-points) is what the engine gives.
+#[test]
+fn v7_cantilever_with_soft_shear_springs_matches_the_exact_discrete_chain() {
+    let n = 21;
+    let (k_n, k_t) = (1e10, 1e10 / 40.0);
+    let c = Chain {
+        bonds: n - 1,
+        length: 2.0 * R,
+        radius: R,
+        normal_stiffness: k_n,
+        shear_stiffness: k_t,
+    };
+    let compliance = c.transverse_compliance(ChainEnd::Free);
+    let force = 0.005 * 2.0 * R * (n - 1) as f64 / compliance;
+    let load = ((n - 1) as u32, -DVec3::Z * force);
+    let mut sim = chain(n, params(k_n, k_t, 1e15, 1e15, 0.7), Some(load));
+    pin(&mut sim, 0, true);
+    run_to_rest(&mut sim, 4_000_000);
+    let tip = -position_of(&sim, (n - 1) as u32).z;
+    let exact = force * compliance;
+    let beam = force / c.beam_stiffness(ChainEnd::Free);
+    eprintln!(
+        "cantilever, k_t = k_n/40: tip {tip:.6e} m, exact chain {exact:.6e} m ({:+.2} %), beam formula {beam:.6e} m ({:+.2} %)",
+        100.0 * (tip / exact - 1.0),
+        100.0 * (tip / beam - 1.0)
+    );
+    assert!(rel_err(tip, exact) < 0.004, "{tip} vs {exact}");
+    assert!(
+        tip / beam > 1.015,
+        "the shear springs add to the beam formula's deflection"
+    );
 }
 
 #[test]

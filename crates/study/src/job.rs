@@ -417,6 +417,12 @@ impl Job {
             };
             let done = virtual_tests::run_file(&file, Some(t.seed), Some(out_dir), &mut progress)
                 .map_err(RunError::from)?;
+            if let Some(why) = &done.rejected {
+                return Err(RunError::new(
+                    RunErrorKind::NotQuasiStatic,
+                    format!("{}: {why}", t.label),
+                ));
+            }
             with_curve(t.curve.as_ref(), done)
         }))
         .unwrap_or_else(|panic| {

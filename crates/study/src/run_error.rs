@@ -19,6 +19,9 @@ pub enum RunErrorKind {
     BadSettings,
     /// The simulation ran but the measurement could not be made, or gave no finite response.
     MeasurementFailed,
+    /// The run finished but was not quasi-static (a mechanical test whose specimen's kinetic
+    /// energy exceeded its limit share of the work): inertia shows in its curve.
+    NotQuasiStatic,
     /// The code panicked (a bug: the message says where).
     Panic,
     /// The cluster's scheduler ended the run's task without a result: memory limit, cancelled,
@@ -38,6 +41,7 @@ impl RunErrorKind {
             RunErrorKind::Escaped => "escaped",
             RunErrorKind::BadSettings => "bad_settings",
             RunErrorKind::MeasurementFailed => "measurement_failed",
+            RunErrorKind::NotQuasiStatic => "not_quasi_static",
             RunErrorKind::Panic => "panic",
             RunErrorKind::Cluster => "cluster",
             RunErrorKind::Unknown => "unknown",
@@ -53,6 +57,7 @@ impl RunErrorKind {
             RunErrorKind::Escaped,
             RunErrorKind::BadSettings,
             RunErrorKind::MeasurementFailed,
+            RunErrorKind::NotQuasiStatic,
             RunErrorKind::Panic,
             RunErrorKind::Cluster,
         ]

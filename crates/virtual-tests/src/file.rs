@@ -30,7 +30,17 @@ pub const FILE_KEYS: &[&str] = &[
     "interaction",
     "particle_type",
     "bond",
+    "density_scaling",
 ];
+
+/// The tests whose files may set `density_scaling`: the quasi-static mechanical tests, whose
+/// result must not depend on inertia. A flow test (a heap, a slide) is all inertia.
+pub const DENSITY_SCALING_TESTS: &[&str] =
+    &["shear", "compression", "bending", "tension", "cantilever"];
+
+/// The largest `density_scaling`: 1e8 makes the step 1e4 times longer, past what any quasi-static
+/// test needs (the kinetic-energy check would refuse the run anyway).
+pub const MAX_DENSITY_SCALING: f64 = 1e8;
 
 /// A test file read into its parts.
 #[derive(Clone, Debug)]
@@ -48,6 +58,9 @@ pub struct TestFile {
     pub parts: SharedParts,
     /// The table named after the test.
     pub settings: toml::Value,
+    /// `density_scaling = F` (mechanical tests): every particle's mass and inertia times F, so
+    /// the step is sqrt(F) times longer; the weight stays the real one (gravity over F). 1 = off.
+    pub density_scaling: f64,
 }
 
 impl TestFile {
@@ -63,7 +76,7 @@ impl TestFile {
         for key in value.keys() {
             if key != test && !FILE_KEYS.contains(&key.as_str()) {
                 return Err(format!(
-                    "{name}: {key}: unknown key (expected test, seed, backend, material, interaction, particle_type, bond, {test})"
+                    "{name}: {key}: unknown key (expected test, seed, backend, material, interaction, particle_type, bond, density_scaling, {test})"
                 ));
             }
         }
@@ -81,6 +94,23 @@ impl TestFile {
                     dem::sim::backend_choices()
                 ))
             }
+        };
+        let density_scaling = match value.get("density_scaling") {
+            None => 1.0,
+            Some(_) if !DENSITY_SCALING_TESTS.contains(&test) => {
+                return Err(format!(
+                    "{name}: density_scaling: only for the quasi-static mechanical tests ({}); the {test} test depends on inertia",
+                    DENSITY_SCALING_TESTS.join(", ")
+                ))
+            }
+            Some(v) => match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
+                Some(f) if (1.0..=MAX_DENSITY_SCALING).contains(&f) => f,
+                _ => {
+                    return Err(format!(
+                        "{name}: density_scaling: expected a number from 1 (off) to {MAX_DENSITY_SCALING:e}, got {v}"
+                    ))
+                }
+            },
         };
         let settings = value
             .get(test)
@@ -105,6 +135,7 @@ impl TestFile {
             backend,
             parts,
             settings,
+            density_scaling,
         })
     }
 
@@ -201,10 +232,21 @@ impl TestFile {
         geometries: Vec<GeometryDescription>,
         particles: Vec<ParticleGroup>,
     ) -> SceneDescription {
+        // Density scaling: inertia times F (every density), weight unchanged (gravity over F), so
+        // the Rayleigh step and the bonds' safe step both grow by sqrt(F).
+        let f = self.density_scaling;
+        let mut materials = self.parts.materials.clone();
+        let mut simulation = simulation;
+        if f != 1.0 {
+            for m in &mut materials {
+                m.density *= f;
+            }
+            simulation.gravity /= f;
+        }
         SceneDescription {
             simulation,
             output: OutputDescription::default(),
-            materials: self.parts.materials.clone(),
+            materials,
             interactions: self.parts.interactions.clone(),
             geometries,
             particle_types: self.parts.particle_types.clone(),

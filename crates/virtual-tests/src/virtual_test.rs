@@ -158,6 +158,11 @@ pub trait VirtualTest: Sync {
     fn responses(&self, outcome: &Self::Outcome) -> Vec<(&'static str, Response)>;
     /// One line saying what was measured.
     fn summary(&self, outcome: &Self::Outcome) -> String;
+    /// Why the outcome must not be used as a measurement although the run finished (a
+    /// mechanical test that was not quasi-static); a study stores such a run as failed.
+    fn rejected(&self, _outcome: &Self::Outcome) -> Option<String> {
+        None
+    }
     /// Pictures of the outcome (drawn only when they will be written).
     fn pictures(&self, _outcome: &Self::Outcome) -> Result<Vec<Picture>, String> {
         Ok(Vec::new())
@@ -188,6 +193,8 @@ pub struct Finished {
     pub responses: Vec<(&'static str, Response)>,
     /// Empty unless the run was given a folder for them.
     pub pictures: Vec<Picture>,
+    /// Why the outcome is not a valid measurement ([`VirtualTest::rejected`]).
+    pub rejected: Option<String>,
 }
 
 /// A virtual test as the registry keeps it (any [`VirtualTest`] is one).
@@ -258,6 +265,7 @@ impl<T: VirtualTest> Registered for T {
         };
         Ok(Finished {
             json,
+            rejected: self.rejected(&outcome),
             summary: self.summary(&outcome),
             responses: self.responses(&outcome),
             pictures,

@@ -25,8 +25,14 @@
 //!   have added theirs (contacts, gravity, extensions added before the bonds, bonds) is reduced by
 //!   `damping` times its magnitude against the sphere's velocity (spin) component. It damps the
 //!   unbalanced force, not each bond's (which would nearly cancel), so a quasi-static specimen
-//!   settles fast; it is not viscous, so it does not depend on the loading speed.
+//!   settles fast; it is not viscous, so it does not depend on the loading speed. A held sphere
+//!   (infinite mass: a test's grip) is not damped: its force is what a tool measures.
+//! - **Stiffness range.** EDEM's option: with `stiffness_range` r > 0 each bond's k_n and k_t are
+//!   both multiplied by one factor drawn uniformly from [1 - r, 1 + r] when it forms, from a hash
+//!   of its two stable ids (the same bond gets the same draw whatever the particle order or the
+//!   thread count).
 
+pub mod chain;
 pub mod output;
 
 use crate::particles::{Particles, NO_BODY};
@@ -72,6 +78,9 @@ pub struct BondParams {
     pub formation_time: f64,
     /// PFC local damping fraction (0 = off).
     pub damping: f64,
+    /// EDEM's stiffness range: each bond's stiffnesses times a factor drawn uniformly from
+    /// [1 - r, 1 + r] (0 = every bond the same).
+    pub stiffness_range: f64,
 }
 
 impl BondParams {
@@ -160,6 +169,8 @@ pub struct Bonds {
     ids: Vec<[u32; 2]>,
     kind: Vec<u16>,
     radius: Vec<f64>,
+    /// Each bond's stiffness factor (1 without a stiffness range).
+    stiffness: Vec<f64>,
     intact: Vec<bool>,
     state: Vec<BondState>,
     output: Vec<BondOutput>,
@@ -197,6 +208,7 @@ impl Bonds {
             ids: Vec::new(),
             kind: Vec::new(),
             radius: Vec::new(),
+            stiffness: Vec::new(),
             intact: Vec::new(),
             state: Vec::new(),
             output: Vec::new(),
@@ -253,6 +265,27 @@ impl Bonds {
             self.state[k].normal_force,
             self.state[k].shear_force.length(),
         )
+    }
+
+    /// Every intact bond's sigma / sigma_c and tau / tau_c now: how near each is to breaking (1
+    /// breaks), in bond order.
+    pub fn stress_ratios(&self) -> Vec<(f64, f64)> {
+        (0..self.ids.len())
+            .filter(|&b| self.intact[b])
+            .map(|b| {
+                let p = &self.params[self.kind[b] as usize];
+                let (sigma, tau) = stresses(&self.state[b], self.radius[b]);
+                (
+                    sigma / p.critical_normal_stress,
+                    tau / p.critical_shear_stress,
+                )
+            })
+            .collect()
+    }
+
+    /// Bond `k`'s stiffness factor (1 unless a stiffness range is set).
+    pub fn stiffness_factor(&self, k: usize) -> f64 {
+        self.stiffness[k]
     }
 
     /// Whether every material pair with bonds has formed them.
@@ -353,6 +386,8 @@ impl Bonds {
             self.ids.push(ids);
             self.kind.push(kind);
             self.radius.push(b.bond_radius(p.radius[i], p.radius[j]));
+            self.stiffness
+                .push(1.0 + b.stiffness_range * (2.0 * unit_draw(ids, kind) - 1.0));
             self.intact.push(true);
             self.state.push(BondState {
                 axis: (p.position[i] - p.position[j]).normalize(),
@@ -365,6 +400,36 @@ impl Bonds {
         let warnings = self.time_step_check(p, dt);
         self.warnings.extend(warnings.iter().cloned());
         Ok(warnings)
+    }
+
+    /// Puts the bonds in the order of their first sphere's current index, so that the update
+    /// reads the particles nearly in order and each sphere's gather finds its bonds' outputs
+    /// close together (measured in docs/benchmarks.md). Nothing moves when the order holds
+    /// already (a quasi-static specimen is re-sorted the same way at most rebuilds).
+    fn follow_particle_order(&mut self, index_of: &[u32]) {
+        let key = |ids: &[u32; 2]| -> u32 {
+            let (a, b) = (ids[0] as usize, ids[1] as usize);
+            match (index_of.get(a), index_of.get(b)) {
+                (Some(&x), Some(&y)) => x.min(y),
+                _ => u32::MAX,
+            }
+        };
+        if self.ids.windows(2).all(|w| key(&w[0]) <= key(&w[1])) {
+            return;
+        }
+        let mut order: Vec<u32> = (0..self.ids.len() as u32).collect();
+        order.sort_by_key(|&b| (key(&self.ids[b as usize]), b));
+        fn permute<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+            *v = order.iter().map(|&b| v[b as usize]).collect();
+        }
+        permute(&mut self.ids, &order);
+        permute(&mut self.kind, &order);
+        permute(&mut self.radius, &order);
+        permute(&mut self.stiffness, &order);
+        permute(&mut self.intact, &order);
+        permute(&mut self.state, &order);
+        permute(&mut self.output, &order);
+        self.index_by_id();
     }
 
     /// Rebuilds the bonds-by-id rows after bonds formed.
@@ -422,14 +487,17 @@ impl Bonds {
             let rb = self.radius[b];
             let area = PI * rb * rb;
             let polar = 0.5 * PI * rb.powi(4);
-            let k = params.normal_stiffness.max(params.shear_stiffness) * area;
-            let moment =
-                (params.normal_stiffness * 0.5 * polar).max(params.shear_stiffness * polar);
+            let (k_n, k_t) = (
+                params.normal_stiffness * self.stiffness[b],
+                params.shear_stiffness * self.stiffness[b],
+            );
+            let k = k_n.max(k_t) * area;
+            let moment = (k_n * 0.5 * polar).max(k_t * polar);
             let d = (p.position[i] - p.position[j]).length();
             for (s, r_s, r_o) in [(i, p.radius[i], p.radius[j]), (j, p.radius[j], p.radius[i])] {
                 let lever = d * r_s / (r_s + r_o);
                 translational[s] += k;
-                rotational[s] += moment + params.shear_stiffness * area * lever * lever;
+                rotational[s] += moment + k_t * area * lever * lever;
             }
         }
         (0..p.len())
@@ -469,18 +537,20 @@ impl Bonds {
             .par_iter()
             .zip(&self.kind)
             .zip(&self.radius)
+            .zip(&self.stiffness)
             .zip(&self.intact)
             .zip(self.state.par_iter_mut())
             .zip(self.output.par_iter_mut())
             .with_min_len(256)
-            .map(|(((((ids, kind), rb), intact), state), out)| {
+            .map(|((((((ids, kind), rb), stiffness), intact), state), out)| {
                 *out = BondOutput::default();
                 if !*intact {
                     return 0;
                 }
                 let i = index_of[ids[0] as usize] as usize;
                 let j = index_of[ids[1] as usize] as usize;
-                *out = update_bond(particles, i, j, &params[*kind as usize], *rb, state, dt);
+                let b = &params[*kind as usize];
+                *out = update_bond(particles, i, j, b, *rb, *stiffness, state, dt);
                 usize::from(out.broke.is_some())
             })
             .sum();
@@ -525,6 +595,7 @@ impl Bonds {
             torque,
             velocity,
             angular_velocity,
+            inv_mass,
             ..
         } = p;
         let (start, by_id) = (&self.by_id_start, &self.by_id);
@@ -533,36 +604,63 @@ impl Bonds {
             .zip(torque.par_iter_mut())
             .zip(velocity.par_iter())
             .zip(angular_velocity.par_iter())
+            .zip(inv_mass.par_iter())
             .with_min_len(512)
-            .for_each(|((((&id, force), torque), velocity), angular_velocity)| {
-                let id = id as usize;
-                if id + 1 >= start.len() {
-                    return;
-                }
-                let mut damping: f64 = 0.0;
-                for &slot in &by_id[start[id] as usize..start[id + 1] as usize] {
-                    let b = (slot / 2) as usize;
-                    let o = &self.output[b];
-                    if !self.intact[b] || o.broke.is_some() {
-                        continue;
+            .for_each(
+                |(((((&id, force), torque), velocity), angular_velocity), &inv_mass)| {
+                    let id = id as usize;
+                    if id + 1 >= start.len() {
+                        return;
                     }
-                    if slot % 2 == 0 {
-                        *force += o.force;
-                        *torque += o.torque_first;
-                    } else {
-                        *force -= o.force;
-                        *torque += o.torque_second;
+                    let mut damping: f64 = 0.0;
+                    for &slot in &by_id[start[id] as usize..start[id + 1] as usize] {
+                        let b = (slot / 2) as usize;
+                        let o = &self.output[b];
+                        if !self.intact[b] || o.broke.is_some() {
+                            continue;
+                        }
+                        if slot % 2 == 0 {
+                            *force += o.force;
+                            *torque += o.torque_first;
+                        } else {
+                            *force -= o.force;
+                            *torque += o.torque_second;
+                        }
+                        damping = damping.max(self.params[self.kind[b] as usize].damping);
                     }
-                    damping = damping.max(self.params[self.kind[b] as usize].damping);
-                }
-                if damping > 0.0 {
-                    // The sphere's whole force and torque (contacts, gravity, extensions before
-                    // the bonds, its bonds), as PFC damps the unbalanced force.
-                    *force = local_damping(*force, *velocity, damping);
-                    *torque = local_damping(*torque, *angular_velocity, damping);
-                }
-            });
+                    // A held sphere (a grip) does not move by its force, and a tool reads that force:
+                    // damping it would report (1 + damping) times the specimen's resistance.
+                    if damping > 0.0 && inv_mass > 0.0 {
+                        // The sphere's whole force and torque (contacts, gravity, extensions before
+                        // the bonds, its bonds), as PFC damps the unbalanced force.
+                        *force = local_damping(*force, *velocity, damping);
+                        *torque = local_damping(*torque, *angular_velocity, damping);
+                    }
+                },
+            );
     }
+}
+
+/// A number in [0, 1) from a bond's stable ids and kind (splitmix64): the stiffness range's draw,
+/// the same for the same bond whatever the order in which bonds form.
+fn unit_draw(ids: [u32; 2], kind: u16) -> f64 {
+    let mut z =
+        ((ids[0] as u64) << 32 | ids[1] as u64) ^ ((kind as u64) << 48) ^ 0x9E37_79B9_7F4A_7C15;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The normal and shear stresses of the breakage criterion for a bond of radius `rb` in state
+/// `s`: sigma = -F_n/A + |M_t| R_B/I, tau = |F_t|/A + |M_n| R_B/J.
+fn stresses(s: &BondState, rb: f64) -> (f64, f64) {
+    let area = PI * rb * rb;
+    let polar = 0.5 * PI * rb.powi(4);
+    (
+        -s.normal_force / area + s.bending.length() * rb / (0.5 * polar),
+        s.shear_force.length() / area + s.twist.abs() * rb / polar,
+    )
 }
 
 /// Radians of the fastest bond oscillation per step taken as accurate (the published stalk
@@ -635,12 +733,15 @@ fn small_angle_sin_cos(x: f64) -> (f64, f64) {
 }
 
 /// One bond's incremental update for a step of `dt`; returns its forces or that it broke.
+/// `stiffness` is the bond's own factor on k_n and k_t (the stiffness range).
+#[allow(clippy::too_many_arguments)]
 fn update_bond(
     p: &Particles,
     i: usize,
     j: usize,
     b: &BondParams,
     rb: f64,
+    stiffness: f64,
     s: &mut BondState,
     dt: f64,
 ) -> BondOutput {
@@ -683,10 +784,14 @@ fn update_bond(
     let inv_area = FRAC_1_PI * inv_rb * inv_rb;
     // rb / I = 4 / (pi rb^3), rb / J = 2 / (pi rb^3).
     let rb_over_polar = 2.0 * inv_area * inv_rb;
-    s.normal_force -= b.normal_stiffness * area * vn * dt;
-    s.shear_force -= vt * (b.shear_stiffness * area * dt);
-    s.twist -= b.shear_stiffness * polar * wn * dt;
-    s.bending -= wt * (b.normal_stiffness * inertia * dt);
+    let (k_n, k_t) = (
+        b.normal_stiffness * stiffness,
+        b.shear_stiffness * stiffness,
+    );
+    s.normal_force -= k_n * area * vn * dt;
+    s.shear_force -= vt * (k_t * area * dt);
+    s.twist -= k_t * polar * wn * dt;
+    s.bending -= wt * (k_n * inertia * dt);
 
     let sigma = -s.normal_force * inv_area + s.bending.length() * 2.0 * rb_over_polar;
     let tau = s.shear_force.length() * inv_area + s.twist.abs() * rb_over_polar;
@@ -732,6 +837,10 @@ impl StepExtension for Bonds {
             // Forces recomputed without a step (particles added or moved): the same bond forces.
             self.apply(particles);
         }
+    }
+
+    fn reordered(&mut self, index_of: &[u32]) {
+        self.follow_particle_order(index_of);
     }
 
     fn after_step(&mut self, sim: &mut Simulation) -> Result<(), SimError> {

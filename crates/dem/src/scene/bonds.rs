@@ -89,6 +89,15 @@ pub(super) fn bonds(
                 ),
             ));
         }
+        if !(b.stiffness_range >= 0.0 && b.stiffness_range < 1.0) {
+            return Err(ctx.err(
+                key("stiffness_range"),
+                format!(
+                    "expected a fraction from 0 (every bond the same) to below 1 (each bond's stiffness drawn within plus or minus it), got {}",
+                    b.stiffness_range
+                ),
+            ));
+        }
         pairs.push((ids, *b));
     }
     Ok(Some(Bonds::new(table.len(), &pairs)))

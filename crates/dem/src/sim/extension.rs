@@ -26,6 +26,13 @@ pub trait StepExtension: Send + Any {
         let _ = (particles, index_of, time, dt);
     }
 
+    /// Told after the particles were reordered (a list rebuild sorts them by cell), with the new
+    /// index of each stable id: an extension that walks particles in its own order may re-sort
+    /// it to follow theirs (the bonds do, so that a bond's spheres lie near its neighbours').
+    fn reordered(&mut self, index_of: &[u32]) {
+        let _ = index_of;
+    }
+
     /// Runs at the end of each step with the whole simulation: create particles, move a plate,
     /// record a curve. An error stops the run.
     fn after_step(&mut self, sim: &mut Simulation) -> Result<(), SimError> {

@@ -254,6 +254,18 @@ impl Simulation {
         self.forces_ready = false;
     }
 
+    /// Moves geometry `index` by `delta` at once (a test starting its tool where it first
+    /// touches, instead of simulating the approach), with the contact lists rebuilt.
+    pub fn displace_geometry(&mut self, index: usize, delta: DVec3) {
+        let g = &mut self.geometries[index];
+        g.translation += delta;
+        for (e, r) in g.elements.iter_mut().zip(&g.reference) {
+            *e = r.transformed(&g.rotation, g.translation);
+        }
+        self.rebuild();
+        self.forces_ready = false;
+    }
+
     /// Adds particles of a mixture (spheres, or clumps as bodies) with a common velocity. Their
     /// force starts as their weight: they are placed free of contacts.
     pub fn add_items(&mut self, mixture: &Mixture, items: &[Item], velocity: DVec3) {
@@ -632,6 +644,9 @@ impl Simulation {
                 // SAFETY: ids are a permutation of 0..n, so each slot is written once.
                 unsafe { index_of.ptr().add(id as usize).write(k as u32) };
             });
+        for e in &mut self.extensions {
+            e.reordered(&self.index_of);
+        }
         let skin = self.params.skin + self.cohesive_reach;
         self.walls
             .rebuild(&self.particles, order, &self.geometries, skin);

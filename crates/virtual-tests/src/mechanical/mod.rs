@@ -7,15 +7,25 @@
 //! the test's curve response (`force_displacement`); from it come the peak force, the mean force,
 //! the initial stiffness (least-squares slope of the rising branch between 10 % and 50 % of the
 //! peak), the displacement at the peak, and the bond counts. A quasi-static check compares the
-//! specimen's kinetic energy with the work done: above 5 % between a tenth of the travel after
-//! first contact (the blow of the touch itself does not count) and the peak force (fragments
-//! recoiling after failure do not count either) the outcome carries a warning (inertia shows in
-//! the curve; slow the tool).
+//! specimen's kinetic energy with the work done: above 5 % between a tenth of the way to the peak
+//! force (the blow of the touch itself does not count) and the peak (fragments
+//! recoiling after failure do not count either) the run is marked not quasi-static: the outcome
+//! carries a warning, and a study stores the run as failed (inertia shows in the curve; slow the
+//! tool or lower `density_scaling`).
+//!
+//! An energy guard stops a run that creates energy: when the specimen's kinetic energy exceeds
+//! twice the work done on it (by the tool and by gravity) plus its weight times its diameter, the
+//! run has diverged (a step too long for the bonds, say), and it ends as such instead of
+//! reporting the noise of an exploded specimen as a "peak force".
+//!
+//! The tool starts where it first touches the specimen: the approach is not simulated.
 //!
 //! The tests differ only in their fixture and tool: see [`tests`].
 
+pub mod diagnostics;
 pub mod tests;
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -31,6 +41,7 @@ use serde::{Deserialize, Serialize};
 use crate::file::TestFile;
 use crate::harness::{self, Stop};
 use crate::virtual_test::{Picture, Response, Run, TestError};
+use diagnostics::{BondStress, Overlaps, Stage};
 
 /// `specimen = { ... }`: a cylindrical stalk along x, centred at the origin.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -97,6 +108,10 @@ pub struct LoadingSettings {
     /// into the output folder over the loading.
     #[serde(default)]
     pub snapshots: usize,
+    /// Side views (SVG) of the specimen's middle slice at this many stages of the travel and at
+    /// the peak force, broken bonds marked, written into the output folder.
+    #[serde(default)]
+    pub side_views: usize,
 }
 
 fn default_points() -> usize {
@@ -109,9 +124,16 @@ fn default_time_step_percent() -> f64 {
 /// The most curve points and snapshots one run may ask for.
 const MAX_CURVE_POINTS: usize = 1_000_000;
 const MAX_SNAPSHOTS: usize = 10_000;
+const MAX_SIDE_VIEWS: usize = 100;
 
 /// Kinetic energy over work above which the loading is not quasi-static.
 pub const QUASI_STATIC_LIMIT: f64 = 0.05;
+
+/// Net force on the specimen over the peak force above which the loading is not quasi-static:
+/// the tool and the fixture no longer hold the specimen between them, its inertia takes a share
+/// of the tool's force. The kinetic energy alone misses a specimen so heavy that it hardly moves
+/// while the tool tears the bonds next to it (docs/benchmarks.md has the runs).
+pub const IMBALANCE_LIMIT: f64 = 0.05;
 
 /// What every mechanical test measures (the keys of `demcal test --json`).
 #[derive(Clone, Debug, Serialize)]
@@ -128,8 +150,25 @@ pub struct MechanicalOutcome {
     /// Tool travel when the test ended.
     pub displacement_m: f64,
     /// Largest kinetic energy of the specimen over the work done so far, from a tenth of the
-    /// travel after first contact up to the peak force.
+    /// way to the peak force up to the peak: the quasi-static check.
     pub kinetic_to_work_ratio: f64,
+    /// The same over the whole run from a tenth of the way to the peak (after the peak too, where
+    /// fragments recoil).
+    pub max_kinetic_to_work_ratio: f64,
+    /// Largest net force on the specimen along the load (tool, fixture and weight together: what
+    /// accelerates it) over the peak force, over the same span as `kinetic_to_work_ratio`.
+    pub unbalanced_force_ratio: f64,
+    /// Whether `kinetic_to_work_ratio` stayed within [`QUASI_STATIC_LIMIT`] and
+    /// `unbalanced_force_ratio` within [`IMBALANCE_LIMIT`].
+    pub quasi_static: bool,
+    /// The density scaling the run used (1: none).
+    pub density_scaling: f64,
+    /// Work done by the tool over the run (J).
+    pub work_j: f64,
+    /// Largest overlaps over the run: spheres passing through each other or the tool.
+    pub overlaps: Overlaps,
+    /// The bonds' stresses against their strengths at the peak force.
+    pub bond_stress_at_peak: Option<BondStress>,
     pub warnings: Vec<String>,
     /// The curve as CSV (displacement_m, force_n), when an output folder was given.
     pub curve_csv: Option<PathBuf>,
@@ -145,6 +184,9 @@ pub struct MechanicalOutcome {
     pub displacement: Vec<f64>,
     #[serde(skip)]
     pub force: Vec<f64>,
+    /// The specimen at the start, at stages and at the peak (for the side views).
+    #[serde(skip)]
+    pub stages: Vec<Stage>,
 }
 
 /// Checks the loading settings.
@@ -177,6 +219,14 @@ pub fn check_loading(file: &TestFile, table: &str, l: &LoadingSettings) -> Resul
             file.name,
             key("curve_points"),
             l.curve_points
+        ));
+    }
+    if l.side_views > MAX_SIDE_VIEWS {
+        return Err(format!(
+            "{}: {}: expected at most {MAX_SIDE_VIEWS}, got {}",
+            file.name,
+            key("side_views"),
+            l.side_views
         ));
     }
     if l.snapshots > MAX_SNAPSHOTS {
@@ -347,6 +397,35 @@ fn tool_force(sim: &Simulation, tool: &Tool) -> f64 {
     }
 }
 
+/// The net force on the specimen along the tool's direction: the tool's, the fixture's (every
+/// other geometry, a fixed grip) and the weight together, which accelerates it. Loading is
+/// quasi-static while it stays a small share of the tool's force.
+fn unbalanced_force(sim: &Simulation, tool: &Tool) -> f64 {
+    let p = &sim.particles;
+    let g = sim.params.gravity;
+    let dir = tool.direction().normalize();
+    let (own, fixed): (Option<&str>, &[u32]) = match tool {
+        Tool::Geometry { name, .. } => (Some(name.as_str()), &[]),
+        Tool::Grip { fixed, .. } => (None, fixed.as_slice()),
+    };
+    let geometries: DVec3 = sim
+        .geometries
+        .iter()
+        .filter(|x| Some(x.name.as_str()) != own)
+        .map(|x| -x.load.force)
+        .sum();
+    let mut grip = DVec3::ZERO;
+    let mut weight = DVec3::ZERO;
+    for k in 0..p.len() {
+        if p.inv_mass[k] > 0.0 {
+            weight += g * p.mass[k];
+        } else if fixed.binary_search(&p.id[k]).is_ok() {
+            grip -= p.force[k] - g * p.mass[k];
+        }
+    }
+    tool_force(sim, tool) + (geometries + grip + weight).dot(dir)
+}
+
 /// Kinetic energy of the specimen's free spheres (grips excluded: their mass is infinite).
 fn specimen_kinetic_energy(sim: &Simulation) -> f64 {
     let p = &sim.particles;
@@ -359,8 +438,31 @@ fn specimen_kinetic_energy(sim: &Simulation) -> f64 {
         .sum()
 }
 
-/// Drives the tool over `approach` (its distance from the specimen) and `max_displacement`, and
-/// records the curve.
+/// Potential energy of the free spheres in gravity (J; the real weight, whatever the density
+/// scaling).
+fn potential_energy(sim: &Simulation) -> f64 {
+    let p = &sim.particles;
+    let g = sim.params.gravity;
+    (0..p.len())
+        .filter(|&k| p.inv_mass[k] > 0.0)
+        .map(|k| -p.mass[k] * g.dot(p.position[k]))
+        .sum()
+}
+
+/// Moves the tool to where it first touches the specimen, `approach` along its direction: the
+/// approach would be simulated time with nothing to measure.
+fn start_touching(sim: &mut Simulation, tool: &Tool, approach: f64) {
+    if let Tool::Geometry { name, direction } = tool {
+        if approach > 0.0 {
+            if let Some(g) = sim.geometry_index(name) {
+                sim.displace_geometry(g, direction.normalize() * approach);
+            }
+        }
+    }
+}
+
+/// Drives the tool from where it touches the specimen (`approach` away from it at the start)
+/// over `max_displacement`, and records the curve.
 #[allow(clippy::too_many_arguments)]
 pub fn load(
     file: &TestFile,
@@ -375,7 +477,8 @@ pub fn load(
 ) -> Result<MechanicalOutcome, TestError> {
     let wall = Instant::now();
     let dt = sim.params.time_step;
-    let duration = (approach + loading.max_displacement) / loading.speed;
+    start_touching(&mut sim, &tool, approach);
+    let duration = loading.max_displacement / loading.speed;
     harness::budget(
         file,
         dt,
@@ -383,7 +486,7 @@ pub fn load(
             "speed",
             format!(
                 "{} m of travel at {} m/s",
-                harness::number(approach + loading.max_displacement),
+                harness::number(loading.max_displacement),
                 harness::number(loading.speed)
             ),
             duration,
@@ -414,6 +517,38 @@ pub fn load(
     let mut work = 0.0;
     // (kinetic energy, work so far) at every curve point.
     let mut energies = vec![(0.0, 0.0)];
+    // The unbalanced force at every curve point.
+    let mut unbalanced = vec![unbalanced_force(&sim, &tool)];
+    let (kinetic0, potential0) = (specimen_kinetic_energy(&sim), potential_energy(&sim));
+    // The energy scale below which the guard does not judge: the specimen's weight times its
+    // size (settling on the supports moves that much at most).
+    let weight: f64 = (0..sim.particles.len())
+        .filter(|&k| sim.particles.inv_mass[k] > 0.0)
+        .map(|k| sim.particles.mass[k] * sim.params.gravity.length())
+        .sum();
+    let slack = weight * length.max(area.sqrt());
+    let mut overlaps = Overlaps::default();
+    overlaps.observe(&mut sim, 0.0);
+    let mut at_peak: Option<BondStress> = None;
+    let mut peak_stage: Option<Stage> = None;
+    let mut stages = Vec::new();
+    let views = loading.side_views;
+    if views > 0 {
+        stages.push(Stage::take(&sim, format!("{test}: start"), 0.0, force[0]));
+    }
+    let mut next_view = 1usize;
+    // The curve as it is made, one flushed row per point: a run stopped by kill -9 or a time
+    // limit leaves what it measured so far.
+    let mut progress_file = match run.out {
+        Some(dir) => {
+            let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
+            std::fs::create_dir_all(dir).map_err(io)?;
+            let mut f = std::fs::File::create(dir.join(PROGRESS_FILE)).map_err(io)?;
+            writeln!(f, "travel_m,force_n,kinetic_energy_j,work_j,bonds_broken").map_err(io)?;
+            Some(f)
+        }
+        None => None,
+    };
     let out = run.out.map(|d| d.to_path_buf());
     let mut snapshots = out
         .as_ref()
@@ -444,10 +579,42 @@ pub fn load(
         let d = (sim.time - start) * loading.speed;
         let f = tool_force(&sim, &tool);
         work += 0.5 * (f + force[force.len() - 1]) * (d - displacement[displacement.len() - 1]);
+        let new_peak = f > peak_of(&force).1;
         displacement.push(d);
         force.push(f);
-
-        energies.push((specimen_kinetic_energy(&sim), work));
+        let kinetic = specimen_kinetic_energy(&sim);
+        energies.push((kinetic, work));
+        unbalanced.push(unbalanced_force(&sim, &tool));
+        let gravity_work = potential0 - potential_energy(&sim);
+        if kinetic - kinetic0 > 2.0 * (work + gravity_work).max(0.0) + slack {
+            return Err(TestError::Diverged(format!(
+                "{}: {test}: diverged at {:.3} mm of travel: the specimen's kinetic energy ({kinetic:.3e} J) exceeds the work done on it ({work:.3e} J by the tool, {gravity_work:.3e} J by gravity); energy is being created, so the time step is too long for the bonds or contacts (lower {test}.time_step_percent)",
+                file.name,
+                1e3 * d
+            )));
+        }
+        overlaps.observe(&mut sim, d);
+        if let Some(file) = progress_file.as_mut() {
+            let broken = sim.bonds().map_or(0, |b| b.broken_count());
+            // Best effort: the curve itself is written at the end whatever happens here.
+            let _ = writeln!(file, "{d:e},{f:e},{kinetic:e},{work:e},{broken}")
+                .and_then(|_| file.flush());
+        }
+        if new_peak {
+            at_peak = sim.bonds().map(BondStress::of);
+            if views > 0 {
+                peak_stage = Some(Stage::take(&sim, format!("{test}: peak force"), d, f));
+            }
+        }
+        if views > 0 && d >= next_view as f64 * loading.max_displacement / views as f64 - 1e-12 {
+            stages.push(Stage::take(
+                &sim,
+                format!("{test}: stage {next_view} of {views}"),
+                d,
+                f,
+            ));
+            next_view += 1;
+        }
         if done % snapshot_every < n && loading.snapshots > 0 {
             snapshot(&mut sim)?;
         }
@@ -469,23 +636,39 @@ pub fn load(
     let displacement: Vec<f64> = displacement[first..].iter().map(|d| d - offset).collect();
     let force: Vec<f64> = force[first..].to_vec();
     let (k_peak, peak) = peak_of(&force);
-    // Judged from a tenth of the travel after first contact (the blow of the first touch is not
-    // loading inertia) up to the peak (recoil after failure is not either).
-    let ratio = (0..=k_peak)
-        .filter(|&k| displacement[k] > 0.1 * loading.max_displacement)
-        .map(|k| energies[first + k])
-        .filter(|&(_, work)| work > 0.0)
-        .map(|(kinetic, work)| kinetic / work)
-        .fold(0.0, f64::max);
+    // Judged up to the peak (recoil after failure is not loading inertia).
+    // From a tenth of the way to the peak (the blow of the first touch is not loading inertia;
+    // a tenth of the whole travel would leave nothing to judge when the specimen fails early).
+    let from = 0.1 * displacement[k_peak];
+    let ratio_over = |last: usize| {
+        (0..=last)
+            .filter(|&k| displacement[k] > from)
+            .map(|k| energies[first + k])
+            .filter(|&(_, work)| work > 0.0)
+            .map(|(kinetic, work)| kinetic / work)
+            .fold(0.0, f64::max)
+    };
+    let ratio = ratio_over(k_peak);
+    let max_ratio = ratio_over(displacement.len() - 1);
+    let imbalance = if peak > 0.0 {
+        (0..=k_peak)
+            .filter(|&k| displacement[k] > from)
+            .map(|k| unbalanced[first + k].abs() / peak)
+            .fold(0.0, f64::max)
+    } else {
+        0.0
+    };
+    let quasi_static = ratio <= QUASI_STATIC_LIMIT && imbalance <= IMBALANCE_LIMIT;
     let mut warnings: Vec<String> = sim
         .bonds()
         .map(|b| b.warnings().to_vec())
         .unwrap_or_default();
-    if ratio > QUASI_STATIC_LIMIT {
-        warnings.push(format!(
-            "not quasi-static: the specimen's kinetic energy reached {:.1} % of the work done (limit {:.0} %); inertia shows in the curve, lower {test}.speed",
-            100.0 * ratio,
-            100.0 * QUASI_STATIC_LIMIT
+    if !quasi_static {
+        warnings.push(not_quasi_static(
+            test,
+            ratio,
+            imbalance,
+            file.density_scaling,
         ));
     }
     let bonds = sim.bonds();
@@ -511,6 +694,13 @@ pub fn load(
         displacement_at_peak_m: displacement[k_peak],
         displacement_m: displacement[displacement.len() - 1],
         kinetic_to_work_ratio: ratio,
+        max_kinetic_to_work_ratio: max_ratio,
+        unbalanced_force_ratio: imbalance,
+        quasi_static,
+        density_scaling: file.density_scaling,
+        work_j: work,
+        overlaps,
+        bond_stress_at_peak: at_peak,
         warnings,
         curve_csv: None,
         breakage_csv: None,
@@ -522,6 +712,7 @@ pub fn load(
         seed: run.seed,
         displacement,
         force,
+        stages: stages.into_iter().chain(peak_stage).collect(),
     };
     if let Some(dir) = run.out {
         let absolute = |p: PathBuf| std::path::absolute(&p).unwrap_or(p);
@@ -539,8 +730,50 @@ pub fn load(
     Ok(outcome)
 }
 
-/// The curve as CSV and as an SVG plot.
+/// The warning (and a study's failure message) of a run that is not quasi-static.
+fn not_quasi_static(test: &str, ratio: f64, imbalance: f64, scaling: f64) -> String {
+    let cure = if scaling > 1.0 {
+        format!("lower {test}.speed or density_scaling ({scaling})")
+    } else {
+        format!("lower {test}.speed")
+    };
+    format!(
+        "not quasi-static: the specimen's kinetic energy reached {:.1} % of the work done (limit {:.0} %) and the net force on it {:.1} % of the peak force (limit {:.0} %); inertia shows in the curve, {cure}",
+        100.0 * ratio,
+        100.0 * QUASI_STATIC_LIMIT,
+        100.0 * imbalance,
+        100.0 * IMBALANCE_LIMIT
+    )
+}
+
+/// Why an outcome must not be used as a measurement: a run that was not quasi-static.
+pub fn rejected(test: &str, o: &MechanicalOutcome) -> Option<String> {
+    (!o.quasi_static).then(|| {
+        not_quasi_static(
+            test,
+            o.kinetic_to_work_ratio,
+            o.unbalanced_force_ratio,
+            o.density_scaling,
+        )
+    })
+}
+
+/// The curve as CSV and as an SVG plot, and the side views.
 pub fn pictures(test: &str, o: &MechanicalOutcome) -> Result<Vec<Picture>, String> {
+    let mut views = Vec::new();
+    if let Some(start) = o.stages.first() {
+        for (k, stage) in o.stages.iter().enumerate() {
+            let name = if k + 1 == o.stages.len() && stage.label.ends_with("peak force") {
+                "side_view_peak.svg".to_string()
+            } else {
+                format!("side_view_{k:02}.svg")
+            };
+            views.push(Picture {
+                file_name: name,
+                bytes: diagnostics::side_view_svg(start, stage)?.into_bytes(),
+            });
+        }
+    }
     Ok(vec![
         Picture {
             file_name: CURVE_FILE.into(),
@@ -550,8 +783,15 @@ pub fn pictures(test: &str, o: &MechanicalOutcome) -> Result<Vec<Picture>, Strin
             file_name: "force_displacement.svg".into(),
             bytes: crate::render::curve_svg(test, &o.displacement, &o.force)?.into_bytes(),
         },
-    ])
+    ]
+    .into_iter()
+    .chain(views)
+    .collect())
 }
+
+/// The curve as it is made (travel from the tool's start, force, the specimen's kinetic energy,
+/// the tool's work, bonds broken), in the output folder.
+pub const PROGRESS_FILE: &str = "curve_progress.csv";
 
 /// The curve file's name in the output folder.
 pub const CURVE_FILE: &str = "force_displacement.csv";
@@ -666,6 +906,12 @@ pub fn summary(test: &str, o: &MechanicalOutcome) -> String {
         o.simulated_time_s,
         o.wall_s
     );
+    if o.density_scaling != 1.0 {
+        s.push_str(&format!(
+            " density_scaling={} kinetic_to_work={:.2e}",
+            o.density_scaling, o.kinetic_to_work_ratio
+        ));
+    }
     for w in &o.warnings {
         s.push_str(&format!("\nwarning: {w}"));
     }

@@ -528,6 +528,10 @@ macro_rules! mechanical_test {
                 summary($kind.name(), o)
             }
 
+            fn rejected(&self, o: &MechanicalOutcome) -> Option<String> {
+                super::rejected($kind.name(), o)
+            }
+
             fn pictures(&self, o: &MechanicalOutcome) -> Result<Vec<Picture>, String> {
                 pictures($kind.name(), o)
             }

@@ -28,6 +28,8 @@ pub(super) struct BondEntry {
     formation_time: f64,
     #[serde(default)]
     damping: f64,
+    #[serde(default)]
+    stiffness_range: f64,
 }
 
 pub(super) fn bonds(
@@ -82,6 +84,7 @@ pub(super) fn bonds(
                     contact_radius,
                     formation_time: b.formation_time,
                     damping: b.damping,
+                    stiffness_range: b.stiffness_range,
                 },
             })
         })

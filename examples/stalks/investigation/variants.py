@@ -9,8 +9,8 @@ fixture, the step, the density scaling) and prints a table of what each gives.
 EXAMPLE is shear (stalk_shear.toml), compression (stalk_compression.toml) or safflower
 (safflower_neck_shear.toml); with no VARIANT every variant of that example runs. Each run writes
 OUT/<example>-<variant>/ (the test's output: curve, side views, result.json) and the table is
-printed and written to OUT/<example>.md. --scaling sets density_scaling for every variant (the
-README says which was used); --jobs runs that many at once, each with --threads threads;
+printed and written to OUT/<example>.md. --scaling sets density_scaling for every variant (default 1:
+none; the README says which was used); --jobs runs that many at once, each with --threads threads;
 --set adds a line to the test's table (side_views = 4); --timeout stops a run after so many
 seconds and reports how far it came (its curve so far is in its curve_progress.csv).
 """
@@ -98,6 +98,10 @@ VARIANTS = {
         "paper-material": sub(
             r"^poisson_ratio = 0\.35\nyoungs_modulus = 95\.94e6$", "poisson_ratio = 0.25\nshear_modulus = 1e6"
         ),
+        # Between the two: G = 10 MPa.
+        "material-G-10MPa": sub(
+            r"^poisson_ratio = 0\.35\nyoungs_modulus = 95\.94e6$", "poisson_ratio = 0.25\nshear_modulus = 1e7"
+        ),
         "bond-radius-0.2mm": sub(r"^bond_radius = 0\.0003$", "bond_radius = 0.0002"),
         "bond-radius-0.4mm": sub(r"^bond_radius = 0\.0003$", "bond_radius = 0.0004"),
         "unclamped": table_key("shear", "clamped = false"),
@@ -108,11 +112,17 @@ VARIANTS = {
 def run(demcal, example, name, out, threads, scaling, extra, timeout=None):
     text = (HERE.parent / FILES[example]).read_text()
     text = VARIANTS[example][name](text)
+    # The examples carry density_scaling = 100; --scaling replaces it (1 removes it).
+    text = re.sub(r"^density_scaling = .*\n", "", text, flags=re.M)
     if scaling and scaling != 1:
-        text = re.sub(r'^(test = ".*")$', rf"\1\ndensity_scaling = {scaling}", text, count=1, flags=re.M)
+        text = re.sub(r'^(test = ".*")$', rf"\1\ndensity_scaling = {scaling:g}", text, count=1, flags=re.M)
     table = "shear" if example != "compression" else "compression"
     for line in extra:
-        text = re.sub(rf"^\[{table}\]$", f"[{table}]\n{line}", text, count=1, flags=re.M)
+        key = line.split("=")[0].strip()
+        if re.search(rf"^{key} = ", text, flags=re.M):
+            text = re.sub(rf"^{key} = .*$", line, text, flags=re.M)
+        else:
+            text = re.sub(rf"^\[{table}\]$", f"[{table}]\n{line}", text, count=1, flags=re.M)
     folder = out / f"{example}-{name}"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "test.toml"

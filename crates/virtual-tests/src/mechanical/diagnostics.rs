@@ -105,15 +105,16 @@ impl BondStress {
     }
 }
 
-/// The specimen at one stage: sphere centres and radii by stable id, the broken bonds' ends,
-/// and the boxes of the fixture.
+/// The specimen at one stage: sphere centres and radii by stable id, where the bonds broken so
+/// far broke, and the boxes of the fixture.
 #[derive(Clone, Debug)]
 pub struct Stage {
     pub label: String,
     pub travel: f64,
     pub force: f64,
     spheres: Vec<(u32, DVec3, f64)>,
-    broken: Vec<(DVec3, DVec3)>,
+    /// Where each bond broken so far broke (its mid-point then).
+    broken: Vec<DVec3>,
     boxes: Vec<(DVec3, DVec3)>,
 }
 
@@ -124,18 +125,10 @@ impl Stage {
         let spheres: Vec<(u32, DVec3, f64)> = (0..p.len())
             .map(|k| (p.id[k], p.position[k], p.radius[k]))
             .collect();
-        let mut broken = Vec::new();
-        if let Some(b) = sim.bonds() {
-            let at: HashMap<u32, DVec3> = spheres.iter().map(|s| (s.0, s.1)).collect();
-            for k in 0..b.len() {
-                let (ids, intact) = b.bond(k);
-                if !intact {
-                    if let (Some(a), Some(c)) = (at.get(&ids[0]), at.get(&ids[1])) {
-                        broken.push((*a, *c));
-                    }
-                }
-            }
-        }
+        let broken = sim
+            .bonds()
+            .map(|b| b.breakages().iter().map(|x| x.position).collect())
+            .unwrap_or_default();
         let boxes = sim
             .geometries
             .iter()
@@ -172,20 +165,30 @@ fn colour(moved: f64, scale: f64) -> RGBColor {
     )
 }
 
+/// The 99th percentile of `values` (0 for none).
+fn p99(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.get(((v.len() as f64 - 1.0) * 0.99) as usize)
+        .copied()
+        .unwrap_or(0.0)
+}
+
 /// A side view (x across, z up) of the middle slab of the specimen (|y| below the largest
-/// radius) at `stage`: each sphere coloured by how far it has moved since `start`, the broken
-/// bonds anywhere in the specimen as red lines, the fixture's blocks in grey.
+/// radius) at `stage`: each sphere coloured by how far it has moved since `start` (the scale ends
+/// at the 99th percentile, so a few pieces flung away do not wash it out), a red dot where each
+/// bond broken so far broke (anywhere along y), the fixture's blocks outlined in grey.
 pub fn side_view_svg(start: &Stage, stage: &Stage) -> Result<String, String> {
     let origin: HashMap<u32, DVec3> = start.spheres.iter().map(|s| (s.0, s.1)).collect();
     let rmax = start.spheres.iter().map(|s| s.2).fold(0.0, f64::max);
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    // The frame holds the specimen at the start and the slice now (pieces pushed down the slot).
-    let slice_now = stage.spheres.iter().filter(|s| s.1.y.abs() < rmax);
-    for s in start.spheres.iter().chain(slice_now) {
+    for s in &start.spheres {
         lo = lo.min(s.1 - DVec3::splat(s.2));
         hi = hi.max(s.1 + DVec3::splat(s.2));
     }
-    let pad = 0.15 * (hi.z - lo.z);
+    // Room below for what the tool pushes down: as far as it has travelled.
+    lo.z -= stage.travel;
+    let pad = 0.1 * (hi.z - lo.z);
     let (x0, x1) = (lo.x - pad, hi.x + pad);
     let (z0, z1) = (lo.z - pad, hi.z + pad);
     let moved: Vec<f64> = stage
@@ -193,7 +196,7 @@ pub fn side_view_svg(start: &Stage, stage: &Stage) -> Result<String, String> {
         .iter()
         .map(|s| origin.get(&s.0).map_or(0.0, |o| (s.1 - *o).length()))
         .collect();
-    let scale = moved.iter().cloned().fold(0.0, f64::max).max(1e-9);
+    let scale = p99(&moved).max(1e-9);
     let width = 900u32;
     let height = ((width as f64) * (z1 - z0) / (x1 - x0)).clamp(200.0, 900.0) as u32 + 60;
     let mut svg = String::new();
@@ -203,14 +206,14 @@ pub fn side_view_svg(start: &Stage, stage: &Stage) -> Result<String, String> {
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 format!(
-                    "{}: travel {:.2} mm, force {:.1} N, {} bonds broken (red); colour: moved 0 to {:.2} mm",
+                    "{}: travel {:.2} mm, force {:.1} N, {} bonds broken (red); colour: moved 0 to {:.2} mm or more",
                     stage.label,
                     1e3 * stage.travel,
                     stage.force,
                     stage.broken.len(),
                     1e3 * scale
                 ),
-                ("sans-serif", 16),
+                ("sans-serif", 15),
             )
             .margin(8)
             .x_label_area_size(30)
@@ -224,28 +227,14 @@ pub fn side_view_svg(start: &Stage, stage: &Stage) -> Result<String, String> {
             .y_desc("z (mm)")
             .draw()
             .map_err(err)?;
-        let grey = RGBColor(150, 150, 150);
-        for (a, b) in &stage.boxes {
-            let (a, b) = (
-                a.max(DVec3::new(x0, 0.0, z0)),
-                b.min(DVec3::new(x1, 0.0, z1)),
-            );
-            if a.x < b.x && a.z < b.z {
-                chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(1e3 * a.x, 1e3 * a.z), (1e3 * b.x, 1e3 * b.z)],
-                        grey.mix(0.6).filled(),
-                    )))
-                    .map_err(err)?;
-            }
-        }
+        let inside = |x: &DVec3| x.x > x0 && x.x < x1 && x.z > z0 && x.z < z1;
         // Pixels per millimetre, for the circles' size.
         let px = (width as f64 - 60.0) / (1e3 * (x1 - x0));
         let slab = stage
             .spheres
             .iter()
             .zip(&moved)
-            .filter(|(s, _)| s.1.y.abs() < rmax);
+            .filter(|(s, _)| s.1.y.abs() < rmax && inside(&s.1));
         chart
             .draw_series(slab.map(|(s, m)| {
                 Circle::new(
@@ -256,10 +245,30 @@ pub fn side_view_svg(start: &Stage, stage: &Stage) -> Result<String, String> {
             }))
             .map_err(err)?;
         chart
-            .draw_series(stage.broken.iter().map(|(a, b)| {
-                PathElement::new(
-                    vec![(1e3 * a.x, 1e3 * a.z), (1e3 * b.x, 1e3 * b.z)],
-                    RED.stroke_width(2),
+            .draw_series(
+                stage
+                    .broken
+                    .iter()
+                    .filter(|x| inside(x))
+                    .map(|x| Circle::new((1e3 * x.x, 1e3 * x.z), 2, RED.filled())),
+            )
+            .map_err(err)?;
+        let grey = RGBColor(90, 90, 90);
+        let boxes = stage
+            .boxes
+            .iter()
+            .map(|(a, b)| {
+                (
+                    a.max(DVec3::new(x0, 0.0, z0)),
+                    b.min(DVec3::new(x1, 0.0, z1)),
+                )
+            })
+            .filter(|(a, b)| a.x < b.x && a.z < b.z);
+        chart
+            .draw_series(boxes.map(|(a, b)| {
+                Rectangle::new(
+                    [(1e3 * a.x, 1e3 * a.z), (1e3 * b.x, 1e3 * b.z)],
+                    grey.stroke_width(2),
                 )
             }))
             .map_err(err)?;
@@ -267,6 +276,7 @@ pub fn side_view_svg(start: &Stage, stage: &Stage) -> Result<String, String> {
     }
     Ok(svg)
 }
+
 
 #[cfg(test)]
 mod unit {

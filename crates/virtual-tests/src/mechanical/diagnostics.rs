@@ -277,7 +277,6 @@ pub fn side_view_svg(start: &Stage, stage: &Stage) -> Result<String, String> {
     Ok(svg)
 }
 
-
 #[cfg(test)]
 mod unit {
     use super::*;

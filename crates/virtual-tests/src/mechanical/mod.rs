@@ -24,9 +24,9 @@
 
 pub mod diagnostics;
 pub mod tests;
+mod watch;
 
-use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use dem::bond::output::{write_bond_counts_csv, write_breakage_csv};
@@ -42,6 +42,7 @@ use crate::file::TestFile;
 use crate::harness::{self, Stop};
 use crate::virtual_test::{Picture, Response, Run, TestError};
 use diagnostics::{BondStress, Overlaps, Stage};
+use watch::{Judged, Watch};
 
 /// `specimen = { ... }`: a cylindrical stalk along x, centred at the origin.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -134,10 +135,6 @@ pub const QUASI_STATIC_LIMIT: f64 = 0.05;
 /// of the tool's force. The kinetic energy alone misses a specimen so heavy that it hardly moves
 /// while the tool tears the bonds next to it (docs/benchmarks.md has the runs).
 pub const IMBALANCE_LIMIT: f64 = 0.05;
-
-/// Curve points either side over which the net force is averaged (11 of the default 500: about
-/// 2 % of the travel).
-const IMBALANCE_WINDOW: usize = 5;
 
 /// What every mechanical test measures (the keys of `demcal test --json`).
 #[derive(Clone, Debug, Serialize)]
@@ -362,7 +359,7 @@ pub enum Tool {
 }
 
 impl Tool {
-    fn direction(&self) -> DVec3 {
+    pub(super) fn direction(&self) -> DVec3 {
         match self {
             Tool::Geometry { direction, .. } | Tool::Grip { direction, .. } => *direction,
         }
@@ -383,7 +380,7 @@ fn hold(sim: &mut Simulation, ids: &[u32], velocity: DVec3) {
 }
 
 /// The force against the tool's motion now.
-fn tool_force(sim: &Simulation, tool: &Tool) -> f64 {
+pub(super) fn tool_force(sim: &Simulation, tool: &Tool) -> f64 {
     match tool {
         Tool::Geometry { name, direction } => sim
             .geometry(name)
@@ -400,58 +397,6 @@ fn tool_force(sim: &Simulation, tool: &Tool) -> f64 {
                 .dot(*direction)
         }
     }
-}
-
-/// The net force on the specimen along the tool's direction: the tool's, the fixture's (every
-/// other geometry, a fixed grip) and the weight together, which accelerates it. Loading is
-/// quasi-static while it stays a small share of the tool's force.
-fn unbalanced_force(sim: &Simulation, tool: &Tool) -> f64 {
-    let p = &sim.particles;
-    let g = sim.params.gravity;
-    let dir = tool.direction().normalize();
-    let (own, fixed): (Option<&str>, &[u32]) = match tool {
-        Tool::Geometry { name, .. } => (Some(name.as_str()), &[]),
-        Tool::Grip { fixed, .. } => (None, fixed.as_slice()),
-    };
-    let geometries: DVec3 = sim
-        .geometries
-        .iter()
-        .filter(|x| Some(x.name.as_str()) != own)
-        .map(|x| -x.load.force)
-        .sum();
-    let mut grip = DVec3::ZERO;
-    let mut weight = DVec3::ZERO;
-    for k in 0..p.len() {
-        if p.inv_mass[k] > 0.0 {
-            weight += g * p.mass[k];
-        } else if fixed.binary_search(&p.id[k]).is_ok() {
-            grip -= p.force[k] - g * p.mass[k];
-        }
-    }
-    tool_force(sim, tool) + (geometries + grip + weight).dot(dir)
-}
-
-/// Kinetic energy of the specimen's free spheres (grips excluded: their mass is infinite).
-fn specimen_kinetic_energy(sim: &Simulation) -> f64 {
-    let p = &sim.particles;
-    (0..p.len())
-        .filter(|&k| p.inv_mass[k] > 0.0)
-        .map(|k| {
-            0.5 * p.mass[k] * p.velocity[k].length_squared()
-                + 0.5 * p.angular_velocity[k].length_squared() / p.inv_inertia[k]
-        })
-        .sum()
-}
-
-/// Potential energy of the free spheres in gravity (J; the real weight, whatever the density
-/// scaling).
-fn potential_energy(sim: &Simulation) -> f64 {
-    let p = &sim.particles;
-    let g = sim.params.gravity;
-    (0..p.len())
-        .filter(|&k| p.inv_mass[k] > 0.0)
-        .map(|k| -p.mass[k] * g.dot(p.position[k]))
-        .sum()
 }
 
 /// Moves the tool to where it first touches the specimen, `approach` along its direction: the
@@ -520,40 +465,10 @@ pub fn load(
     let mut displacement = vec![0.0];
     let mut force = vec![tool_force(&sim, &tool)];
     let mut work = 0.0;
-    // (kinetic energy, work so far) at every curve point.
-    let mut energies = vec![(0.0, 0.0)];
-    // The unbalanced force at every curve point.
-    let mut unbalanced = vec![unbalanced_force(&sim, &tool)];
-    let (kinetic0, potential0) = (specimen_kinetic_energy(&sim), potential_energy(&sim));
-    // The energy scale below which the guard does not judge: the specimen's weight times its
-    // size (settling on the supports moves that much at most).
-    let weight: f64 = (0..sim.particles.len())
-        .filter(|&k| sim.particles.inv_mass[k] > 0.0)
-        .map(|k| sim.particles.mass[k] * sim.params.gravity.length())
-        .sum();
-    let slack = weight * length.max(area.sqrt());
-    let mut overlaps = Overlaps::default();
-    overlaps.observe(&mut sim, 0.0);
-    let mut at_peak: Option<BondStress> = None;
-    let mut peak_stage: Option<Stage> = None;
-    let mut stages = Vec::new();
-    let views = loading.side_views;
-    if views > 0 {
-        stages.push(Stage::take(&sim, format!("{test}: start"), 0.0, force[0]));
-    }
-    let mut next_view = 1usize;
-    // The curve as it is made, one flushed row per point: a run stopped by kill -9 or a time
-    // limit leaves what it measured so far.
-    let mut progress_file = match run.out {
-        Some(dir) => {
-            let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
-            std::fs::create_dir_all(dir).map_err(io)?;
-            let mut f = std::fs::File::create(dir.join(PROGRESS_FILE)).map_err(io)?;
-            writeln!(f, "travel_m,force_n,kinetic_energy_j,work_j,bonds_broken").map_err(io)?;
-            Some(f)
-        }
-        None => None,
-    };
+    let size = length.max(area.sqrt());
+    let mut watch = Watch::new(
+        &mut sim, &tool, loading, test, &file.name, size, force[0], run.out,
+    )?;
     let out = run.out.map(|d| d.to_path_buf());
     let mut snapshots = out
         .as_ref()
@@ -587,39 +502,7 @@ pub fn load(
         let new_peak = f > peak_of(&force).1;
         displacement.push(d);
         force.push(f);
-        let kinetic = specimen_kinetic_energy(&sim);
-        energies.push((kinetic, work));
-        unbalanced.push(unbalanced_force(&sim, &tool));
-        let gravity_work = potential0 - potential_energy(&sim);
-        if kinetic - kinetic0 > 2.0 * (work + gravity_work).max(0.0) + slack {
-            return Err(TestError::Diverged(format!(
-                "{}: {test}: diverged at {:.3} mm of travel: the specimen's kinetic energy ({kinetic:.3e} J) exceeds the work done on it ({work:.3e} J by the tool, {gravity_work:.3e} J by gravity); energy is being created, so the time step is too long for the bonds or contacts (lower {test}.time_step_percent)",
-                file.name,
-                1e3 * d
-            )));
-        }
-        overlaps.observe(&mut sim, d);
-        if let Some(file) = progress_file.as_mut() {
-            let broken = sim.bonds().map_or(0, |b| b.broken_count());
-            // Best effort: the curve itself is written at the end whatever happens here.
-            let _ = writeln!(file, "{d:e},{f:e},{kinetic:e},{work:e},{broken}")
-                .and_then(|_| file.flush());
-        }
-        if new_peak {
-            at_peak = sim.bonds().map(BondStress::of);
-            if views > 0 {
-                peak_stage = Some(Stage::take(&sim, format!("{test}: peak force"), d, f));
-            }
-        }
-        if views > 0 && d >= next_view as f64 * loading.max_displacement / views as f64 - 1e-12 {
-            stages.push(Stage::take(
-                &sim,
-                format!("{test}: stage {next_view} of {views}"),
-                d,
-                f,
-            ));
-            next_view += 1;
-        }
+        watch.point(&mut sim, &tool, d, f, work, new_peak)?;
         if done % snapshot_every < n && loading.snapshots > 0 {
             snapshot(&mut sim)?;
         }
@@ -630,46 +513,13 @@ pub fn load(
             }
         }
     }
-    // Displacement counts from first contact, as a lab machine's from its preload: drop the
-    // approach before the tool touched (the fixture starts at the specimen's envelope).
-    let first = force
-        .iter()
-        .position(|f| *f > 0.0)
-        .unwrap_or(0)
-        .saturating_sub(1);
-    let offset = displacement[first];
-    let displacement: Vec<f64> = displacement[first..].iter().map(|d| d - offset).collect();
-    let force: Vec<f64> = force[first..].to_vec();
+    let (first, displacement, force) = from_first_contact(&displacement, &force);
     let (k_peak, peak) = peak_of(&force);
-    // Judged up to the peak (recoil after failure is not loading inertia).
-    // From a tenth of the way to the peak (the blow of the first touch is not loading inertia;
-    // a tenth of the whole travel would leave nothing to judge when the specimen fails early).
-    let from = 0.1 * displacement[k_peak];
-    let ratio_over = |last: usize| {
-        (0..=last)
-            .filter(|&k| displacement[k] > from)
-            .map(|k| energies[first + k])
-            .filter(|&(_, work)| work > 0.0)
-            .map(|(kinetic, work)| kinetic / work)
-            .fold(0.0, f64::max)
-    };
-    let ratio = ratio_over(k_peak);
-    let max_ratio = ratio_over(displacement.len() - 1);
-    // The net force averaged over a window of curve points (the momentum it changes over that
-    // travel): the ringing after a snap-through or a breakage averages out, a sustained
-    // acceleration does not.
-    let window = |k: usize| {
-        let (a, b) = (k.saturating_sub(IMBALANCE_WINDOW), (k + IMBALANCE_WINDOW).min(k_peak));
-        unbalanced[first + a..=first + b].iter().sum::<f64>() / (b - a + 1) as f64
-    };
-    let imbalance = if peak > 0.0 {
-        (0..=k_peak)
-            .filter(|&k| displacement[k] > from)
-            .map(|k| window(k).abs() / peak)
-            .fold(0.0, f64::max)
-    } else {
-        0.0
-    };
+    let Judged {
+        ratio,
+        max_ratio,
+        imbalance,
+    } = watch.judge(&displacement, first, k_peak, peak);
     let quasi_static = ratio <= QUASI_STATIC_LIMIT && imbalance <= IMBALANCE_LIMIT;
     let mut warnings: Vec<String> = sim
         .bonds()
@@ -683,17 +533,7 @@ pub fn load(
             file.density_scaling,
         ));
     }
-    let bonds = sim.bonds();
-    let (count, broken, tension) = bonds
-        .map(|b| {
-            let tension = b
-                .breakages()
-                .iter()
-                .filter(|x| x.mode == dem::bond::BreakMode::Tension)
-                .count();
-            (b.len(), b.broken_count(), tension)
-        })
-        .unwrap_or((0, 0, 0));
+    let (count, broken, tension) = bond_counts(&sim);
     let mut outcome = MechanicalOutcome {
         particles: sim.particle_count(),
         bonds: count,
@@ -711,8 +551,8 @@ pub fn load(
         quasi_static,
         density_scaling: file.density_scaling,
         work_j: work,
-        overlaps,
-        bond_stress_at_peak: at_peak,
+        overlaps: watch.overlaps.clone(),
+        bond_stress_at_peak: watch.at_peak.clone(),
         warnings,
         curve_csv: None,
         breakage_csv: None,
@@ -724,22 +564,59 @@ pub fn load(
         seed: run.seed,
         displacement,
         force,
-        stages: stages.into_iter().chain(peak_stage).collect(),
+        stages: watch.into_stages(),
     };
     if let Some(dir) = run.out {
-        let absolute = |p: PathBuf| std::path::absolute(&p).unwrap_or(p);
-        // Written with the pictures (see [`pictures`]).
-        outcome.curve_csv = Some(absolute(dir.join(CURVE_FILE)));
-        if let Some(b) = bonds {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| TestError::Measurement(format!("{}: {e}", dir.display())))?;
-            let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
-            write_breakage_csv(&dir.join("bond_breakage.csv"), b).map_err(io)?;
-            write_bond_counts_csv(&dir.join("bond_counts.csv"), b).map_err(io)?;
-            outcome.breakage_csv = Some(absolute(dir.join("bond_breakage.csv")));
-        }
+        write_logs(dir, &sim, &mut outcome)?;
     }
     Ok(outcome)
+}
+
+/// Displacement counts from first contact, as a lab machine's from its preload: the points
+/// before the tool touched are dropped (all but the last). Returns the first point kept and the
+/// curve from there.
+fn from_first_contact(displacement: &[f64], force: &[f64]) -> (usize, Vec<f64>, Vec<f64>) {
+    let first = force
+        .iter()
+        .position(|f| *f > 0.0)
+        .unwrap_or(0)
+        .saturating_sub(1);
+    let offset = displacement[first];
+    let d = displacement[first..].iter().map(|d| d - offset).collect();
+    (first, d, force[first..].to_vec())
+}
+
+/// Bonds formed, broken, broken in tension.
+fn bond_counts(sim: &Simulation) -> (usize, usize, usize) {
+    sim.bonds()
+        .map(|b| {
+            let tension = b
+                .breakages()
+                .iter()
+                .filter(|x| x.mode == dem::bond::BreakMode::Tension)
+                .count();
+            (b.len(), b.broken_count(), tension)
+        })
+        .unwrap_or((0, 0, 0))
+}
+
+/// Writes the breakage log and the bond counts into `dir` and names the files in the outcome
+/// (the curve is written with the pictures, see [`pictures`]).
+fn write_logs(
+    dir: &Path,
+    sim: &Simulation,
+    outcome: &mut MechanicalOutcome,
+) -> Result<(), TestError> {
+    let absolute = |p: PathBuf| std::path::absolute(&p).unwrap_or(p);
+    outcome.curve_csv = Some(absolute(dir.join(CURVE_FILE)));
+    if let Some(b) = sim.bonds() {
+        let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
+        std::fs::create_dir_all(dir).map_err(io)?;
+        write_breakage_csv(&dir.join("bond_breakage.csv"), b).map_err(io)?;
+        write_bond_counts_csv(&dir.join("bond_counts.csv"), b).map_err(io)?;
+        outcome.breakage_csv = Some(absolute(dir.join("bond_breakage.csv")));
+    }
+    Ok(())
 }
 
 /// The warning (and a study's failure message) of a run that is not quasi-static.

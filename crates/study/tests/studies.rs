@@ -839,50 +839,7 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
 #[test]
 fn a_run_that_is_not_quasi_static_is_stored_as_failed() {
     let dir = fresh_dir("inertia");
-    let bar = r#"test = "tension"
-seed = 1
-density_scaling = 1e7
-[[material]]
-name = "stalk"
-density = 136.4
-poisson_ratio = 0.357
-shear_modulus = 1.511e8
-[[material]]
-name = "steel"
-density = 7850
-poisson_ratio = 0.3
-shear_modulus = 7.9e10
-[[interaction]]
-materials = ["stalk", "stalk"]
-restitution = 0.47
-static_friction = 0.28
-rolling_friction = 0.16
-[[interaction]]
-materials = ["stalk", "steel"]
-restitution = 0.52
-static_friction = 0.45
-rolling_friction = 0.24
-[[interaction]]
-materials = ["steel", "steel"]
-restitution = 0.5
-static_friction = 0.2
-rolling_friction = 0.01
-[[bond]]
-materials = ["stalk", "stalk"]
-normal_stiffness = 1e9
-shear_stiffness = 1e9
-critical_normal_stress = 2e5
-critical_shear_stress = 1e6
-bonded_disk_scale = 1.0
-contact_radius_scale = 1.05
-[tension]
-specimen = { material = "stalk", radius = 0.001, length = 0.012, diameter = 0.006 }
-fixture_material = "steel"
-speed = 0.02
-max_displacement = 0.002
-stop_force_fraction = 0.2
-grip_length = 0.003
-"#;
+    let bar = test_support::bonded_bar_tension("density_scaling = 1e7", "");
     std::fs::write(dir.join("bar.toml"), bar).unwrap();
     let path = write_study(
         &dir,

@@ -9,6 +9,69 @@
 
 use std::fmt::Write;
 
+/// The bonded bar of the mechanical tests' checks: a stalk material, steel, their interactions
+/// and the stalk's bonds (k_n = k_t = 1e9 N/m^3, sigma_c 0.2 MPa, tau_c 1 MPa), as the top of a
+/// test file (after `test = "..."`); a test adds its own table, or [`BONDED_BAR_TENSION`].
+pub const BONDED_BAR_PARTS: &str = r#"
+[[material]]
+name = "stalk"
+density = 136.4
+poisson_ratio = 0.357
+shear_modulus = 1.511e8
+
+[[material]]
+name = "steel"
+density = 7850
+poisson_ratio = 0.3
+shear_modulus = 7.9e10
+
+[[interaction]]
+materials = ["stalk", "stalk"]
+restitution = 0.47
+static_friction = 0.28
+rolling_friction = 0.16
+
+[[interaction]]
+materials = ["stalk", "steel"]
+restitution = 0.52
+static_friction = 0.45
+rolling_friction = 0.24
+
+[[interaction]]
+materials = ["steel", "steel"]
+restitution = 0.5
+static_friction = 0.2
+rolling_friction = 0.01
+
+[[bond]]
+materials = ["stalk", "stalk"]
+normal_stiffness = 1e9
+shear_stiffness = 1e9
+critical_normal_stress = 2e5
+critical_shear_stress = 1e6
+bonded_disk_scale = 1.0
+contact_radius_scale = 1.05
+"#;
+
+/// The bar's tension test: a 12 mm x 6 mm bar of 1 mm spheres pulled at 20 mm/s by 3 mm grips,
+/// ending once the force has fallen to a fifth of its peak.
+pub const BONDED_BAR_TENSION: &str = r#"[tension]
+specimen = { material = "stalk", radius = 0.001, length = 0.012, diameter = 0.006 }
+fixture_material = "steel"
+speed = 0.02
+max_displacement = 0.002
+stop_force_fraction = 0.2
+grip_length = 0.003
+"#;
+
+/// The bar's tension test file: `top` lines after `test = "tension"` (density_scaling, seed),
+/// then the parts, then the tension table with `extra` lines added.
+pub fn bonded_bar_tension(top: &str, extra: &str) -> String {
+    format!(
+        "test = \"tension\"\nseed = 1\n{top}\n{BONDED_BAR_PARTS}\n{BONDED_BAR_TENSION}{extra}\n"
+    )
+}
+
 /// One `[[material]]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {

@@ -5,51 +5,13 @@
 
 use virtual_tests::{run_file, TestFile};
 
-const MATERIALS: &str = r#"
-[[material]]
-name = "stalk"
-density = 136.4
-poisson_ratio = 0.357
-shear_modulus = 1.511e8
-
-[[material]]
-name = "steel"
-density = 7850
-poisson_ratio = 0.3
-shear_modulus = 7.9e10
-
-[[interaction]]
-materials = ["stalk", "stalk"]
-restitution = 0.47
-static_friction = 0.28
-rolling_friction = 0.16
-
-[[interaction]]
-materials = ["stalk", "steel"]
-restitution = 0.52
-static_friction = 0.45
-rolling_friction = 0.24
-
-[[interaction]]
-materials = ["steel", "steel"]
-restitution = 0.5
-static_friction = 0.2
-rolling_friction = 0.01
-
-[[bond]]
-materials = ["stalk", "stalk"]
-normal_stiffness = 1e9
-shear_stiffness = 1e9
-critical_normal_stress = 2e5
-critical_shear_stress = 1e6
-bonded_disk_scale = 1.0
-contact_radius_scale = 1.05
-"#;
-
 fn file(test: &str, table: &str) -> TestFile {
     TestFile::parse(
         "bar.toml",
-        &format!("test = \"{test}\"\nseed = 1\n{MATERIALS}\n[{test}]\n{table}"),
+        &format!(
+            "test = \"{test}\"\nseed = 1\n{}\n[{test}]\n{table}",
+            test_support::BONDED_BAR_PARTS
+        ),
     )
     .unwrap()
 }

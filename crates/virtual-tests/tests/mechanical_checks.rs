@@ -127,52 +127,10 @@ fn a_damped_chain_bent_by_a_grip_reads_the_exact_discrete_chain() {
     }
 }
 
-const BAR: &str = r#"test = "tension"
-seed = 1
-[[material]]
-name = "stalk"
-density = 136.4
-poisson_ratio = 0.357
-shear_modulus = 1.511e8
-[[material]]
-name = "steel"
-density = 7850
-poisson_ratio = 0.3
-shear_modulus = 7.9e10
-[[interaction]]
-materials = ["stalk", "stalk"]
-restitution = 0.47
-static_friction = 0.28
-rolling_friction = 0.16
-[[interaction]]
-materials = ["stalk", "steel"]
-restitution = 0.52
-static_friction = 0.45
-rolling_friction = 0.24
-[[interaction]]
-materials = ["steel", "steel"]
-restitution = 0.5
-static_friction = 0.2
-rolling_friction = 0.01
-[[bond]]
-materials = ["stalk", "stalk"]
-normal_stiffness = K_N
-shear_stiffness = K_N
-critical_normal_stress = 2e5
-critical_shear_stress = 1e6
-bonded_disk_scale = 1.0
-contact_radius_scale = 1.05
-[tension]
-specimen = { material = "stalk", radius = 0.001, length = 0.012, diameter = 0.006 }
-fixture_material = "steel"
-speed = 0.02
-max_displacement = 0.002
-stop_force_fraction = 0.2
-grip_length = 0.003
-"#;
-
+/// The shared bonded bar (test_support), its bonds' k_n and k_t set to `k_n`.
 fn bar(top: &str, k_n: &str, extra: &str) -> TestFile {
-    let text = format!("{top}\n{}{extra}\n", BAR.replace("K_N", k_n));
+    let text = test_support::bonded_bar_tension(top, extra)
+        .replace("stiffness = 1e9", &format!("stiffness = {k_n}"));
     TestFile::parse("bar.toml", &text).unwrap()
 }
 
@@ -222,7 +180,7 @@ fn density_scaling_lengthens_the_step_and_keeps_a_quasi_static_curve() {
             "density_scaling: expected a number from 1",
         ),
     ] {
-        let text = format!("{top}\n{}", BAR.replace("K_N", "1e9"));
+        let text = test_support::bonded_bar_tension(top, "");
         let e = TestFile::parse("bar.toml", &text).unwrap_err();
         assert!(e.contains(expected), "{e}");
     }

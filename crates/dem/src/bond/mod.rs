@@ -33,6 +33,7 @@
 //!   thread count).
 
 pub mod chain;
+mod kernel;
 pub mod output;
 
 use crate::particles::{Particles, NO_BODY};
@@ -41,7 +42,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::any::Any;
 use std::collections::HashMap;
-use std::f64::consts::{FRAC_1_PI, PI};
+use std::f64::consts::PI;
+
+use kernel::{local_damping, update_bond, Section};
 
 /// The bond's radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -144,14 +147,14 @@ struct BondState {
     axis: DVec3,
 }
 
-/// What one bond does to its spheres this step.
+/// What one bond does to its spheres this step (zero once broken). Whether it broke this step is
+/// kept apart (`broke_now`), so that the gather reads 72 bytes per bond instead of 96.
 #[derive(Clone, Copy, Debug, Default)]
 struct BondOutput {
     /// Force on the first sphere (the second gets its opposite).
     force: DVec3,
     torque_first: DVec3,
     torque_second: DVec3,
-    broke: Option<(BreakMode, f64, f64)>,
 }
 
 /// Bonds per particle above which the contact radius is taken for a mistake (a close packing
@@ -174,6 +177,10 @@ pub struct Bonds {
     intact: Vec<bool>,
     state: Vec<BondState>,
     output: Vec<BondOutput>,
+    /// Set by the update for the bonds that broke in it, cleared when they are logged.
+    broke_now: Vec<bool>,
+    /// Whether any bond kind has local damping: the gather skips the lookup otherwise.
+    damped: bool,
     breakages: Vec<Breakage>,
     /// (time, intact, broken) at formation and after every step with a breakage.
     history: Vec<(f64, usize, usize)>,
@@ -212,6 +219,8 @@ impl Bonds {
             intact: Vec::new(),
             state: Vec::new(),
             output: Vec::new(),
+            broke_now: Vec::new(),
+            damped: pairs.iter().any(|(_, p)| p.damping > 0.0),
             breakages: Vec::new(),
             history: Vec::new(),
             broken: 0,
@@ -274,7 +283,7 @@ impl Bonds {
             .filter(|&b| self.intact[b])
             .map(|b| {
                 let p = &self.params[self.kind[b] as usize];
-                let (sigma, tau) = stresses(&self.state[b], self.radius[b]);
+                let (sigma, tau) = Section::new(self.radius[b]).stresses(&self.state[b]);
                 (
                     sigma / p.critical_normal_stress,
                     tau / p.critical_shear_stress,
@@ -394,6 +403,7 @@ impl Bonds {
                 ..BondState::default()
             });
             self.output.push(BondOutput::default());
+            self.broke_now.push(false);
         }
         self.index_by_id();
         self.mark_formed(&due, time);
@@ -429,6 +439,7 @@ impl Bonds {
         permute(&mut self.intact, &order);
         permute(&mut self.state, &order);
         permute(&mut self.output, &order);
+        permute(&mut self.broke_now, &order);
         self.index_by_id();
     }
 
@@ -541,18 +552,27 @@ impl Bonds {
             .zip(&self.intact)
             .zip(self.state.par_iter_mut())
             .zip(self.output.par_iter_mut())
+            .zip(self.broke_now.par_iter_mut())
             .with_min_len(256)
-            .map(|((((((ids, kind), rb), stiffness), intact), state), out)| {
-                *out = BondOutput::default();
-                if !*intact {
-                    return 0;
-                }
-                let i = index_of[ids[0] as usize] as usize;
-                let j = index_of[ids[1] as usize] as usize;
-                let b = &params[*kind as usize];
-                *out = update_bond(particles, i, j, b, *rb, *stiffness, state, dt);
-                usize::from(out.broke.is_some())
-            })
+            .map(
+                |(((((((ids, kind), rb), stiffness), intact), state), out), broke)| {
+                    if !*intact {
+                        *out = BondOutput::default();
+                        return 0;
+                    }
+                    let i = index_of[ids[0] as usize] as usize;
+                    let j = index_of[ids[1] as usize] as usize;
+                    let b = &params[*kind as usize];
+                    match update_bond(particles, i, j, b, *rb, *stiffness, state, dt) {
+                        Some(o) => *out = o,
+                        None => {
+                            *out = BondOutput::default();
+                            *broke = true;
+                        }
+                    }
+                    usize::from(*broke)
+                },
+            )
             .sum();
         if broke > 0 {
             self.record_breakages(p, index_of, time);
@@ -563,12 +583,15 @@ impl Bonds {
     /// Marks the bonds that broke in this step's update as broken and logs them, in bond order.
     fn record_breakages(&mut self, p: &Particles, index_of: &[u32], time: f64) {
         for b in 0..self.ids.len() {
-            let Some((mode, sigma, tau)) = self.output[b].broke else {
-                continue;
-            };
-            if !self.intact[b] {
+            if !std::mem::take(&mut self.broke_now[b]) || !self.intact[b] {
                 continue;
             }
+            // The stresses and the limit it broke at, from the state the update left.
+            let section = Section::new(self.radius[b]);
+            let (sigma, tau) = section.stresses(&self.state[b]);
+            let mode = section
+                .breaks(&self.state[b], &self.params[self.kind[b] as usize])
+                .unwrap_or(BreakMode::Shear);
             let i = index_of[self.ids[b][0] as usize] as usize;
             let j = index_of[self.ids[b][1] as usize] as usize;
             self.intact[b] = false;
@@ -615,10 +638,10 @@ impl Bonds {
                     let mut damping: f64 = 0.0;
                     for &slot in &by_id[start[id] as usize..start[id + 1] as usize] {
                         let b = (slot / 2) as usize;
-                        let o = &self.output[b];
-                        if !self.intact[b] || o.broke.is_some() {
+                        if !self.intact[b] {
                             continue;
                         }
+                        let o = &self.output[b];
                         if slot % 2 == 0 {
                             *force += o.force;
                             *torque += o.torque_first;
@@ -626,7 +649,9 @@ impl Bonds {
                             *force -= o.force;
                             *torque += o.torque_second;
                         }
-                        damping = damping.max(self.params[self.kind[b] as usize].damping);
+                        if self.damped {
+                            damping = damping.max(self.params[self.kind[b] as usize].damping);
+                        }
                     }
                     // A held sphere (a grip) does not move by its force, and a tool reads that force:
                     // damping it would report (1 + damping) times the specimen's resistance.
@@ -652,170 +677,9 @@ fn unit_draw(ids: [u32; 2], kind: u16) -> f64 {
     (z >> 11) as f64 / (1u64 << 53) as f64
 }
 
-/// The normal and shear stresses of the breakage criterion for a bond of radius `rb` in state
-/// `s`: sigma = -F_n/A + |M_t| R_B/I, tau = |F_t|/A + |M_n| R_B/J.
-fn stresses(s: &BondState, rb: f64) -> (f64, f64) {
-    let area = PI * rb * rb;
-    let polar = 0.5 * PI * rb.powi(4);
-    (
-        -s.normal_force / area + s.bending.length() * rb / (0.5 * polar),
-        s.shear_force.length() / area + s.twist.abs() * rb / polar,
-    )
-}
-
 /// Radians of the fastest bond oscillation per step taken as accurate (the published stalk
 /// calibration found 10 % of the Rayleigh step, about 0.36 rad here, fine and 15 % not).
 pub const SAFE_PHASE: f64 = 0.4;
-
-/// PFC local damping of one force component by component against the velocity.
-fn local_damping(f: DVec3, v: DVec3, fraction: f64) -> DVec3 {
-    let sign = |x: f64| {
-        if x > 0.0 {
-            1.0
-        } else if x < 0.0 {
-            -1.0
-        } else {
-            0.0
-        }
-    };
-    f - fraction
-        * DVec3::new(
-            f.x.abs() * sign(v.x),
-            f.y.abs() * sign(v.y),
-            f.z.abs() * sign(v.z),
-        )
-}
-
-/// The rotation taking unit `from` to unit `to` (Rodrigues, no trigonometry), set up once per
-/// bond and applied to both stored tangential vectors.
-struct Turn {
-    cos: f64,
-    /// `from x to`: the rotation axis times the sine of the angle.
-    sine_axis: DVec3,
-    /// `1 / (1 + cos)`, used by the general case only.
-    scale: f64,
-}
-
-impl Turn {
-    fn new(from: DVec3, to: DVec3) -> Turn {
-        let cos = from.dot(to);
-        Turn {
-            cos,
-            sine_axis: from.cross(to),
-            scale: (1.0 + cos).recip(),
-        }
-    }
-
-    fn apply(&self, v: DVec3) -> DVec3 {
-        if self.cos > 1.0 - 1e-15 {
-            return v;
-        }
-        if self.cos < -1.0 + 1e-12 {
-            // Flipped in one step: only an exploding run does this; drop the direction.
-            return -v;
-        }
-        let k = self.sine_axis;
-        v * self.cos + k.cross(v) + k * (k.dot(v) * self.scale)
-    }
-}
-
-/// `x.sin_cos()`, by its Taylor series where the angle is small (a bond's spin in one step is
-/// about 1e-7 rad): the terms left out are below 1e-17 of the result, under f64's rounding, and
-/// the library call was a tenth of a bonded step.
-fn small_angle_sin_cos(x: f64) -> (f64, f64) {
-    if x.abs() >= 1e-2 {
-        return x.sin_cos();
-    }
-    let x2 = x * x;
-    let sin = x * (1.0 - x2 * (1.0 / 6.0) * (1.0 - x2 * (1.0 / 20.0) * (1.0 - x2 * (1.0 / 42.0))));
-    let cos = 1.0 - x2 * 0.5 * (1.0 - x2 * (1.0 / 12.0) * (1.0 - x2 * (1.0 / 30.0)));
-    (sin, cos)
-}
-
-/// One bond's incremental update for a step of `dt`; returns its forces or that it broke.
-/// `stiffness` is the bond's own factor on k_n and k_t (the stiffness range).
-#[allow(clippy::too_many_arguments)]
-fn update_bond(
-    p: &Particles,
-    i: usize,
-    j: usize,
-    b: &BondParams,
-    rb: f64,
-    stiffness: f64,
-    s: &mut BondState,
-    dt: f64,
-) -> BondOutput {
-    // Divisions are the slow part of this arithmetic: one reciprocal each of the distance, the
-    // radius sum and the bond radius (and one in the turn) serve every quotient below.
-    let delta = p.position[i] - p.position[j];
-    let dist = delta.length();
-    let n = delta * dist.recip();
-    let (wi, wj) = (p.angular_velocity[i], p.angular_velocity[j]);
-    // Turn the stored tangential vectors with the bond: the axis's own turn, then the pair's
-    // mean spin about the axis.
-    let (sin, cos) = small_angle_sin_cos(0.5 * (wi + wj).dot(n) * dt);
-    let turn = Turn::new(s.axis, n);
-    let follow = |v: DVec3| -> DVec3 {
-        let v = turn.apply(v);
-        let v = v - n * v.dot(n);
-        v * cos + n.cross(v) * sin
-    };
-    s.shear_force = follow(s.shear_force);
-    s.bending = follow(s.bending);
-    s.axis = n;
-
-    let (ri, rj) = (p.radius[i], p.radius[j]);
-    let share = dist * (ri + rj).recip();
-    let ci = ri * share;
-    let cj = rj * share;
-    let v = p.velocity[i] - p.velocity[j];
-    let vn = v.dot(n);
-    let vt = v - n * vn - (wi * ci + wj * cj).cross(n);
-    let w = wi - wj;
-    let wn = w.dot(n);
-    let wt = w - n * wn;
-
-    // Area pi rb^2, polar second moment J = pi rb^4 / 2, second moment of area I = J / 2.
-    let rb2 = rb * rb;
-    let area = PI * rb2;
-    let polar = 0.5 * PI * rb2 * rb2;
-    let inertia = 0.5 * polar;
-    let inv_rb = rb.recip();
-    let inv_area = FRAC_1_PI * inv_rb * inv_rb;
-    // rb / I = 4 / (pi rb^3), rb / J = 2 / (pi rb^3).
-    let rb_over_polar = 2.0 * inv_area * inv_rb;
-    let (k_n, k_t) = (
-        b.normal_stiffness * stiffness,
-        b.shear_stiffness * stiffness,
-    );
-    s.normal_force -= k_n * area * vn * dt;
-    s.shear_force -= vt * (k_t * area * dt);
-    s.twist -= k_t * polar * wn * dt;
-    s.bending -= wt * (k_n * inertia * dt);
-
-    let sigma = -s.normal_force * inv_area + s.bending.length() * 2.0 * rb_over_polar;
-    let tau = s.shear_force.length() * inv_area + s.twist.abs() * rb_over_polar;
-    if sigma >= b.critical_normal_stress {
-        return BondOutput {
-            broke: Some((BreakMode::Tension, sigma, tau)),
-            ..BondOutput::default()
-        };
-    }
-    if tau >= b.critical_shear_stress {
-        return BondOutput {
-            broke: Some((BreakMode::Shear, sigma, tau)),
-            ..BondOutput::default()
-        };
-    }
-    let moment = n * s.twist + s.bending;
-    let lever = n.cross(s.shear_force);
-    BondOutput {
-        force: n * s.normal_force + s.shear_force,
-        torque_first: moment - lever * ci,
-        torque_second: -moment - lever * cj,
-        broke: None,
-    }
-}
 
 impl StepExtension for Bonds {
     fn name(&self) -> &str {

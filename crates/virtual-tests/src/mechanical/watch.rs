@@ -177,8 +177,14 @@ impl Watch {
         let gravity_work = self.potential0 - potential_energy(sim);
         if kinetic - self.kinetic0 > 2.0 * (work + gravity_work).max(0.0) + self.slack {
             let test = &self.test;
+            // The bonds' own time-step check, when it warned, says by how much the step is too
+            // long: the likeliest cause, so it goes with the error rather than being lost with it.
+            let cause: String = sim
+                .bonds()
+                .map(|b| b.warnings().iter().map(|w| format!("; {w}")).collect())
+                .unwrap_or_default();
             return Err(TestError::Diverged(format!(
-                "{}: {test}: diverged at {:.3} mm of travel: the specimen's kinetic energy ({kinetic:.3e} J) exceeds the work done on it ({work:.3e} J by the tool, {gravity_work:.3e} J by gravity); energy is being created, so the time step is too long for the bonds or contacts (lower {test}.time_step_percent)",
+                "{}: {test}: diverged at {:.3} mm of travel: the specimen's kinetic energy ({kinetic:.3e} J) exceeds the work done on it ({work:.3e} J by the tool, {gravity_work:.3e} J by gravity); energy is being created, so the time step is too long for the bonds or contacts (lower {test}.time_step_percent){cause}",
                 self.file_name,
                 1e3 * d
             )));

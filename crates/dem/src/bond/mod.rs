@@ -34,7 +34,9 @@
 
 pub mod chain;
 mod kernel;
+mod lanes;
 pub mod output;
+mod update4;
 
 use crate::particles::{Particles, NO_BODY};
 use crate::sim::{SimError, Simulation, StepExtension};
@@ -44,7 +46,7 @@ use std::any::Any;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
-use kernel::{local_damping, update_bond, Section};
+use kernel::{local_damping, Section};
 
 /// The bond's radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -541,36 +543,38 @@ impl Bonds {
 
     /// Updates every intact bond for the step ending at `time` and adds its forces to the spheres.
     fn update(&mut self, p: &mut Particles, index_of: &[u32], dt: f64, time: f64) {
-        let params = &self.params;
-        let particles = &*p;
+        let step = update4::Step {
+            particles: p,
+            index_of,
+            params: &self.params,
+            dt,
+            avx2: update4::Step::detect_avx2(),
+        };
+        // Chunks of four consecutive bonds, updated side by side (`update4.rs`).
+        const L: usize = lanes::LANES;
         let broke: usize = self
             .ids
-            .par_iter()
-            .zip(&self.kind)
-            .zip(&self.radius)
-            .zip(&self.stiffness)
-            .zip(&self.intact)
-            .zip(self.state.par_iter_mut())
-            .zip(self.output.par_iter_mut())
-            .zip(self.broke_now.par_iter_mut())
-            .with_min_len(256)
+            .par_chunks(L)
+            .zip(self.kind.par_chunks(L))
+            .zip(self.radius.par_chunks(L))
+            .zip(self.stiffness.par_chunks(L))
+            .zip(self.intact.par_chunks(L))
+            .zip(self.state.par_chunks_mut(L))
+            .zip(self.output.par_chunks_mut(L))
+            .zip(self.broke_now.par_chunks_mut(L))
+            .with_min_len(64)
             .map(
-                |(((((((ids, kind), rb), stiffness), intact), state), out), broke)| {
-                    if !*intact {
-                        *out = BondOutput::default();
-                        return 0;
-                    }
-                    let i = index_of[ids[0] as usize] as usize;
-                    let j = index_of[ids[1] as usize] as usize;
-                    let b = &params[*kind as usize];
-                    match update_bond(particles, i, j, b, *rb, *stiffness, state, dt) {
-                        Some(o) => *out = o,
-                        None => {
-                            *out = BondOutput::default();
-                            *broke = true;
-                        }
-                    }
-                    usize::from(*broke)
+                |(((((((ids, kind), radius), stiffness), intact), state), output), broke)| {
+                    step.update(update4::Chunk {
+                        ids,
+                        kind,
+                        radius,
+                        stiffness,
+                        intact,
+                        state,
+                        output,
+                        broke,
+                    })
                 },
             )
             .sum();

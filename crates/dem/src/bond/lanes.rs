@@ -3,10 +3,12 @@
 //! Why by hand: one bond's update is a chain of dependent square roots, divisions and products,
 //! so a core runs it at about one instruction per cycle, waiting on latencies (`perf annotate` of
 //! a seed-000 run: three quarters of the run in the bond update). Four independent bonds side by
-//! side fill those waits and let the compiler use packed instructions. `std::simd` is not stable
-//! and the SIMD crates add a type zoo for the dozen operations needed here; plain arrays that LLVM
-//! vectorises are enough. Every operation is the one `glam::DVec3` performs, in the same order, so
-//! a lane gives the same bits as the scalar code.
+//! side fill those waits and let the compiler use packed instructions. `std::simd` is not stable;
+//! plain arrays that LLVM vectorises rather than the `wide` crate (tried for the contacts,
+//! docs/benchmarks.md): `wide` picks its instructions when it is compiled (SSE2 on the baseline
+//! target), while these inline into an AVX2 copy of the update that `update4.rs` chooses at run
+//! time, so one binary uses AVX2 where the CPU has it. Every operation is the one `glam::DVec3`
+//! performs, in the same order, so a lane gives the same bits as the scalar code.
 
 use glam::DVec3;
 use std::ops::{Add, Mul, Neg, Sub};

@@ -2,6 +2,7 @@
 //! a library crate; nothing here knows physics.
 
 mod bench;
+mod curve;
 mod help_check;
 mod lab;
 mod progress;
@@ -182,6 +183,14 @@ enum Command {
     Lab {
         #[command(subcommand)]
         action: lab::LabCommand,
+    },
+    /// Curves outside a study: a simulated force-displacement curve scored against lab curves.
+    #[command(
+        after_help = "Example:\n  demcal curve compare shear_out/force_displacement.csv lab_shear.csv --normalisation lab_peak"
+    )]
+    Curve {
+        #[command(subcommand)]
+        action: curve::CurveCommand,
     },
     /// Surrogates (GP, BP, GA-BP) trained on your own result table, and searched for a goal.
     #[command(
@@ -431,6 +440,7 @@ fn main() -> ExitCode {
         Command::Doe { action } => doe_command(action),
         Command::Surrogate { action } => surrogate_command(action),
         Command::Lab { action } => lab::run(action),
+        Command::Curve { action } => curve::run(action),
         Command::Shape { action } => shape::run(action),
         Command::Run {
             study,

@@ -62,6 +62,26 @@ fn plackett_burman_first_order_with_curvature() {
     for (e, c) in f.effects.iter().zip(&f.coefficients[1..]) {
         assert!((e.effect - 2.0 * c.estimate).abs() < 1e-12);
     }
+    // % contribution: each effect's sum of squares over the corrected total, as Design-Expert
+    // lists it; in this orthogonal design the contrast's SS is the ANOVA's.
+    for e in &f.effects {
+        let from_anova = 100.0 * term(&f, &e.name).sum_sq / f.total_sum_sq;
+        assert!(
+            (e.contribution_percent - from_anova).abs() < 1e-9,
+            "{}: {} against {from_anova}",
+            e.name,
+            e.contribution_percent
+        );
+    }
+    // With the curvature and the residual, the contributions account for the whole variation.
+    let rest = f.residual.sum_sq + f.curvature.as_ref().map_or(0.0, |c| c.sum_sq);
+    let whole: f64 = f
+        .effects
+        .iter()
+        .map(|e| e.contribution_percent)
+        .sum::<f64>()
+        + 100.0 * rest / f.total_sum_sq;
+    assert!((whole - 100.0).abs() < 1e-9, "{whole}");
     let (t, bonf) = f.pareto_limits(0.05).unwrap();
     printed(t, "3.1824", "t(0.025, 3)");
     assert!(bonf > t);

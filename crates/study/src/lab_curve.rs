@@ -250,9 +250,18 @@ impl LabCurves {
     }
 }
 
-/// Reads one lab CSV: a replicate per force column. Errors name the file, the line and the
-/// column.
-pub fn read_csv(path: &Path) -> Result<Vec<Replicate>, String> {
+/// A curve CSV's header and columns (displacement in metres), checked cell by cell.
+struct Table {
+    name: String,
+    heads: Vec<String>,
+    cols: Vec<Vec<f64>>,
+    /// Metres per unit of the file's displacement column.
+    scale: f64,
+}
+
+/// Reads a curve CSV (the lab's or a simulated one): a displacement column, then force columns.
+/// Errors name the file, the line and the column.
+fn read_table(path: &Path) -> Result<Table, String> {
     let name = path.display().to_string();
     let file = std::fs::File::open(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
     let mut rdr = csv::ReaderBuilder::new()
@@ -322,6 +331,38 @@ pub fn read_csv(path: &Path) -> Result<Vec<Replicate>, String> {
             cols[j].push(if j == 0 { v * scale } else { v });
         }
     }
+    Ok(Table {
+        name,
+        heads,
+        cols,
+        scale,
+    })
+}
+
+/// Reads a simulated curve CSV, as `demcal test` writes it (`force_displacement.csv`:
+/// `displacement_m,force_n`): the displacement may repeat (averaged there) but not go back.
+pub fn read_simulated_csv(path: &Path) -> Result<Curve, String> {
+    let Table {
+        name, heads, cols, ..
+    } = read_table(path)?;
+    if heads.len() != 2 {
+        return Err(format!(
+            "{name}: line 1: {} columns: expected two, the displacement and the force (N)",
+            heads.len()
+        ));
+    }
+    Curve::from_simulated(&cols[0], &cols[1]).map_err(|e| format!("{name}: {e}"))
+}
+
+/// Reads one lab CSV: a replicate per force column. Errors name the file, the line and the
+/// column.
+pub fn read_csv(path: &Path) -> Result<Vec<Replicate>, String> {
+    let Table {
+        name,
+        heads,
+        cols,
+        scale,
+    } = read_table(path)?;
     let x = &cols[0];
     if x.len() < 2 {
         return Err(format!(

@@ -11,6 +11,7 @@
 //! run by a weighted error or a desirability ([`target`]).
 
 pub mod curve;
+pub mod curve_compare;
 mod curve_report;
 mod design_stages;
 pub mod job;

@@ -72,6 +72,7 @@ pub(crate) fn screening(
     fit: &Fit,
 ) {
     anova_html(h, fit, "First-order model with curvature");
+    effects_html(h, fit);
     let l = labels(study, st, fit);
     let stage = st.index + 1;
     let response = esc(&response_label(study));
@@ -374,6 +375,35 @@ pub(crate) fn optimize(h: &mut String, study: &Study, st: &StageResult, fit: &Fi
 }
 
 /// The ANOVA table, fit statistics, coefficients and equations of a fit.
+/// The screening effects with their percent contribution, largest first (seed 001's Table 6:
+/// effect, sum of squares, "impact rate", significance order).
+fn effects_html(h: &mut String, fit: &Fit) {
+    if fit.effects.is_empty() {
+        return;
+    }
+    let mut effects: Vec<_> = fit.effects.iter().collect();
+    effects.sort_by(|a, b| b.contribution_percent.total_cmp(&a.contribution_percent));
+    write!(
+        h,
+        "<h3>Effects on {}, largest contribution first</h3><div class=\"scroll\"><table><tr><th>Order</th><th class=\"l\">Term</th><th>Effect</th><th>t-value</th><th>% Contribution</th></tr>",
+        esc(&fit.experiment.response_name)
+    )
+    .unwrap();
+    for (k, e) in effects.iter().enumerate() {
+        write!(
+            h,
+            "<tr><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{:.2}</td></tr>",
+            k + 1,
+            esc(&e.name),
+            sig(e.effect),
+            sig(e.t),
+            e.contribution_percent
+        )
+        .unwrap();
+    }
+    h.push_str("</table></div><p class=\"note\">% Contribution: the effect's sum of squares over the corrected total sum of squares.</p>");
+}
+
 pub(crate) fn anova_html(h: &mut String, fit: &Fit, title: &str) {
     write!(
         h,

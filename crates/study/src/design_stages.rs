@@ -7,6 +7,7 @@ use doe::design::{self, Design};
 use doe::optimize::{Criterion, Goal, Problem, Subject};
 use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 
+use crate::plan::SearchRegion;
 use crate::spec::{Combine, RsmDesign, ScreeningDesign, Stage, Study};
 use crate::stages::{
     run_seed, sig, target_values, tidy, Context, RunSpec, StageResult, Validation,
@@ -517,12 +518,27 @@ pub(crate) fn conclude(
             st.full_fit = Some(full);
             st.fit = Some(fit);
         }
-        Stage::Optimize { solutions, starts } => {
+        Stage::Optimize {
+            solutions,
+            starts,
+            region,
+        } => {
             let (fit, active) = ctx
                 .model
                 .clone()
                 .ok_or("no stage before it fitted a model (put a screening or rsm stage first)")?;
             let rows = fit.experiment.response.len();
+            let bounds = search_bounds(&fit.experiment, region)?;
+            st.notes.push(format!("the search: {}", region.describe()));
+            if let SearchRegion::Limits(limits) = region {
+                for (name, _, _) in limits {
+                    if !fit.experiment.factor_names.contains(name) {
+                        st.notes.push(format!(
+                            "region.{name}: not a factor of the model (screened out or held); its limits are not used"
+                        ));
+                    }
+                }
+            }
             let desirability = study.combine == Some(Combine::Desirability)
                 && ctx.model_targets.len() == rows
                 && rows > 0;
@@ -550,7 +566,7 @@ pub(crate) fn conclude(
                         .enumerate()
                         .map(|(i, t)| (Subject::Response(i), t.term().criterion()))
                         .collect(),
-                    bounds: vec![(-1.0, 1.0); active.len()],
+                    bounds: bounds.clone(),
                 };
                 let found =
                     problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
@@ -559,7 +575,7 @@ pub(crate) fn conclude(
                 st.target_fits = fits;
                 (found, ranges)
             } else {
-                let problem = single_response_problem(study, &fit, active.len());
+                let problem = single_response_problem(study, &fit, bounds);
                 let found =
                     problem.solve(*starts, run_seed(study.seed, st.index, 0), *solutions)?;
                 let ranges = equally_good(&problem, &found);
@@ -671,18 +687,28 @@ fn point_label(d: &Design, run: &[f64]) -> String {
 
 /// The search for the optimum of the model of the study's one response (or combined
 /// objective): on target, or minimised.
-fn single_response_problem<'a>(study: &Study, fit: &'a Fit, factors: usize) -> Problem<'a> {
+fn single_response_problem<'a>(
+    study: &Study,
+    fit: &'a Fit,
+    bounds: Vec<(f64, f64)>,
+) -> Problem<'a> {
     let target = study.target.value;
     let observed = &fit.experiment.response;
     let (goal, lo, hi) = if study.target.minimised() {
         // Minimise the model itself: below the lower limit every point would be equally
-        // desirable, so the limit is put under the model's least value in the ±1 box
-        // (each term of a coded polynomial lies in -1..1 there).
+        // desirable, so the limit is put under the model's least value in the search box
+        // (a term of degree d of a coded polynomial lies within ±m^d there, m the box's
+        // largest coded distance).
+        let m = bounds
+            .iter()
+            .map(|&(lo, hi)| lo.abs().max(hi.abs()))
+            .fold(1.0, f64::max);
         let reach: f64 = fit
             .coefficients
             .iter()
+            .zip(&fit.terms)
             .skip(1)
-            .map(|c| c.estimate.abs())
+            .map(|(c, t)| c.estimate.abs() * m.powi(t.powers.iter().map(|&p| i32::from(p)).sum()))
             .sum();
         let floor = fit.coefficients.first().map(|c| c.estimate).unwrap_or(0.0) - reach;
         let hi = observed.iter().copied().fold(f64::MIN, f64::max);
@@ -707,8 +733,45 @@ fn single_response_problem<'a>(study: &Study, fit: &'a Fit, factors: usize) -> P
                 importance: 3,
             },
         )],
-        bounds: vec![(-1.0, 1.0); factors],
+        bounds,
     }
+}
+
+/// The coded box `optimize` searches (see [`SearchRegion`]).
+fn search_bounds(e: &Experiment, region: &SearchRegion) -> Result<Vec<(f64, f64)>, String> {
+    let k = e.factor_names.len();
+    Ok(match region {
+        SearchRegion::Cube => vec![(-1.0, 1.0); k],
+        SearchRegion::Axial => (0..k)
+            .map(|j| {
+                let reach = e.coded.iter().map(|r| r[j].abs()).fold(1.0, f64::max);
+                (-reach, reach)
+            })
+            .collect(),
+        SearchRegion::Limits(limits) => {
+            let factors = e
+                .factors
+                .as_ref()
+                .ok_or("the model's factors have no actual ranges to place the limits in")?;
+            factors
+                .iter()
+                .map(|f| match limits.iter().find(|(n, _, _)| *n == f.name) {
+                    Some(&(_, lo, hi)) => {
+                        let (a, b) = (f.to_coded(lo), f.to_coded(hi));
+                        if a.is_finite() && b.is_finite() {
+                            Ok((a.min(b), a.max(b)))
+                        } else {
+                            Err(format!(
+                                "region.{}: the limits {lo} .. {hi} cannot be placed on the factor's scale",
+                                f.name
+                            ))
+                        }
+                    }
+                    None => Ok((-1.0, 1.0)),
+                })
+                .collect::<Result<_, String>>()?
+        }
+    })
 }
 
 /// Each factor's equally good stretch around the first solution ([`StageResult::equally_good`]).

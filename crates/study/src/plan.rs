@@ -51,6 +51,7 @@ pub enum Stage {
     Optimize {
         solutions: usize,
         starts: usize,
+        region: SearchRegion,
     },
     Validate {
         replicates: usize,
@@ -129,7 +130,7 @@ pub fn stage_keys(kind: &str) -> Option<&'static [&'static str]> {
         ],
         "steepest" => &["steps", "direction"],
         "rsm" => &["design", "alpha", "center_points", "reduce", "alpha_out"],
-        "optimize" => &["solutions", "starts"],
+        "optimize" => &["solutions", "starts", "region"],
         "validate" => &["replicates", "candidates"],
         "bayesopt" => &[
             "initial",
@@ -198,11 +199,100 @@ impl Stage {
     }
 }
 
+/// Where `optimize` searches the fitted model.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SearchRegion {
+    /// The factorial box, coded ±1: the screening or CCD ranges (Design-Expert's "in range").
+    Cube,
+    /// As far as the design's runs reach on each factor: out to the axial points (±alpha) of a
+    /// central composite design, as seeds 002-004 optimise; ±1 for a box design.
+    Axial,
+    /// Limits in the parameters' own units, by name; a factor not named keeps ±1.
+    Limits(Vec<(String, f64, f64)>),
+}
+
+impl SearchRegion {
+    /// Words for the report.
+    pub fn describe(&self) -> String {
+        match self {
+            SearchRegion::Cube => "within the design's ranges (coded ±1)".into(),
+            SearchRegion::Axial => "out to the design's axial points (±alpha)".into(),
+            SearchRegion::Limits(l) => format!(
+                "within the limits given: {}",
+                l.iter()
+                    .map(|(n, lo, hi)| format!("{n} {lo} .. {hi}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }
+    }
+}
+
+/// Reads `optimize`'s `region`: "cube", "axial", or a table of [low, high] by parameter name.
+fn search_region(
+    v: Option<&toml::Value>,
+    key: &str,
+    params: &[(String, f64, f64)],
+    err: &dyn Fn(&str, String) -> String,
+) -> Result<SearchRegion, String> {
+    let expected = "expected \"cube\" (coded ±1), \"axial\" (out to the axial points, ±alpha) or limits by parameter, e.g. { rolling_friction = [0.05, 0.3] }";
+    match v {
+        None => Ok(SearchRegion::Cube),
+        Some(toml::Value::String(s)) if s == "cube" => Ok(SearchRegion::Cube),
+        Some(toml::Value::String(s)) if s == "axial" => Ok(SearchRegion::Axial),
+        Some(toml::Value::Table(t)) if !t.is_empty() => {
+            let mut limits = Vec::new();
+            for (name, v) in t {
+                let k = format!("{key}.region.{name}");
+                let Some(&(_, min, max)) = params.iter().find(|(n, _, _)| n == name) else {
+                    let names: Vec<&str> = params.iter().map(|(n, _, _)| n.as_str()).collect();
+                    return Err(err(
+                        &k,
+                        format!(
+                            "no parameter is named \"{name}\" (the parameters: {})",
+                            names.join(", ")
+                        ),
+                    ));
+                };
+                let pair: Vec<f64> = v
+                    .as_array()
+                    .map(|a| {
+                        a.iter()
+                            .filter_map(|x| x.as_float().or(x.as_integer().map(|i| i as f64)))
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                match pair[..] {
+                    [lo, hi] if lo.is_finite() && hi.is_finite() && lo < hi => {
+                        // The parameter's range is where it may be set at all.
+                        if lo < min || hi > max {
+                            return Err(err(
+                                &k,
+                                format!("[{lo}, {hi}] leaves the parameter's range {min} .. {max}"),
+                            ));
+                        }
+                        limits.push((name.clone(), lo, hi))
+                    }
+                    _ => {
+                        return Err(err(
+                            &k,
+                            "expected [low, high], two finite numbers with low < high, in the parameter's units".into(),
+                        ))
+                    }
+                }
+            }
+            Ok(SearchRegion::Limits(limits))
+        }
+        Some(_) => Err(err(&format!("{key}.region"), expected.into())),
+    }
+}
+
 pub(crate) fn parse_plan(
     doc: &toml::Table,
     err: &dyn Fn(&str, String) -> String,
-    n_params: usize,
+    params: &[(String, f64, f64)],
 ) -> Result<Vec<Stage>, String> {
+    let n_params = params.len();
     let items = match doc.get("plan") {
         None => {
             return Err(err(
@@ -396,6 +486,7 @@ pub(crate) fn parse_plan(
             "optimize" => Stage::Optimize {
                 solutions: count("solutions", 5, 1, Some(MAX_SOLUTIONS))?,
                 starts: count("starts", 40, 1, Some(doe::optimize::MAX_STARTS))?,
+                region: search_region(t.get("region"), &key, params, err)?,
             },
             "validate" => Stage::Validate {
                 replicates: count("replicates", 3, 1, Some(MAX_REPLICATES))?,

@@ -568,6 +568,26 @@ pub(crate) fn heaps_figure(heaps: &[Heap]) -> Result<String, String> {
     Ok(svg)
 }
 
+/// Most pairs of factors drawn as maps (every pair of up to 8 factors).
+pub(crate) const MAX_PAIR_MAPS: usize = 28;
+
+/// The pairs of `k` factors to draw, every one up to [`MAX_PAIR_MAPS`]; says in `h` when more
+/// exist than are drawn.
+pub(crate) fn drawn_pairs(h: &mut String, k: usize) -> Vec<(usize, usize)> {
+    let all: Vec<(usize, usize)> = (0..k)
+        .flat_map(|a| (a + 1..k).map(move |b| (a, b)))
+        .collect();
+    if all.len() > MAX_PAIR_MAPS {
+        write!(
+            h,
+            "<p class=\"note\">{} pairs of factors: the maps show the first {MAX_PAIR_MAPS}, in the order of the factors.</p>",
+            all.len()
+        )
+        .unwrap();
+    }
+    all.into_iter().take(MAX_PAIR_MAPS).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -158,32 +158,27 @@ pub(crate) fn rsm(
     let mut items = Vec::new();
     // Every pair of the design's factors, also those the reduction dropped: flat contours show
     // as plainly as curved ones that a factor does not matter.
-    for a in 0..k {
-        for b in a + 1..k {
-            if items.len() >= 3 {
-                break;
-            }
-            let marks = ContourMarks {
-                held: held.clone(),
-                range: ContourMarks::covering(fit, a, b, &held),
-                target: target.clone(),
-                optimum: optimum
-                    .clone()
-                    .map(|o| (o, "optimum (solution 1)".to_string())),
-            };
-            items.push((
-                format!("stage{stage}-contour-{}{}", l.letters[a], l.letters[b]),
-                plots::contour_plot(fit, &l, a, b, &marks),
-                format!(
-                    "Response surface (stage {stage}): contours of {response} over {} and {} from the final model, with every design run in this plane (the axial runs too){}{}.{}",
-                    names(a),
-                    names(b),
-                    if target.is_some() { ", the lab value's contour (dashed)" } else { "" },
-                    if optimum.is_some() { " and the optimum the next stage found (cross)" } else { "" },
-                    held_text(a, b)
-                ),
-            ));
-        }
+    for (a, b) in crate::report_figures::drawn_pairs(h, k) {
+        let marks = ContourMarks {
+            held: held.clone(),
+            range: ContourMarks::covering(fit, a, b, &held),
+            target: target.clone(),
+            optimum: optimum
+                .clone()
+                .map(|o| (o, "optimum (solution 1)".to_string())),
+        };
+        items.push((
+            format!("stage{stage}-contour-{}{}", l.letters[a], l.letters[b]),
+            plots::contour_plot(fit, &l, a, b, &marks),
+            format!(
+                "Response surface (stage {stage}): contours of {response} over {} and {} from the final model, with every design run in this plane (the axial runs too){}{}.{}",
+                names(a),
+                names(b),
+                if target.is_some() { ", the lab value's contour (dashed)" } else { "" },
+                if optimum.is_some() { " and the optimum the next stage found (cross)" } else { "" },
+                held_text(a, b)
+            ),
+        ));
     }
     if k >= 2 {
         let marks = ContourMarks {

@@ -514,7 +514,11 @@ impl Study {
             None => targets[0].clone(),
         };
 
-        let plan = parse_plan(&doc, &err, parameters.len())?;
+        let ranges: Vec<(String, f64, f64)> = parameters
+            .iter()
+            .map(|p| (p.name.clone(), p.min, p.max))
+            .collect();
+        let plan = parse_plan(&doc, &err, &ranges)?;
         let executor = crate::slurm::settings::parse_executor(&doc, dir, &err)?;
 
         let study = Study {

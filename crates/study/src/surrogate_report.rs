@@ -7,7 +7,7 @@ use std::fmt::Write;
 
 use doe::plots::{self, colour_map, padded, FONT};
 
-use crate::report_figures::Figures;
+use crate::report_figures::{drawn_pairs, Figures};
 use plotters::prelude::*;
 use serde_json::json;
 
@@ -194,29 +194,24 @@ fn bo_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult, 
             .filter(|(_, r)| r.is_some())
             .map(|(s, _)| s.coded.clone())
             .collect();
-        'pairs: for a in 0..k {
-            for b in a + 1..k {
-                if row.len() >= 4 {
-                    break 'pairs;
-                }
-                let f = |x: f64, y: f64| {
-                    let mut c = centre.clone();
-                    c[a] = x;
-                    c[b] = y;
-                    g.predict(&c).0
-                };
-                if let Ok(svg) = heat_map(
-                    &format!(
-                        "GP predicted objective: {} x {}",
-                        st.factors[a].name, st.factors[b].name
-                    ),
-                    (&st.factors[a], &st.factors[b]),
-                    f,
-                    &points.iter().map(|p| (p[a], p[b])).collect::<Vec<_>>(),
-                    Some((centre[a], centre[b])),
-                ) {
-                    row.push(svg);
-                }
+        for (a, b) in drawn_pairs(h, k) {
+            let f = |x: f64, y: f64| {
+                let mut c = centre.clone();
+                c[a] = x;
+                c[b] = y;
+                g.predict(&c).0
+            };
+            if let Ok(svg) = heat_map(
+                &format!(
+                    "GP predicted objective: {} x {}",
+                    st.factors[a].name, st.factors[b].name
+                ),
+                (&st.factors[a], &st.factors[b]),
+                f,
+                &points.iter().map(|p| (p[a], p[b])).collect::<Vec<_>>(),
+                Some((centre[a], centre[b])),
+            ) {
+                row.push(svg);
             }
         }
     }
@@ -372,24 +367,19 @@ fn smc_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult,
         }
     }
     let k = st.active.len();
-    'pairs: for a in 0..k {
-        for b in a + 1..k {
-            if row.len() >= k + 3 {
-                break 'pairs;
-            }
-            let pts: Vec<(f64, f64, f64)> = values
-                .iter()
-                .zip(&last.weights)
-                .map(|(v, w)| (v[a], v[b], *w))
-                .collect();
-            if let Ok(svg) = pair_plot(
-                &study.parameters[st.active[a]].name,
-                &study.parameters[st.active[b]].name,
-                &pts,
-                (p.mean[a], p.mean[b]),
-            ) {
-                row.push(svg);
-            }
+    for (a, b) in drawn_pairs(h, k) {
+        let pts: Vec<(f64, f64, f64)> = values
+            .iter()
+            .zip(&last.weights)
+            .map(|(v, w)| (v[a], v[b], *w))
+            .collect();
+        if let Ok(svg) = pair_plot(
+            &study.parameters[st.active[a]].name,
+            &study.parameters[st.active[b]].name,
+            &pts,
+            (p.mean[a], p.mean[b]),
+        ) {
+            row.push(svg);
         }
     }
     plots_row(h, figs, st, row);

@@ -156,6 +156,7 @@ fn the_report_has_its_figures_as_files_its_settings_and_says_what_every_spread_i
         "VIF",
         "95 % prediction interval",
         "b (mm)",
+        "% Contribution",
     ] {
         assert!(text.contains(part), "the report lacks {part}");
     }

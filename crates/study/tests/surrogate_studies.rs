@@ -231,3 +231,42 @@ fn a_study_imports_the_value_another_study_calibrated() {
     }
     std::fs::remove_dir_all(root).unwrap();
 }
+
+/// The report maps the GP's predicted objective over every pair of parameters (seed 000 draws
+/// all six pairs of its four bond parameters), not a few of them.
+#[test]
+fn the_objective_is_mapped_over_every_pair_of_parameters() {
+    let dir = fresh_dir("pairs");
+    let text = bowl(
+        r#"[{ stage = "bayesopt", initial = 10, iterations = 1, batch = 2 }]"#,
+        "value = 30.0",
+    )
+    .replace(
+        "variables = { a = 0.8, b = 0.5, c = 0.5 }",
+        "variables = { a = 0.8, b = 0.5, c = 0.5, d = 0.5 }",
+    )
+    .replace(
+        "[target]",
+        "[[parameter]]\nname = \"d\"\npath = \"function.variables.d\"\nmin = 0.0\nmax = 1.0\n\n[target]",
+    );
+    let out = run_study(&dir, &text).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let mut maps: Vec<String> = std::fs::read_dir(dir.join("report/figures"))
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".svg"))
+        .filter_map(|e| {
+            let svg = std::fs::read_to_string(e.path()).unwrap();
+            let at = svg.find("GP predicted objective: ")?;
+            let title = &svg[at + 24..];
+            Some(title[..title.find('<').unwrap()].to_string())
+        })
+        .collect();
+    maps.sort();
+    assert_eq!(
+        maps,
+        ["a x b", "a x c", "a x d", "b x c", "b x d", "c x d"],
+        "{maps:?}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -529,7 +529,8 @@ pub(crate) fn conclude(
                 .ok_or("no stage before it fitted a model (put a screening or rsm stage first)")?;
             let rows = fit.experiment.response.len();
             let bounds = search_bounds(&fit.experiment, region)?;
-            st.notes.push(format!("the search: {}", region.describe()));
+            st.notes
+                .push(format!("the search: each factor {}", region.describe()));
             if let SearchRegion::Limits(limits) = region {
                 for (name, _, _) in limits {
                     if !fit.experiment.factor_names.contains(name) {

@@ -215,8 +215,10 @@ impl SearchRegion {
     /// Words for the report.
     pub fn describe(&self) -> String {
         match self {
-            SearchRegion::Cube => "within the design's ranges (coded ±1)".into(),
-            SearchRegion::Axial => "out to the design's axial points (±alpha)".into(),
+            SearchRegion::Cube => "within its coded range −1 to +1".into(),
+            SearchRegion::Axial => {
+                "out to the design's axial points (coded −alpha to +alpha)".into()
+            }
             SearchRegion::Limits(l) => format!(
                 "within the limits given: {}",
                 l.iter()

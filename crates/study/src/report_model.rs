@@ -274,10 +274,15 @@ pub(crate) fn optimize(h: &mut String, study: &Study, st: &StageResult, fit: &Fi
             sig(study.target.value)
         )
     };
+    let region = match study.plan.get(st.index) {
+        Some(crate::spec::Stage::Optimize { region, .. }) => region.describe(),
+        _ => crate::plan::SearchRegion::Cube.describe(),
+    };
     write!(
         h,
-        "<p>Goal: {} {goal}, each factor within its coded range −1 to +1. The first solution is validated (with several candidates, the one whose runs come nearest the lab value).</p>",
+        "<p>Goal: {} {goal}, each factor {}. The first solution is validated (with several candidates, the one whose runs come nearest the lab value).</p>",
         esc(&fit.experiment.response_name),
+        esc(&region),
     )
     .unwrap();
     h.push_str("<div class=\"scroll\"><table><tr><th>#</th>");

@@ -72,8 +72,8 @@ fn optimize_reaches_an_optimum_at_the_axial_points_only_when_asked() {
     // Inside coded ±1 the closest is its edge, a = 0.854 (value 47.07); out to the axial
     // points the lab value itself; within given limits their edge.
     for (region, a_expected, says) in [
-        ("", 0.8536, "coded ±1"),
-        (r#", region = "cube""#, 0.8536, "coded ±1"),
+        ("", 0.8536, "coded range −1 to +1"),
+        (r#", region = "cube""#, 0.8536, "coded range −1 to +1"),
         (r#", region = "axial""#, 0.9, "axial points"),
         (r#", region = { a = [0.0, 0.88] }"#, 0.88, "a 0 .. 0.88"),
     ] {

@@ -259,7 +259,7 @@ fn the_objective_is_mapped_over_every_pair_of_parameters() {
             let svg = std::fs::read_to_string(e.path()).unwrap();
             let at = svg.find("GP predicted objective: ")?;
             let title = &svg[at + 24..];
-            Some(title[..title.find('<').unwrap()].to_string())
+            Some(title[..title.find('<').unwrap()].trim().to_string())
         })
         .collect();
     maps.sort();

@@ -202,6 +202,17 @@ pub(super) fn update_bond(
     })
 }
 
+/// Reproducible draws uniform on -1..1 (a 64-bit LCG), for the bond kernels' tests.
+#[cfg(test)]
+pub(super) fn uniform_draws(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -225,13 +236,7 @@ mod tests {
         let rb = 4.3e-4;
         let section = Section::new(rb);
         let (area, limit) = (PI * rb * rb, 1.6e7 * PI * rb * rb);
-        let mut seed = 7u64;
-        let mut draw = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut draw = uniform_draws(7);
         let (mut tension, mut shear, mut whole) = (0, 0, 0);
         for _ in 0..200_000 {
             let s = BondState {

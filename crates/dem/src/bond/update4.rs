@@ -279,13 +279,7 @@ mod tests {
     /// (a large spin, a large turn, no turn, a flip), with and without AVX2.
     #[test]
     fn four_bonds_side_by_side_are_the_scalar_update_bit_for_bit() {
-        let mut seed = 11u64;
-        let mut draw = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut draw = super::super::kernel::uniform_draws(11);
         let params = [
             BondParams {
                 normal_stiffness: 5.12e9,

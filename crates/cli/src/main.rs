@@ -521,33 +521,24 @@ fn run_study(
     retry_failed: bool,
     backend: Option<String>,
 ) -> Result<(), String> {
-    let slurm = match &executor {
-        Some(e) => e == "slurm",
-        None => study::Study::load(path).is_ok_and(|s| s.executor.kind() == "slurm"),
-    };
-    // On Slurm, --jobs is the array's throttle: the cluster's cores, not this machine's.
-    let max_running = match jobs {
-        Some(n) if slurm && !(1..=100_000).contains(&n) => {
-            return Err(format!(
-                "--jobs {n}: with --executor slurm, expected 1 to 100000 tasks at once"
-            ))
-        }
-        Some(n) if slurm => Some(n),
-        _ => None,
-    };
+    // Where the runs are made says what --jobs means: runs at once here, or what the executor
+    // makes of it elsewhere (a Slurm array's throttle). A study that does not load fails in
+    // study::run with its own message.
+    let here = study::Study::load(path)
+        .ok()
+        .and_then(|s| study::executor::chosen(&s, executor.as_deref()).ok())
+        .is_none_or(|e| e.on_this_machine());
     // On the GPU, jobs are the runs per batch: by default all of a stage's missing runs.
-    let gpu = !slurm
-        && match &backend {
+    let gpu =
+        here && match &backend {
             Some(b) => b == "gpu",
             None => study::Study::load(path).is_ok_and(|s| s.backend == "gpu"),
-        }
-        && dem::sim::resolve_backend("gpu").is_ok_and(|(chosen, _)| chosen == "gpu");
-    let jobs = if slurm {
-        1
-    } else {
-        jobs.unwrap_or(if gpu { progress::DEFAULT_PER_BATCH } else { 1 })
-    };
-    check_jobs("--jobs", jobs, gpu)?;
+        } && dem::sim::resolve_backend("gpu").is_ok_and(|(chosen, _)| chosen == "gpu");
+    let jobs_given = jobs.is_some();
+    let jobs = jobs.unwrap_or(if gpu { progress::DEFAULT_PER_BATCH } else { 1 });
+    if here {
+        check_jobs("--jobs", jobs, gpu)?;
+    }
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
     // The first Ctrl-C stops the running simulations and keeps every finished one; the store is
@@ -561,11 +552,11 @@ fn run_study(
     .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
     let opts = study::RunOptions {
         jobs,
+        jobs_given,
         restart,
         retry_failed,
         backend,
         executor,
-        max_running,
     };
     let result = study::run(path, &opts, interrupted);
     let batches = dem_gpu::batch::batch_stats();

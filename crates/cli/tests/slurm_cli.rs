@@ -94,7 +94,7 @@ fn a_wrong_executor_table_or_throttle_is_one_line() {
         &[],
     );
     assert!(
-        err.contains("executor.queue: unknown key (expected kind, partition"),
+        err.contains("executor.queue: unknown key for a slurm executor (expected partition"),
         "{err}"
     );
     let err = fails(&dir, STUDY, &["--executor", "slurm", "--jobs", "0"]);

@@ -14,6 +14,7 @@ pub mod curve;
 pub mod curve_compare;
 mod curve_report;
 mod design_stages;
+pub mod executor;
 pub mod job;
 pub mod lab_curve;
 pub mod paths;
@@ -27,6 +28,7 @@ pub mod run_error;
 pub mod runner;
 pub mod slurm;
 pub mod spec;
+pub mod stage;
 pub mod stages;
 pub mod store;
 mod surrogate_report;
@@ -48,49 +50,32 @@ pub use store::Store;
 /// Options of `demcal run`.
 #[derive(Clone, Debug, Default)]
 pub struct RunOptions {
+    /// `--jobs`, or the default for this machine when not given: what the executor makes of it
+    /// ([`executor::Executor::with_jobs`]; on this machine, runs at once).
     pub jobs: usize,
+    /// Whether `--jobs` was given: an executor elsewhere keeps its own setting otherwise.
+    pub jobs_given: bool,
     /// Move the old store aside and start over.
     pub restart: bool,
     /// Forget failed runs so that they run again.
     pub retry_failed: bool,
     /// The back end in place of the study's `backend` ("cpu" or "gpu").
     pub backend: Option<String>,
-    /// The executor in place of the study's `[executor]` ("local" or "slurm").
+    /// The executor in place of the study's `[executor]` (`--executor`).
     pub executor: Option<String>,
-    /// Slurm: the array throttle in place of `max_running` (`demcal run --jobs`).
-    pub max_running: Option<usize>,
-}
-
-impl RunOptions {
-    /// The executor a study runs with: `--executor` over the study's `[executor]`; `--jobs` is
-    /// the Slurm array's throttle.
-    pub fn executor_for(&self, study: &Study) -> Result<slurm::ExecutorSpec, String> {
-        let mut spec = match (self.executor.as_deref(), &study.executor) {
-            (None, e) => e.clone(),
-            (Some("local"), _) => slurm::ExecutorSpec::Local,
-            (Some("slurm"), slurm::ExecutorSpec::Slurm(s)) => slurm::ExecutorSpec::Slurm(s.clone()),
-            (Some("slurm"), slurm::ExecutorSpec::Local) => {
-                slurm::ExecutorSpec::Slurm(Box::default())
-            }
-            (Some(other), _) => {
-                return Err(format!(
-                    "--executor: expected local or slurm, got \"{other}\""
-                ))
-            }
-        };
-        if let (slurm::ExecutorSpec::Slurm(s), Some(n)) = (&mut spec, self.max_running) {
-            s.max_running = n;
-        }
-        Ok(spec)
-    }
 }
 
 /// Runs (or resumes) a study, then writes its report. Returns what to print.
 pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
     let mut study = Study::load(path)?;
-    let executor = opts.executor_for(&study)?;
+    let executor = executor::chosen(&study, opts.executor.as_deref())?;
+    let (executor, jobs) = if opts.jobs_given || executor.on_this_machine() {
+        executor.with_jobs(opts.jobs)?
+    } else {
+        (executor, 1)
+    };
     let wanted = opts.backend.clone().unwrap_or(study.backend.clone());
-    if executor == slurm::ExecutorSpec::Local {
+    if executor.on_this_machine() {
         // A back end this machine lacks falls back to the CPU, said once here.
         let (chosen, why) = dem::sim::resolve_backend(&wanted)?;
         if let Some(why) = why {
@@ -100,9 +85,10 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     } else {
         // The nodes have the GPUs, not necessarily the machine that submits.
         study.backend = wanted;
-        // Before anything is written: a machine without Slurm gets nothing but the error.
-        slurm::queue::check_available()?;
     }
+    // Before anything is written: a machine that cannot reach the executor gets nothing but the
+    // error.
+    executor.preflight()?;
     let db = study.store_path();
     // One `demcal run` per study at a time, held until the report is written.
     let _lock = store::StoreLock::acquire(&db)?;
@@ -110,10 +96,11 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     // store or run exists.
     study.check_scene()?;
     if opts.restart && db.exists() {
-        // Tasks of the old results still out on Slurm would go on writing into the run folders.
-        let cancelled = slurm::withdraw_open(&Store::open(&db, false)?)?;
+        // Work of the old results still out (Slurm tasks) would go on writing into the run
+        // folders.
+        let cancelled = executor::withdraw_all(&Store::open(&db, false)?)?;
         if cancelled > 0 {
-            eprintln!("cancelled {cancelled} Slurm task(s) of the old results");
+            eprintln!("cancelled {cancelled} task(s) of the old results");
         }
         let aside = db.with_extension(format!(
             "db.old-{}",
@@ -137,25 +124,9 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     }
     let stored = store.runs()?;
     let started = std::time::Instant::now();
-    let mut cluster = None;
-    let outcome = match &executor {
-        slurm::ExecutorSpec::Local => {
-            let mut exec = runner::LocalExecutor::new(opts.jobs, &mut store, interrupted);
-            replay(&study, &stored, Some(&mut exec))
-        }
-        slurm::ExecutorSpec::Slurm(settings) => {
-            let mut exec =
-                slurm::SlurmExecutor::new((**settings).clone(), &mut store, interrupted, &study)?;
-            let r = replay(&study, &stored, Some(&mut exec));
-            cluster = Some(exec.stats.clone());
-            r
-        }
-    };
-    if let Some(c) = &cluster {
-        eprintln!(
-            "Slurm: {} run(s) stored from tasks; {} array(s) of {} task(s) submitted, {} submitted again, {} task(s) re-attached",
-            c.stored, c.arrays, c.tasks, c.retried, c.reattached
-        );
+    let (outcome, closing) = executor.run(&study, &mut store, &stored, jobs, interrupted)?;
+    if let Some(line) = closing {
+        eprintln!("{line}");
     }
     let replay = outcome?;
     store.set_meta("last_study_text", &study.text)?;
@@ -205,7 +176,7 @@ pub fn status(path: &Path) -> Result<String, String> {
     }
     let (study, r, _) = load_replay(path)?;
     let store = Store::open(&study.store_path(), false)?;
-    Ok(status_text(&study, &r) + &slurm::status_lines(&study, &store)?)
+    Ok(status_text(&study, &r) + &executor::status_lines(&study, &store)?)
 }
 
 /// `demcal report`: writes the report; returns its folder.

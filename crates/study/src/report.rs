@@ -313,7 +313,7 @@ fn stage_html(
         h,
         "<h2>Stage {}: {}</h2><p class=\"sub\">{}</p>",
         st.index + 1,
-        stage_title(st.kind),
+        study.plan.get(st.index).map_or("stage", |s| s.heading()),
         esc(&st.title)
     )
     .unwrap();
@@ -323,54 +323,20 @@ fn stage_html(
     if !st.runs.is_empty() {
         runs_table(h, study, st);
     }
-    match st.kind {
-        "screening" => {
-            if let Some(fit) = &st.fit {
-                report_model::screening(h, figs, study, st, fit);
-                if !st.selected.is_empty() {
-                    write!(
-                        h,
-                        "<p>Going on to the next stages: <b>{}</b>. The others are held at the middle of their ranges.</p>",
-                        st.selected
-                            .iter()
-                            .map(|&i| esc(&study.parameters[i].name))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                    .unwrap();
-                }
-            }
-        }
-        "steepest" => figs.row(
+    if let Some(stage) = study.plan.get(st.index) {
+        stage.report(&mut crate::stage::Section {
             h,
-            vec![(
-                format!("stage{}-steepest-path", st.index + 1),
-                figures::steepest_plot(study, st),
-                format!(
-                    "Steepest path (stage {}): {} at each step along the path, against the lab value; the ringed step is the nearest, and the next stage centres on it.",
-                    st.index + 1,
-                    esc(&figures::response_label(study))
-                ),
-            )],
-        ),
-        "rsm" => report_model::rsm(h, figs, study, stages, st),
-        "optimize" if !st.target_fits.is_empty() => {
-            crate::targets_report::optimize_table(h, study, st)
-        }
-        "optimize" => {
-            if let Some(fit) = &st.fit {
-                report_model::optimize(h, study, st, fit);
-            }
-        }
-        "validate" => validation_html(h, figs, study, stages, st),
-        "bayesopt" | "ga_bp" | "smc" => crate::surrogate_report::stage_html(h, figs, study, st),
-        _ => {}
+            figs,
+            study,
+            stages,
+            st,
+        });
     }
 }
 
 /// The validation: the runs' mean and spread against the lab's, the model's prediction
 /// interval at the optimum, the figure, and the heaps.
-fn validation_html(
+pub(crate) fn validation_html(
     h: &mut String,
     figs: &mut Figures,
     study: &Study,
@@ -450,20 +416,6 @@ fn validation_html(
         );
     }
     heap_pictures(h, figs, study, st);
-}
-
-fn stage_title(kind: &str) -> &'static str {
-    match kind {
-        "screening" => "screening",
-        "steepest" => "steepest path",
-        "rsm" => "response surface",
-        "optimize" => "optimisation",
-        "validate" => "validation",
-        "bayesopt" => "Bayesian optimisation",
-        "ga_bp" => "GA-BP network and GA-BP-GA search",
-        "smc" => "sequential Monte Carlo",
-        _ => "stage",
-    }
 }
 
 fn runs_table(h: &mut String, study: &Study, st: &StageResult) {

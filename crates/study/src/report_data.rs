@@ -208,6 +208,9 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             if let Some((key, value)) = crate::surrogate_report::stage_json(study, s) {
                 entry[key] = value;
             }
+            if let Some(value) = study.plan.get(s.index).and_then(|p| p.summary(study, s)) {
+                entry["outcome"] = value;
+            }
             entry
         }).collect::<Vec<_>>(),
         "runs_total": stored.len(),

@@ -33,7 +33,7 @@ pub(crate) fn labels(study: &Study, st: &StageResult, fit: &Fit) -> Labels {
 
 /// The run number of each row of a stage's model (its finished runs, in run order).
 fn run_numbers(st: &StageResult) -> Vec<usize> {
-    st.successes().iter().map(|(s, _)| s.index + 1).collect()
+    st.point_means().iter().map(|p| p.spec.index + 1).collect()
 }
 
 /// The first solution of the optimisation that follows stage `st` (coded), if any.
@@ -265,7 +265,13 @@ fn diagnostics(
 
 /// The optimisation of a single response (or combined objective): the goal, the solutions,
 /// each factor's equally good stretch and the prediction interval at the first solution.
-pub(crate) fn optimize(h: &mut String, study: &Study, st: &StageResult, fit: &Fit) {
+pub(crate) fn optimize(
+    h: &mut String,
+    study: &Study,
+    st: &StageResult,
+    fit: &Fit,
+    region: &crate::plan::SearchRegion,
+) {
     let goal = if study.target.minimised() {
         "minimised (lower limit: below the model's least value)".to_string()
     } else {
@@ -274,10 +280,7 @@ pub(crate) fn optimize(h: &mut String, study: &Study, st: &StageResult, fit: &Fi
             sig(study.target.value)
         )
     };
-    let region = match study.plan.get(st.index) {
-        Some(crate::spec::Stage::Optimize { region, .. }) => region.describe(),
-        _ => crate::plan::SearchRegion::Cube.describe(),
-    };
+    let region = region.describe();
     write!(
         h,
         "<p>Goal: {} {goal}, each factor {}. The first solution is validated (with several candidates, the one whose runs come nearest the lab value).</p>",

@@ -7,7 +7,7 @@ use doe::{Factor, Scale};
 
 use crate::paths::{number, ParamPath};
 use crate::plan::parse_plan;
-pub use crate::plan::{RsmDesign, ScreeningDesign, Stage, STAGES};
+pub use crate::plan::{RsmDesign, ScreeningDesign, Stage};
 use crate::target::{parse_objective, parse_target, TestOutputs};
 pub use crate::target::{Combine, Target, Term};
 use virtual_tests::file::one_line;
@@ -55,10 +55,16 @@ pub fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
         let keys = crate::plan::stage_keys(stage).expect("every stage has its keys");
         v.push((format!("plan: {stage}"), [&["stage"][..], keys].concat()));
     }
-    v.push((
-        "[executor]".to_string(),
-        crate::slurm::settings::KEYS.to_vec(),
-    ));
+    // Every executor's keys: the reference lists them in one table.
+    let mut keys: Vec<&'static str> = Vec::new();
+    for name in crate::executor::EXECUTOR_NAMES {
+        for k in crate::executor::executor_keys(name).expect("registered") {
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
+        }
+    }
+    v.push(("[executor]".to_string(), keys));
     v
 }
 
@@ -169,7 +175,7 @@ pub struct Study {
     pub combine: Option<Combine>,
     /// What the stages calibrate against: the one target, or the combination of several.
     pub target: Target,
-    pub plan: Vec<Stage>,
+    pub plan: Vec<std::sync::Arc<dyn Stage>>,
     /// Wall-clock limit of one simulation; a run over it is stopped and stored as failed.
     pub run_time_limit_s: Option<f64>,
     /// The back end the simulations run on (`backend`, or `demcal run --backend`): "cpu" or
@@ -178,7 +184,7 @@ pub struct Study {
     pub backend: String,
     /// Where the runs are made (`[executor]`, or `demcal run --executor`): this machine or a
     /// Slurm cluster. Not part of a run's fingerprint either.
-    pub executor: crate::slurm::ExecutorSpec,
+    pub executor: std::sync::Arc<dyn crate::executor::Executor>,
     /// The study file's text, stored with the runs.
     pub text: String,
 }
@@ -519,7 +525,7 @@ impl Study {
             .map(|p| (p.name.clone(), p.min, p.max))
             .collect();
         let plan = parse_plan(&doc, &err, &ranges)?;
-        let executor = crate::slurm::settings::parse_executor(&doc, dir, &err)?;
+        let executor = crate::executor::parse_executor(&doc, dir, &err)?;
 
         let study = Study {
             path: path.to_path_buf(),

@@ -4,16 +4,18 @@
 //! validation). Because every run's seed and settings follow from the study and the stored
 //! results alone, an interrupted study replays to the same point and goes on from there.
 
+use std::any::Any;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use doe::design::Design;
 use doe::optimize::Solution;
 use doe::{Factor, Fit};
 
-use crate::design_stages::{conclude, plan_stage};
+use crate::design_stages::factors_of;
 use crate::spec::Study;
 use crate::store::{RunRecord, Status};
-use crate::surrogate_stages::{self, SurrogateOutcome};
+use crate::surrogate_stages::SurrogateOutcome;
 
 /// Where a curve target's digest starts in a fingerprint.
 const CURVE_LINE: &str = "# curve comparison = ";
@@ -30,6 +32,9 @@ pub struct RunSpec {
     pub stage_kind: &'static str,
     /// Position in the stage's (randomised) run order.
     pub index: usize,
+    /// Which point of the stage it is: runs of one point are replicates (their mean is
+    /// modelled); without replicates, `index`.
+    pub point: usize,
     /// What the point is: factorial, center, axial, step 3, replicate 2, ...
     pub label: String,
     /// Settings of the stage's factors, coded.
@@ -156,6 +161,9 @@ pub struct StageResult {
     pub chosen_solution: usize,
     /// What a surrogate stage (bayesopt, ga_bp, smc) fitted and found.
     pub surrogate: Option<SurrogateOutcome>,
+    /// What a stage found in a type of its own (a sweep's fitted curve and inversion): read
+    /// with [`StageResult::outcome`].
+    pub outcome: Option<Arc<dyn Any + Send + Sync>>,
     pub notes: Vec<String>,
     pub complete: bool,
 }
@@ -182,6 +190,7 @@ impl StageResult {
             validation: None,
             chosen_solution: 0,
             surrogate: None,
+            outcome: None,
             notes: Vec::new(),
             complete: false,
         }
@@ -221,6 +230,41 @@ impl StageResult {
             .collect()
     }
 
+    /// The stage's own outcome, when it is a `T`.
+    pub fn outcome<T: Any>(&self) -> Option<&T> {
+        self.outcome.as_deref()?.downcast_ref::<T>()
+    }
+
+    /// Each point's finished runs with a response (replicates of one point together), in the
+    /// order of the points' first runs: mean, spread and count.
+    pub(crate) fn point_means(&self) -> Vec<PointMean<'_>> {
+        let mut out: Vec<PointMean<'_>> = Vec::new();
+        let mut ys: Vec<Vec<f64>> = Vec::new();
+        for (s, y) in self.successes() {
+            match out.iter().position(|p| p.spec.point == s.point) {
+                Some(i) => ys[i].push(y),
+                None => {
+                    out.push(PointMean {
+                        spec: s,
+                        mean: 0.0,
+                        std: None,
+                        runs: 0,
+                    });
+                    ys.push(vec![y]);
+                }
+            }
+        }
+        for (p, ys) in out.iter_mut().zip(ys) {
+            let n = ys.len();
+            p.mean = ys.iter().sum::<f64>() / n as f64;
+            p.std = (n >= 2).then(|| {
+                (ys.iter().map(|y| (y - p.mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+            });
+            p.runs = n;
+        }
+        out
+    }
+
     /// Validate: the finished runs at the calibrated point, with their responses (with several
     /// candidates, the chosen solution's runs; the others were made at other points).
     pub(crate) fn validation_successes(&self) -> Vec<(&RunSpec, f64)> {
@@ -230,24 +274,42 @@ impl StageResult {
             .collect()
     }
 
-    /// Each target's simulated values in the finished runs, in the order of [`Self::successes`];
-    /// empty unless every such run has them (a study with several targets).
+    /// Each target's simulated values, as [`Self::point_means`] gives the response (the mean
+    /// of each point's replicates); empty unless every such run has them (a study with several
+    /// targets).
     pub(crate) fn target_values(&self, targets: usize) -> Vec<Vec<f64>> {
-        self.runs
+        let runs: Option<Vec<(usize, Vec<f64>)>> = self
+            .runs
             .iter()
             .zip(&self.records)
-            .filter_map(|(_, r)| {
+            .filter_map(|(s, r)| {
                 r.as_ref()
                     .filter(|r| r.status == Status::Done && r.response.is_some())
+                    .map(|r| (s.point, r))
             })
-            .map(|r| target_values(r).filter(|v| v.len() == targets))
-            .collect::<Option<Vec<_>>>()
-            .unwrap_or_default()
-    }
-
-    /// Finished runs that gave a response: what a stage can model.
-    pub(crate) fn usable(&self) -> usize {
-        self.successes().len()
+            .map(|(p, r)| {
+                target_values(r)
+                    .filter(|v| v.len() == targets)
+                    .map(|v| (p, v))
+            })
+            .collect();
+        let Some(runs) = runs else {
+            return Vec::new();
+        };
+        let mut points: Vec<(usize, Vec<f64>, usize)> = Vec::new();
+        for (p, v) in runs {
+            match points.iter_mut().find(|q| q.0 == p) {
+                Some(q) => {
+                    q.1.iter_mut().zip(&v).for_each(|(a, b)| *a += b);
+                    q.2 += 1;
+                }
+                None => points.push((p, v, 1)),
+            }
+        }
+        points
+            .into_iter()
+            .map(|(_, v, n)| v.into_iter().map(|x| x / n as f64).collect())
+            .collect()
     }
 
     pub(crate) fn first_failure(&self) -> String {
@@ -265,6 +327,14 @@ impl StageResult {
             })
             .unwrap_or_default()
     }
+}
+
+/// A point of a stage: its first finished run, and the mean of its finished runs' responses.
+pub(crate) struct PointMean<'a> {
+    pub spec: &'a RunSpec,
+    pub mean: f64,
+    pub std: Option<f64>,
+    pub runs: usize,
 }
 
 /// Where a replay ended.
@@ -297,13 +367,15 @@ pub trait Execute {
 }
 
 /// What the stages pass on.
-pub(crate) struct Context {
+pub struct Context {
     pub(crate) active: Vec<usize>,
     /// Every parameter's current value: fixed ones where they were fixed, active ones at the
     /// centre of their region.
     pub(crate) values: Vec<f64>,
     /// Each parameter's current range, actual units.
     pub(crate) region: Vec<(f64, f64)>,
+    /// Where each parameter may be set: its range, or as far past it as a steepest path went.
+    pub(crate) limits: Vec<(f64, f64)>,
     pub(crate) model: Option<(Fit, Vec<usize>)>,
     /// With several targets: each target's simulated value in each run the model was fitted
     /// on (in the model's row order), for the optimiser to model them one by one.
@@ -320,9 +392,9 @@ pub(crate) struct Context {
     pub(crate) chosen_solution: usize,
     /// Every parameter's value in the finished run nearest the lab value so far.
     pub(crate) best: Option<Vec<f64>>,
-    /// Every finished run of the completed stages that gave a response: its values and
-    /// response (what a ga_bp stage without runs of its own trains on).
-    pub(crate) finished: Vec<(Vec<f64>, f64)>,
+    /// Every finished run of the completed stages that gave a response: its stage (index into
+    /// the plan), values and response (what a ga_bp stage without runs of its own trains on).
+    pub(crate) finished: Vec<(usize, Vec<f64>, f64)>,
 }
 
 /// `v` to 12 significant digits: coded-to-actual arithmetic leaves 0.29999999999999993 where the
@@ -368,6 +440,7 @@ pub fn replay(
         active: (0..n).collect(),
         values: study.parameters.iter().map(|p| p.middle()).collect(),
         region: study.parameters.iter().map(|p| (p.min, p.max)).collect(),
+        limits: study.parameters.iter().map(|p| (p.min, p.max)).collect(),
         model: None,
         model_targets: Vec::new(),
         model_quadratic: false,
@@ -380,7 +453,7 @@ pub fn replay(
     };
     let mut stages: Vec<StageResult> = Vec::new();
     for (si, stage) in study.plan.iter().enumerate() {
-        let mut st = match plan_stage(study, si, stage, &ctx) {
+        let mut st = match plan_stage(study, si, stage.as_ref(), &ctx) {
             Ok(st) => st,
             Err(why) => {
                 return Ok(Replay {
@@ -457,10 +530,7 @@ pub fn replay(
                     }
                 }
             }
-            if !stage.iterative() {
-                break;
-            }
-            match surrogate_stages::extend(study, stage, &mut st, &ctx) {
+            match stage.next_round(study, &mut st, &ctx) {
                 Ok(true) => continue,
                 Ok(false) => break,
                 Err(why) => {
@@ -473,7 +543,7 @@ pub fn replay(
                 }
             }
         }
-        if let Err(why) = conclude(study, stage, &mut st, &mut ctx) {
+        if let Err(why) = conclude(study, stage.as_ref(), &mut st, &mut ctx) {
             let why = format!("stage {} ({}): {why}", si + 1, stage.kind());
             stages.push(st);
             return Ok(Replay {
@@ -482,8 +552,11 @@ pub fn replay(
             });
         }
         st.complete = true;
-        ctx.finished
-            .extend(st.successes().iter().map(|(s, y)| (s.values.clone(), *y)));
+        ctx.finished.extend(
+            st.successes()
+                .iter()
+                .map(|(s, y)| (si, s.values.clone(), *y)),
+        );
         stages.push(st);
         ctx.best = best_run(study, &stages).map(|(s, _)| s.values.clone());
     }
@@ -502,6 +575,41 @@ pub fn replay(
         stages,
         state: State::Complete,
     })
+}
+
+/// A stage's runs: the active parameters and their factors, then what the stage plans.
+fn plan_stage(
+    study: &Study,
+    si: usize,
+    stage: &dyn crate::stage::Stage,
+    ctx: &Context,
+) -> Result<StageResult, String> {
+    let mut st = StageResult::new(si, stage.kind());
+    st.active = ctx.active.clone();
+    st.factors = factors_of(study, ctx)?;
+    stage.plan(study, &mut st, ctx)?;
+    Ok(st)
+}
+
+/// Once a stage's runs are done: what every stage checks first, then its own conclusion.
+fn conclude(
+    study: &Study,
+    stage: &dyn crate::stage::Stage,
+    st: &mut StageResult,
+    ctx: &mut Context,
+) -> Result<(), String> {
+    if st.runs.is_empty() && stage.runs_simulations() {
+        return Err(st.notes.join("; "));
+    }
+    if st.failed() > 0 {
+        st.notes.push(format!(
+            "{} of {} runs failed{}",
+            st.failed(),
+            st.runs.len(),
+            st.first_failure()
+        ));
+    }
+    stage.conclude(study, st, ctx)
 }
 
 fn stale(study: &Study, what: &str) -> String {

@@ -387,6 +387,7 @@ fn a_job_file_of_several_tests_is_checked_when_read() {
         stage: 0,
         stage_kind: "rsm",
         index: 0,
+        point: 0,
         label: "center".into(),
         coded: vec![0.0, 0.0],
         values: vec![0.5, 0.5],

@@ -115,3 +115,261 @@ fn a_region_naming_no_parameter_or_not_a_range_is_refused_in_one_line() {
         std::fs::remove_dir_all(dir).unwrap();
     }
 }
+
+/// value = 30 + 20 a − 5 b, both in 0 .. 1; the lab value 51 needs 20 a − 5 b = 21, so
+/// a >= 1.05: past a's range. Seed 003's plan: a given steepest path first (no screening),
+/// past the range, then a CCD and the optimisation.
+#[test]
+fn a_given_steepest_path_goes_first_and_past_the_ranges() {
+    let dir = fresh_dir("steepest-first");
+    let text = r#"
+name = "steepest-first"
+seed = 5
+plan = [{ stage = "steepest", steps = 5, path = { a = [0.5, 1.3], b = [0.2, 0.8] } }, "rsm", { stage = "optimize", solutions = 1 }]
+
+[test]
+test = "function"
+[test.function]
+expression = "30 + 20*a - 5*b"
+variables = { a = 0.5, b = 0.5 }
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.0
+max = 1.0
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.0
+max = 1.0
+
+[target]
+response = "value"
+value = 51.0
+"#;
+    let out = run_study(&dir, text).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir);
+    assert_eq!(s["stages"][0]["best_step"], 5);
+    let (a, b) = (
+        s["calibrated"]["a"].as_f64().unwrap(),
+        s["calibrated"]["b"].as_f64().unwrap(),
+    );
+    assert!(a > 1.05, "a = {a}");
+    assert!(
+        (30.0 + 20.0 * a - 5.0 * b - 51.0).abs() < 0.05,
+        "a {a} b {b}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn an_automatic_path_stops_at_the_ranges_unless_limits_say_further() {
+    let study = |steepest: &str| {
+        format!(
+            r#"
+name = "reach"
+seed = 6
+plan = [{{ stage = "screening", design = "factorial", center_points = 1 }}, {{ stage = "steepest", steps = 5{steepest} }}]
+
+[test]
+test = "function"
+[test.function]
+expression = "30 + 20*a - 5*b"
+variables = {{ a = 0.5, b = 0.5 }}
+noise = 0.01
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.0
+max = 1.0
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.0
+max = 1.0
+
+[target]
+response = "value"
+value = 51.0
+"#
+        )
+    };
+    let a_of_last = |dir: &Path| -> f64 {
+        let csv = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
+        let mut rows = csv.lines();
+        let head: Vec<&str> = rows.next().unwrap().split(',').collect();
+        let (col, stage) = (
+            head.iter().position(|h| *h == "a").unwrap(),
+            head.iter().position(|h| *h == "stage").unwrap(),
+        );
+        rows.map(|r| r.split(',').collect::<Vec<_>>())
+            .filter(|r| r[stage] == "2")
+            .map(|r| r[col].parse::<f64>().unwrap())
+            .fold(f64::MIN, f64::max)
+    };
+    let dir = fresh_dir("reach");
+    // Twice the ranges, no limits: a stops at 1.
+    let out = run_study(&dir, &study(", reach = 2.0")).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    assert_eq!(a_of_last(&dir), 1.0);
+    assert!(summary(&dir)["stages"][1]["notes"]
+        .to_string()
+        .contains("a: the path would leave 0 .. 1"));
+    std::fs::remove_dir_all(&dir).unwrap();
+    let dir = fresh_dir("reach-limits");
+    let out = run_study(&dir, &study(", reach = 2.0, limits = { a = [0.0, 1.4] }")).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    assert_eq!(a_of_last(&dir), 1.4);
+    std::fs::remove_dir_all(&dir).unwrap();
+    let dir = fresh_dir("reach-bad");
+    let e = run_study(&dir, &study(", limits = { a = [0.2, 1.4] }")).unwrap_err();
+    assert!(
+        e.contains("plan[1].limits.a: [0.2, 1.4] does not hold the parameter's range"),
+        "{e}"
+    );
+    let e = run_study(&dir, "name = \"x\"\nplan = [\"steepest\"]\n[test]\ntest = \"function\"\n[test.function]\nexpression = \"a\"\nvariables = { a = 0.5 }\n[[parameter]]\nname = \"a\"\npath = \"function.variables.a\"\nmin = 0.0\nmax = 1.0\n[target]\nresponse = \"value\"\nvalue = 1.0\n").unwrap_err();
+    assert!(e.contains("or give the path"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Seed 001 repeats every Plackett-Burman run 3 times and models the mean: 13 points (12 + a
+/// centre), 39 runs, a model of 13 rows whose effects are those of the noise-free formula.
+#[test]
+fn replicated_design_points_are_modelled_by_their_means() {
+    let dir = fresh_dir("replicates");
+    let text = r#"
+name = "replicates"
+seed = 8
+plan = [{ stage = "screening", replicates = 3 }]
+
+[test]
+test = "function"
+[test.function]
+expression = "30 + 10*a + 0*b + 0*c"
+variables = { a = 0.5, b = 0.5, c = 0.5 }
+noise = 0.5
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.0
+max = 1.0
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.0
+max = 1.0
+
+[[parameter]]
+name = "c"
+path = "function.variables.c"
+min = 0.0
+max = 1.0
+
+[target]
+response = "value"
+value = 36.0
+"#;
+    let out = run_study(&dir, text).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir);
+    let st = &s["stages"][0];
+    assert_eq!(st["runs"], 39);
+    assert_eq!(st["model"]["runs"], 13);
+    assert!(
+        st["title"]
+            .as_str()
+            .unwrap()
+            .contains("each point run 3 times"),
+        "{st}"
+    );
+    // The coded coefficient of a: half the effect of 10 over the range; the mean of 3 runs has
+    // noise 0.29, so over 12 points its coefficient is within ±0.15 or so.
+    let coded = &st["model"]["coefficients_coded"];
+    let coef = coded["a"]
+        .as_f64()
+        .or(coded["A"].as_f64())
+        .expect("a's coefficient");
+    assert!((coef - 5.0).abs() < 0.3, "{coef}");
+    // Each run has its own seed: the replicates differ.
+    let csv = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
+    let seeds: std::collections::BTreeSet<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(3).unwrap())
+        .collect();
+    assert_eq!(seeds.len(), 39);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Seed 001 trains its GA-BP network on the CCD's runs only: `train_on = ["rsm"]` takes the 13
+/// runs of the response surface and none of the screening's.
+#[test]
+fn a_network_trains_on_the_runs_of_the_stages_it_is_given() {
+    let study = |train_on: &str| {
+        format!(
+            r#"
+name = "train-on"
+seed = 9
+plan = [{{ stage = "screening", design = "factorial", center_points = 1 }}, "rsm", {{ stage = "ga_bp", generations = 5, population = 8, search_generations = 5, search_population = 8, max_epochs = 20{train_on} }}]
+
+[test]
+test = "function"
+[test.function]
+expression = "30 + 10*a + 5*b*b"
+variables = {{ a = 0.5, b = 0.5 }}
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.0
+max = 1.0
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.0
+max = 1.0
+
+[target]
+response = "value"
+value = 37.0
+"#
+        )
+    };
+    for (train_on, rows, says) in [
+        ("", 5 + 13, "18 finished runs of the stages before it"),
+        (
+            r#", train_on = ["rsm"]"#,
+            13,
+            "13 finished runs of stage(s) rsm",
+        ),
+        (", train_on = [1]", 5, "5 finished runs of stage(s) 1"),
+    ] {
+        let dir = fresh_dir("train-on");
+        let out = run_study(&dir, &study(train_on)).unwrap();
+        assert!(out.contains("state: complete"), "{out}");
+        let s = summary(&dir);
+        let notes = s["stages"][2]["notes"].to_string();
+        assert!(notes.contains(says), "{train_on}: {rows} rows: {notes}");
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+    let dir = fresh_dir("train-on-bad");
+    let e = run_study(&dir, &study(r#", train_on = ["smc"]"#)).unwrap_err();
+    assert!(
+        e.contains("plan[2]: train_on: \"smc\" is not a stage before it (the stages before it: 1 screening, 2 rsm)"),
+        "{e}"
+    );
+    let e = run_study(&dir, &study(r#", train_on = ["rsm"], runs = 20"#)).unwrap_err();
+    assert!(
+        e.contains("plan[2].train_on: a ga_bp stage with runs = N"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -97,8 +97,3 @@ fn every_key_the_code_accepts_is_in_the_reference_and_no_other() {
         faults.join("\n")
     );
 }
-
-#[test]
-fn the_stage_list_in_messages_names_every_stage() {
-    assert_eq!(study::plan::STAGES, study::plan::STAGE_NAMES.join(", "));
-}

@@ -663,7 +663,8 @@ fn the_store_is_locked_while_a_study_runs() {
 #[test]
 fn the_ccd_alpha_is_typed_when_read() {
     use doe::design::CcdAlpha;
-    use study::spec::{RsmDesign, Stage};
+    use study::spec::RsmDesign;
+    use study::stage::rsm::Rsm;
     let dir = fresh_dir("alpha");
     for (given, want) in [
         ("\"rotatable\"", CcdAlpha::Rotatable),
@@ -680,11 +681,11 @@ fn the_ccd_alpha_is_typed_when_read() {
             ),
         );
         let s = Study::load(&path).unwrap();
-        match &s.plan[2] {
-            Stage::Rsm {
+        match s.plan[2].as_any().downcast_ref::<Rsm>() {
+            Some(Rsm {
                 design: RsmDesign::CentralComposite { alpha },
                 ..
-            } => assert_eq!(*alpha, want, "{given}"),
+            }) => assert_eq!(*alpha, want, "{given}"),
             other => panic!("{other:?}"),
         }
     }

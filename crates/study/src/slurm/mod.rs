@@ -47,7 +47,7 @@ use crate::stages::{Execute, RunSpec, StageResult};
 use crate::store::{RunRecord, Status, Store};
 use ledger::Task;
 use queue::Verdict;
-pub use settings::{ExecutorSpec, OnInterrupt, SlurmSettings};
+pub use settings::{OnInterrupt, SlurmSettings};
 pub use status::{job_list, status_lines};
 pub use submit::withdraw_open;
 

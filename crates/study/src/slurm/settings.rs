@@ -6,25 +6,6 @@ use std::path::{Path, PathBuf};
 
 use crate::paths::number;
 
-/// Where a study's runs are made.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub enum ExecutorSpec {
-    /// Threads on this machine (`runner::LocalExecutor`).
-    #[default]
-    Local,
-    /// Job arrays on a Slurm cluster (`slurm::SlurmExecutor`).
-    Slurm(Box<SlurmSettings>),
-}
-
-impl ExecutorSpec {
-    pub fn kind(&self) -> &'static str {
-        match self {
-            ExecutorSpec::Local => "local",
-            ExecutorSpec::Slurm(_) => "slurm",
-        }
-    }
-}
-
 /// What to do with a stage's queued and running tasks when the coordinator is interrupted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum OnInterrupt {
@@ -102,14 +83,13 @@ pub const DEFAULT_MAX_RUNNING: usize = 100;
 /// Often enough to keep a stage moving, rarely enough not to burden slurmctld.
 pub const DEFAULT_POLL_S: f64 = 15.0;
 /// The most tasks of one array that may run at once, and of `cpus_per_run`/`gpus_per_run`.
-const MOST_RUNNING: usize = 100_000;
+pub(crate) const MOST_RUNNING: usize = 100_000;
 const MOST_CPUS: usize = 4096;
 const MOST_GPUS: usize = 64;
 const MOST_RETRIES: usize = 5;
 
 /// The keys of `[executor]`.
 pub(crate) const KEYS: &[&str] = &[
-    "kind",
     "partition",
     "account",
     "qos",
@@ -129,55 +109,13 @@ pub(crate) const KEYS: &[&str] = &[
     "job_name",
 ];
 
-/// Reads `[executor]` (absent: local). `dir` is the study's folder, which relative paths are
-/// taken from; `err` names the file and key.
-pub fn parse_executor(
-    doc: &toml::Table,
+/// Reads a Slurm `[executor]` (its keys already checked against [`KEYS`]). `dir` is the study's
+/// folder, which relative paths are taken from; `err` names the file and key.
+pub fn parse_slurm(
+    t: &toml::Table,
     dir: &Path,
     err: &dyn Fn(&str, String) -> String,
-) -> Result<ExecutorSpec, String> {
-    let t = match doc.get("executor") {
-        None => return Ok(ExecutorSpec::Local),
-        Some(toml::Value::Table(t)) => t,
-        Some(_) => {
-            return Err(err(
-                "executor",
-                "expected a table: [executor] with kind = \"local\" or \"slurm\"".into(),
-            ))
-        }
-    };
-    let kind = match t.get("kind") {
-        None => {
-            return Err(err(
-                "executor.kind",
-                "missing: \"local\" or \"slurm\"".into(),
-            ))
-        }
-        Some(toml::Value::String(s)) if s == "local" || s == "slurm" => s.as_str(),
-        Some(v) => {
-            return Err(err(
-                "executor.kind",
-                format!("expected \"local\" or \"slurm\", got {v}"),
-            ))
-        }
-    };
-    if kind == "local" {
-        if let Some(k) = t.keys().find(|k| *k != "kind") {
-            return Err(err(
-                &format!("executor.{k}"),
-                "only a Slurm executor has settings (kind = \"slurm\")".into(),
-            ));
-        }
-        return Ok(ExecutorSpec::Local);
-    }
-    for k in t.keys() {
-        if !KEYS.contains(&k.as_str()) {
-            return Err(err(
-                &format!("executor.{k}"),
-                format!("unknown key (expected {})", KEYS.join(", ")),
-            ));
-        }
-    }
+) -> Result<SlurmSettings, String> {
     let key = |k: &str| format!("executor.{k}");
     // One line of a job script: no line breaks, nothing that ends the line early.
     let line = |k: &str, v: &toml::Value| -> Result<String, String> {
@@ -303,7 +241,7 @@ pub fn parse_executor(
             }
         })
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(ExecutorSpec::Slurm(Box::new(SlurmSettings {
+    Ok(SlurmSettings {
         partition: name("partition", "-_.,+@")?,
         account: name("account", "-_.,+@")?,
         qos: name("qos", "-_.,+@")?,
@@ -340,7 +278,7 @@ pub fn parse_executor(
         retries: count("retries", 1, 0, MOST_RETRIES)?,
         on_interrupt,
         job_name: name("job_name", "-_.+@")?,
-    })))
+    })
 }
 
 /// Minutes in a Slurm time limit (`M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`), rounded up as
@@ -381,11 +319,23 @@ fn memory_ok(s: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::executor::slurm::Slurm;
+
+    /// What `[executor]` read as, for the assertions.
+    #[derive(Debug, PartialEq)]
+    enum ExecutorSpec {
+        Local,
+        Slurm(Box<SlurmSettings>),
+    }
 
     fn parse(text: &str) -> Result<ExecutorSpec, String> {
         let doc: toml::Table = toml::from_str(text).unwrap();
-        parse_executor(&doc, Path::new("/studies"), &|k, m| {
+        let e = crate::executor::parse_executor(&doc, Path::new("/studies"), &|k, m| {
             format!("s.toml: {k}: {m}")
+        })?;
+        Ok(match e.as_any().downcast_ref::<Slurm>() {
+            Some(Slurm(s)) => ExecutorSpec::Slurm(Box::new(s.clone())),
+            None => ExecutorSpec::Local,
         })
     }
 
@@ -519,7 +469,7 @@ job_name = "maize"
             (
                 "kind = \"local\"\npartition = \"x\"",
                 "executor.partition",
-                "only a Slurm",
+                "a local executor has no settings",
             ),
         ] {
             let e = parse(&format!("[executor]\n{text}")).unwrap_err();

@@ -116,6 +116,111 @@ fn a_region_naming_no_parameter_or_not_a_range_is_refused_in_one_line() {
     }
 }
 
+/// Seed 004's sliding-distance curve, y = 177.52 − 328.93 a − 226.19 a² (mm), with 1 mm of
+/// noise, swept as the paper did (0.18 to 0.24 by 0.01, ten repeats) and inverted at the lab's
+/// 97 mm: the root is a = 0.21346.
+fn sweep_study(extra: &str) -> String {
+    format!(
+        r#"
+name = "sweep"
+seed = 11
+plan = [{{ stage = "sweep", parameter = "a", from = 0.18, to = 0.24, step = 0.01, repeats = 10, model = "quadratic"{extra} }}]
+
+[test]
+test = "function"
+[test.function]
+expression = "177.52 - 328.93*a - 226.19*a^2 + 0*b"
+variables = {{ a = 0.2, b = 0.5 }}
+noise = 1.0
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.01
+max = 0.3
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.0
+max = 1.0
+
+[target]
+response = "value"
+value = 97.0
+replicates = [96.0, 97.0, 98.0]
+"#
+    )
+}
+
+#[test]
+fn a_sweep_inverts_a_known_curve_with_its_uncertainty() {
+    let dir = fresh_dir("sweep");
+    let out = run_study(&dir, &sweep_study("")).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir);
+    assert_eq!(s["stages"][0]["runs"], 70);
+    let o = &s["stages"][0]["outcome"];
+    let (a, se) = (
+        o["value"].as_f64().unwrap(),
+        o["std_error"].as_f64().unwrap(),
+    );
+    // The standard error: the lab mean's SD/sqrt(3) = 0.577 mm and the fit's ~0.15 mm, over a
+    // slope of about 425 mm per unit: about 0.0014.
+    assert!((0.001..0.002).contains(&se), "se {se}");
+    assert!((a - 0.21346).abs() < 2.0 * se, "a = {a} ± {se}");
+    let ci = o["interval_95"].as_array().unwrap();
+    let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+    assert!(lo < 0.21346 && 0.21346 < hi, "{lo} .. {hi}");
+    assert!((o["slope"].as_f64().unwrap() + 425.5).abs() < 15.0, "{o}");
+    // The swept parameter is calibrated at its inversion; the other is held.
+    assert!((s["calibrated"]["a"].as_f64().unwrap() - a).abs() < 1e-9);
+    assert_eq!(s["calibrated"]["b"].as_f64().unwrap(), 0.5);
+    let notes = s["stages"][0]["notes"].to_string();
+    assert!(notes.contains("enclose the lab value"), "{notes}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_sweep_that_cannot_reach_the_lab_value_or_is_badly_given_says_so_in_one_line() {
+    let dir = fresh_dir("sweep-bad");
+    for (extra, says) in [
+        (", values = [0.1]", "plan[0].from: give either values"),
+        (", step = 0.0", "plan[0].step"),
+    ] {
+        // A key given twice is a TOML error; replace the generated one instead.
+        let text = if extra.contains("step = 0.0") {
+            sweep_study("").replace("step = 0.01", "step = 0.0")
+        } else {
+            sweep_study(extra)
+        };
+        let e = run_study(&dir, &text).unwrap_err();
+        assert!(e.contains(says) && !e.contains('\n'), "{extra}: {e}");
+    }
+    let bad = sweep_study("").replace("from = 0.18, to = 0.24, step = 0.01", "values = [0.2, 0.5]");
+    let e = run_study(&dir, &bad).unwrap_err();
+    assert!(
+        e.contains("plan[0].values: 0.5 is outside the parameter's range"),
+        "{e}"
+    );
+    let e = run_study(
+        &dir,
+        &sweep_study("").replace("parameter = \"a\"", "parameter = \"z\""),
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("plan[0].parameter: no parameter is named \"z\""),
+        "{e}"
+    );
+    // The lab value beyond what the swept values give: stopped with the reason.
+    let far = sweep_study("").replace("value = 97.0", "value = 20.0");
+    let e = run_study(&dir, &far).unwrap_err();
+    assert!(e.contains("stage 1 (sweep): the fitted curve does not reach the lab value 20.00 between 0.1800 and 0.2400"), "{e}");
+    let notes = summary(&dir)["stages"][0]["notes"].to_string();
+    assert!(notes.contains("do not enclose the lab value"), "{notes}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// value = 30 + 20 a − 5 b, both in 0 .. 1; the lab value 51 needs 20 a − 5 b = 21, so
 /// a >= 1.05: past a's range. Seed 003's plan: a given steepest path first (no screening),
 /// past the range, then a CCD and the optimisation.

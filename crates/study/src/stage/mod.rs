@@ -139,6 +139,7 @@ stages! {
     bayesopt::BayesOpt,
     ga_bp::GaBp,
     smc::Smc,
+    sweep::Sweep,
     validate::Validate,
 }
 

@@ -298,13 +298,22 @@ impl Study {
         }
 
         // Parameters.
+        // A study without parameters only validates: the values another study calibrated
+        // ([[import]]) on a test of its own, as seed 000 validates its shear calibration by
+        // three-point bending.
+        let validates_only = matches!(doc.get("plan"), Some(toml::Value::Array(a))
+        if !a.is_empty() && a.iter().all(|s| {
+            s.as_str().or_else(|| s.get("stage").and_then(|v| v.as_str())) == Some("validate")
+        }));
+        let none = Vec::new();
         let list = match doc.get("parameter") {
             Some(toml::Value::Array(a)) if !a.is_empty() => a,
             Some(_) => return Err(err("parameter", "expected [[parameter]] tables".into())),
+            None if validates_only => &none,
             None => {
                 return Err(err(
                     "parameter",
-                    "missing: give at least one [[parameter]] with name, path, min and max".into(),
+                    "missing: give at least one [[parameter]] with name, path, min and max (a study without parameters can only validate: plan = [\"validate\"], with the calibrated values from [[import]])".into(),
                 ))
             }
         };

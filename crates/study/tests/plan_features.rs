@@ -478,3 +478,76 @@ value = 37.0
     );
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// Seed 000 validates its shear calibration on another test, three-point bending: a second
+/// study without parameters of its own imports the calibrated values and only validates. Here
+/// the first study sweeps a (value = 30 + 20 a, lab 40: a = 0.5), the second validates
+/// value = 2 a + 1 against its lab value 2.
+#[test]
+fn a_calibration_is_validated_on_a_second_test() {
+    let dir = fresh_dir("second-test");
+    std::fs::create_dir_all(dir.join("shear")).unwrap();
+    std::fs::create_dir_all(dir.join("bending")).unwrap();
+    let first = r#"
+name = "shear"
+plan = [{ stage = "sweep", parameter = "a", values = [0.3, 0.4, 0.6, 0.7], repeats = 1 }]
+
+[test]
+test = "function"
+[test.function]
+expression = "30 + 20*a"
+variables = { a = 0.1 }
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.0
+max = 1.0
+
+[target]
+response = "value"
+value = 40.0
+"#;
+    let out = run_study(&dir.join("shear"), first).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let second = r#"
+name = "bending"
+plan = [{ stage = "validate", replicates = 2 }]
+
+[test]
+test = "function"
+[test.function]
+expression = "2*a + 1"
+variables = { a = 0.1 }
+
+[[import]]
+study = "../shear/study.toml"
+parameter = "a"
+path = "function.variables.a"
+
+[target]
+response = "value"
+value = 2.0
+"#;
+    let out = run_study(&dir.join("bending"), second).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let s = summary(&dir.join("bending"));
+    assert!(
+        (s["validation_mean"].as_f64().unwrap() - 2.0).abs() < 1e-9,
+        "{s}"
+    );
+    assert_eq!(s["validation_runs"], 2);
+    assert!(s["relative_error_percent"].as_f64().unwrap().abs() < 1e-6);
+    assert_eq!(s["imports"][0]["value"].as_f64().unwrap(), 0.5);
+    // Without parameters, a plan that calibrates is refused in one line.
+    let e = run_study(
+        &dir.join("bending"),
+        &second.replace("stage = \"validate\", replicates = 2", "stage = \"rsm\""),
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("parameter: missing") && e.contains("can only validate") && !e.contains('\n'),
+        "{e}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

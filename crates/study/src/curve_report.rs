@@ -8,9 +8,10 @@ use doe::plots;
 use plotters::prelude::*;
 
 use crate::curve::{stored_curve, Curve, COMPARE_POINTS, STIFFNESS_FRACTION};
+use crate::record::Replay;
 use crate::spec::Study;
-use crate::stages::{sig, Replay};
 use crate::store::Status;
+use crate::text::sig;
 
 /// Points each curve is drawn with.
 const DRAW_POINTS: usize = 400;

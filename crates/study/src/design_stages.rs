@@ -6,10 +6,11 @@
 use doe::design::Design;
 use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 
-use crate::plan::MAX_REPLICATES;
+use crate::limits::MAX_REPLICATES;
+use crate::record::{run_seed, Context, RunSpec, StageResult};
 use crate::spec::{Combine, Study};
-use crate::stage::StageTable;
-use crate::stages::{run_seed, sig, tidy, Context, RunSpec, StageResult};
+use crate::stage::table::StageTable;
+use crate::text::{sig, tidy};
 
 /// The active parameters' factors over their current region.
 pub(crate) fn factors_of(study: &Study, ctx: &Context) -> Result<Vec<Factor>, String> {

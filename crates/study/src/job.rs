@@ -16,9 +16,9 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::curve::Comparison;
+use crate::record::RunSpec;
 use crate::run_error::{RunError, RunErrorKind};
 use crate::spec::{Combine, Study, Term};
-use crate::stages::RunSpec;
 use crate::store::{now_utc, RunRecord, Status};
 
 /// The folder a run writes its pictures and result into: `<study>.runs/stageN-kind/runNNN`.
@@ -99,7 +99,7 @@ pub fn test_seed(seed: u64, k: usize) -> u64 {
     if k == 0 {
         seed
     } else {
-        crate::stages::run_seed(seed, k, 0)
+        crate::record::run_seed(seed, k, 0)
     }
 }
 
@@ -505,18 +505,7 @@ pub fn hostname() -> String {
     std::env::var("SLURMD_NODENAME")
         .ok()
         .filter(|h| !h.is_empty())
-        .unwrap_or_else(machine_name)
-}
-
-/// This machine's own name (the kernel's, not a Slurm node name that may alias it).
-pub fn machine_name() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .map(|h| h.trim().to_string())
-        .or_else(|| std::env::var("HOSTNAME").ok())
-        .or_else(|| std::env::var("COMPUTERNAME").ok())
-        .filter(|h| !h.is_empty())
-        .unwrap_or_else(|| "unknown".into())
+        .unwrap_or_else(crate::store::machine_name)
 }
 
 fn absolute(p: &Path) -> PathBuf {

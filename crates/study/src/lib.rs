@@ -17,13 +17,17 @@ mod design_stages;
 pub mod executor;
 pub mod job;
 pub mod lab_curve;
+pub mod limits;
+pub mod load;
 pub mod paths;
 pub mod plan;
+pub mod record;
 pub mod report;
 mod report_data;
 mod report_figures;
 mod report_model;
 mod report_settings;
+mod report_validation;
 pub mod run_error;
 pub mod runner;
 pub mod slurm;
@@ -35,6 +39,7 @@ mod surrogate_report;
 pub mod surrogate_stages;
 pub mod target;
 mod targets_report;
+pub mod text;
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -197,7 +202,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
                 let lab = if x.minimised() {
                     "lab curves".to_string()
                 } else {
-                    stages::sig(x.value)
+                    crate::text::sig(x.value)
                 };
                 format!("{} {} = {lab}", study.tests[x.test].name, x.response)
             })
@@ -231,7 +236,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
             study.name,
             study.test_kind(),
             t.response,
-            stages::sig(t.value),
+            crate::text::sig(t.value),
             if t.unit.is_empty() {
                 String::new()
             } else {
@@ -268,9 +273,9 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
                     s,
                     "     validation: {} = {}{} over {} runs{}",
                     t.response,
-                    stages::sig(v.mean),
+                    crate::text::sig(v.mean),
                     v.std
-                        .map(|d| format!(" ± {} (SD)", stages::sig(d)))
+                        .map(|d| format!(" ± {} (SD)", crate::text::sig(d)))
                         .unwrap_or_default(),
                     v.runs,
                     v.relative_error_percent
@@ -288,7 +293,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
             spec.stage + 1,
             spec.index + 1,
             t.response,
-            stages::sig(y),
+            crate::text::sig(y),
             t.relative_error_percent(y)
                 .map(|e| format!(" (relative error {e:.2} %)"))
                 .unwrap_or_default()
@@ -300,7 +305,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
             .parameters
             .iter()
             .zip(&values)
-            .map(|(p, v)| format!("{} = {}", p.name, stages::sig(*v)))
+            .map(|(p, v)| format!("{} = {}", p.name, crate::text::sig(*v)))
             .collect();
         let what = if r.stages.iter().any(|s| s.calibrated.is_some()) {
             "calibrated"

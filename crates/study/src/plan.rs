@@ -4,21 +4,13 @@
 
 use std::sync::Arc;
 
-pub use crate::stage::optimize::SearchRegion;
+pub use crate::record::SearchRegion;
 pub use crate::stage::rsm::RsmDesign;
 pub use crate::stage::screening::ScreeningDesign;
 use crate::stage::{parse_stage, StageTable};
 pub use crate::stage::{stage_keys, stage_list, Stage, STAGE_NAMES};
 
-/// Largest counts a plan may ask for: beyond them a stage would only eat memory and time.
-pub const MAX_CENTER_POINTS: usize = 1000;
-pub const MAX_STEPS: usize = 1000;
-pub const MAX_REPLICATES: usize = 1000;
-pub const MAX_SOLUTIONS: usize = 1000;
-
-/// Largest sizes a surrogate stage may ask for.
-pub const MAX_SURROGATE_RUNS: usize = 100_000;
-pub const MAX_GA: usize = 100_000;
+pub use crate::limits::*;
 
 pub(crate) fn parse_plan(
     doc: &toml::Table,

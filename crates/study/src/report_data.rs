@@ -1,9 +1,10 @@
 //! The report's machine-readable files: `results.csv` (every stored run) and `summary.json`
 //! (the calibrated values, the validation, the targets and every stage with its model).
 
+use crate::record::{Replay, State};
 use crate::report_settings::Fate;
 use crate::spec::Study;
-use crate::stages::{self, Replay, State};
+use crate::stages::{self};
 use crate::store::{RunRecord, Status};
 use crate::targets_report;
 
@@ -97,7 +98,7 @@ pub(crate) fn where_ran(stored: &[RunRecord]) -> String {
             "{} as tasks of Slurm job arrays (job{} {}; node{} {})",
             slurm.len(),
             if jobs.len() == 1 { "" } else { "s" },
-            crate::slurm::job_list(jobs.into_iter()),
+            crate::text::job_list(jobs.into_iter()),
             if nodes.len() == 1 { "" } else { "s" },
             list(nodes)
         ));

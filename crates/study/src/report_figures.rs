@@ -12,9 +12,10 @@ use doe::diagnostics::Interval;
 use doe::plots::{self, legend_row, svg_px, tick, Mark, FONT, SIZE, TEXT};
 use plotters::prelude::*;
 
-use crate::report::esc;
+use crate::record::StageResult;
 use crate::spec::Study;
-use crate::stages::{sig, StageResult};
+use crate::text::sig;
+use crate::text::{esc, FigureSink};
 
 /// The PNG's pixels per SVG unit: a 640-unit figure becomes 1280 pixels wide, 300 dpi at 108 mm.
 pub const PNG_SCALE: f32 = 2.0;
@@ -24,6 +25,12 @@ pub const PNG_SCALE: f32 = 2.0;
 pub(crate) struct Figures {
     /// (file stem, SVG) of each figure, numbered from 1.
     pub list: Vec<(String, String)>,
+}
+
+impl FigureSink for Figures {
+    fn row(&mut self, h: &mut String, items: Vec<(String, Result<String, String>, String)>) {
+        Figures::row(self, h, items)
+    }
 }
 
 impl Figures {

@@ -11,11 +11,13 @@ use doe::fit::{fmt_p, AnovaRow};
 use doe::plots::{self, ContourMarks, Labels};
 use doe::Fit;
 
-use crate::report::{breakable, esc, letter};
-use crate::report_figures::{response_label, Figures};
+use crate::record::{StageResult, EQUALLY_GOOD};
+use crate::report_figures::response_label;
 use crate::report_settings::parameter_unit;
 use crate::spec::Study;
-use crate::stages::{sig, StageResult, EQUALLY_GOOD};
+use crate::text::sig;
+use crate::text::FigureSink;
+use crate::text::{breakable, esc, letter};
 
 /// Axis titles of a stage's model: names with units, the parameters' letters.
 pub(crate) fn labels(study: &Study, st: &StageResult, fit: &Fit) -> Labels {
@@ -66,7 +68,7 @@ pub(crate) fn interval_at_optimum(stages: &[StageResult]) -> Option<(Interval, &
 /// The screening stage's model and figures.
 pub(crate) fn screening(
     h: &mut String,
-    figs: &mut Figures,
+    figs: &mut dyn FigureSink,
     study: &Study,
     st: &StageResult,
     fit: &Fit,
@@ -96,7 +98,7 @@ pub(crate) fn screening(
 /// The response-surface stage's model and figures.
 pub(crate) fn rsm(
     h: &mut String,
-    figs: &mut Figures,
+    figs: &mut dyn FigureSink,
     study: &Study,
     stages: &[StageResult],
     st: &StageResult,
@@ -224,7 +226,7 @@ pub(crate) fn rsm(
 /// Normal plot, residuals against predicted values and run order, Cook's distance.
 fn diagnostics(
     h: &mut String,
-    figs: &mut Figures,
+    figs: &mut dyn FigureSink,
     fit: &Fit,
     l: &Labels,
     runs: &[usize],
@@ -270,7 +272,7 @@ pub(crate) fn optimize(
     study: &Study,
     st: &StageResult,
     fit: &Fit,
-    region: &crate::plan::SearchRegion,
+    region: &crate::record::SearchRegion,
 ) {
     let goal = if study.target.minimised() {
         "minimised (lower limit: below the model's least value)".to_string()

@@ -6,10 +6,12 @@
 
 use std::fmt::Write;
 
-use crate::report::{esc, letter};
+use crate::record::{Replay, EQUALLY_GOOD};
 use crate::spec::{Parameter, Study};
-use crate::stages::{self, sig, Replay, EQUALLY_GOOD};
+use crate::stages::{self};
 use crate::store::{RunRecord, Status};
+use crate::text::sig;
+use crate::text::{esc, letter};
 
 /// The unit of a setting, material property or parameter told from its key: "–" for a
 /// quantity without dimension, "" where the key does not say.

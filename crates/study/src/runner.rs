@@ -14,15 +14,16 @@ use std::time::{Duration, Instant};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::job::Job;
+use crate::record::{RunSpec, StageResult};
 use crate::spec::Study;
-use crate::stages::{Execute, RunSpec, StageResult};
+use crate::stages::Execute;
 use crate::store::{RunRecord, Status, Store};
 
 /// A finished run in a few words for a progress line: its response, or why it failed.
 pub(crate) fn outcome(study: &Study, rec: &RunRecord) -> String {
     match (&rec.status, rec.response) {
         (Status::Done, Some(y)) => {
-            format!("{} = {}", study.target.response, crate::stages::sig(y))
+            format!("{} = {}", study.target.response, crate::text::sig(y))
         }
         _ => format!(
             "failed ({}): {}",

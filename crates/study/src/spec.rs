@@ -1,72 +1,21 @@
-//! The study file: which virtual test, which parameters over which ranges, the lab value, and the
-//! plan of stages. Every error is one line naming the file and the key.
+//! What a study is: which virtual tests, which parameters over which ranges, the lab values, the
+//! plan of stages and where the runs are made; and the two traits its plan and executor are
+//! made of ([`Stage`], [`Executor`]). Reading a study file is `load`; the stages and executors
+//! themselves are `stage::*` and `executor::*`.
 
+use std::any::Any;
+use std::fmt::Debug;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 use doe::{Factor, Scale};
 
-use crate::paths::{number, ParamPath};
-use crate::plan::parse_plan;
-pub use crate::plan::{RsmDesign, ScreeningDesign, Stage};
-use crate::target::{parse_objective, parse_target, TestOutputs};
+use crate::paths::ParamPath;
+use crate::record::{Context, Replay, StageResult, CURVE_LINE, OBJECTIVE_LINE};
+use crate::store::{RunRecord, Store};
 pub use crate::target::{Combine, Target, Term};
-use virtual_tests::file::one_line;
-
-/// The keys of a study file's top level.
-pub(crate) const STUDY_KEYS: &[&str] = &[
-    "name",
-    "seed",
-    "test",
-    "parameter",
-    "target",
-    "plan",
-    "run_time_limit_s",
-    "import",
-    "objective",
-    "backend",
-    "executor",
-];
-/// The keys of a `[[parameter]]`.
-pub(crate) const PARAMETER_KEYS: &[&str] =
-    &["name", "path", "paths", "min", "max", "scale", "unit"];
-/// The keys of an `[[import]]`.
-pub(crate) const IMPORT_KEYS: &[&str] = &["study", "parameter", "path", "paths"];
-/// The keys of a `[[test]]` beside the test's own content given inline.
-pub(crate) const TEST_KEYS: &[&str] = &["name", "file"];
-
-/// Every section of a study file, as `docs/reference.md` heads it, with the keys its reader
-/// accepts, so that the reference is checked against the code.
-pub fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
-    let mut v = vec![
-        ("study file".to_string(), STUDY_KEYS.to_vec()),
-        ("[[test]]".to_string(), TEST_KEYS.to_vec()),
-        ("[[parameter]]".to_string(), PARAMETER_KEYS.to_vec()),
-        ("[[import]]".to_string(), IMPORT_KEYS.to_vec()),
-        (
-            "[target]".to_string(),
-            [crate::target::TARGET_KEYS, crate::lab_curve::CURVE_KEYS].concat(),
-        ),
-        (
-            "[objective]".to_string(),
-            crate::target::OBJECTIVE_KEYS.to_vec(),
-        ),
-    ];
-    for stage in crate::plan::STAGE_NAMES {
-        let keys = crate::plan::stage_keys(stage).expect("every stage has its keys");
-        v.push((format!("plan: {stage}"), [&["stage"][..], keys].concat()));
-    }
-    // Every executor's keys: the reference lists them in one table.
-    let mut keys: Vec<&'static str> = Vec::new();
-    for name in crate::executor::EXECUTOR_NAMES {
-        for k in crate::executor::executor_keys(name).expect("registered") {
-            if !keys.contains(&k) {
-                keys.push(k);
-            }
-        }
-    }
-    v.push(("[executor]".to_string(), keys));
-    v
-}
+use crate::text::FigureSink;
 
 /// A parameter to calibrate: one value written into one or more places of the study's tests.
 #[derive(Clone, Debug)]
@@ -175,7 +124,7 @@ pub struct Study {
     pub combine: Option<Combine>,
     /// What the stages calibrate against: the one target, or the combination of several.
     pub target: Target,
-    pub plan: Vec<std::sync::Arc<dyn Stage>>,
+    pub plan: Vec<Arc<dyn Stage>>,
     /// Wall-clock limit of one simulation; a run over it is stopped and stored as failed.
     pub run_time_limit_s: Option<f64>,
     /// The back end the simulations run on (`backend`, or `demcal run --backend`): "cpu" or
@@ -184,7 +133,7 @@ pub struct Study {
     pub backend: String,
     /// Where the runs are made (`[executor]`, or `demcal run --executor`): this machine or a
     /// Slurm cluster. Not part of a run's fingerprint either.
-    pub executor: std::sync::Arc<dyn crate::executor::Executor>,
+    pub executor: Arc<dyn Executor>,
     /// The study file's text, stored with the runs.
     pub text: String,
 }
@@ -231,372 +180,6 @@ impl Study {
         self.dir().join("report")
     }
 
-    pub fn load(path: &Path) -> Result<Study, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        Study::parse(path, &text)
-    }
-
-    pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
-        let file = path.display().to_string();
-        let err = |key: &str, msg: String| format!("{file}: {key}: {msg}");
-        let doc: toml::Table =
-            toml::from_str(text).map_err(|e| format!("{file}: {}", one_line(&e.to_string())))?;
-        for k in doc.keys() {
-            if !STUDY_KEYS.contains(&k.as_str()) {
-                return Err(err(
-                    k,
-                    format!("unknown key (expected {})", STUDY_KEYS.join(", ")),
-                ));
-            }
-        }
-        let name = match doc.get("name") {
-            None => path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "study".into()),
-            Some(toml::Value::String(s)) => s.clone(),
-            Some(_) => return Err(err("name", "expected a string".into())),
-        };
-        let seed = match doc.get("seed") {
-            None => 1,
-            Some(toml::Value::Integer(s)) if *s >= 0 => *s as u64,
-            Some(_) => return Err(err("seed", "expected a whole number >= 0".into())),
-        };
-        let run_time_limit_s = match doc.get("run_time_limit_s") {
-            None => None,
-            Some(v) => Some(
-                number(v)
-                    .filter(|t| *t > 0.0)
-                    .ok_or_else(|| err("run_time_limit_s", "expected seconds > 0".into()))?,
-            ),
-        };
-
-        let backend = match doc.get("backend") {
-            None => "cpu".to_string(),
-            Some(toml::Value::String(b)) if dem::sim::BACKEND_NAMES.contains(&b.as_str()) => {
-                b.clone()
-            }
-            Some(v) => {
-                return Err(err(
-                    "backend",
-                    format!("expected {}, got {v}", dem::sim::backend_choices()),
-                ))
-            }
-        };
-
-        // The tests: a path to a test file, the test file's content inline, or several
-        // [[test]] tables, each with a name and a file or the content inline.
-        let dir = path.parent().unwrap_or(Path::new(""));
-        let mut tests = parse_tests(&doc, dir, &err)?;
-        let imports = parse_imports(&doc, dir, &mut tests, &err)?;
-        let mut outputs = Vec::new();
-        for t in &tests {
-            let name = test_label(&file, &tests, t);
-            let base = virtual_tests::TestFile::from_table_in(&name, &t.table, &t.dir)?;
-            outputs.push((base.test.clone(), virtual_tests::responses(&base.test)));
-        }
-
-        // Parameters.
-        // A study without parameters only validates: the values another study calibrated
-        // ([[import]]) on a test of its own, as seed 000 validates its shear calibration by
-        // three-point bending.
-        let validates_only = matches!(doc.get("plan"), Some(toml::Value::Array(a))
-        if !a.is_empty() && a.iter().all(|s| {
-            s.as_str().or_else(|| s.get("stage").and_then(|v| v.as_str())) == Some("validate")
-        }));
-        let none = Vec::new();
-        let list = match doc.get("parameter") {
-            Some(toml::Value::Array(a)) if !a.is_empty() => a,
-            Some(_) => return Err(err("parameter", "expected [[parameter]] tables".into())),
-            None if validates_only => &none,
-            None => {
-                return Err(err(
-                    "parameter",
-                    "missing: give at least one [[parameter]] with name, path, min and max (a study without parameters can only validate: plan = [\"validate\"], with the calibrated values from [[import]])".into(),
-                ))
-            }
-        };
-        let mut parameters: Vec<Parameter> = Vec::new();
-        for (i, p) in list.iter().enumerate() {
-            let key = format!("parameter[{i}]");
-            let t = p
-                .as_table()
-                .ok_or_else(|| err(&key, "expected a table".into()))?;
-            for k in t.keys() {
-                if !PARAMETER_KEYS.contains(&k.as_str()) {
-                    return Err(err(
-                        &format!("{key}.{k}"),
-                        "unknown key (expected name, path or paths, min, max, scale, unit)".into(),
-                    ));
-                }
-            }
-            let name = t
-                .get("name")
-                .and_then(|v| v.as_str())
-                .ok_or_else(|| err(&format!("{key}.name"), "missing (expected a string)".into()))?
-                .to_string();
-            if parameters.iter().any(|q| q.name == name) {
-                return Err(err(
-                    &format!("{key}.name"),
-                    format!("\"{name}\" is given twice"),
-                ));
-            }
-            let paths = read_paths(t, &key, &tests, &err)?;
-            let get = |k: &str| -> Result<(f64, Option<dem::units::Dimension>), String> {
-                let v = t.get(k).ok_or_else(|| {
-                    err(&format!("{key}.{k}"), "missing (expected a number)".into())
-                })?;
-                match (number(v), v.as_str()) {
-                    (Some(x), _) => Ok((x, None)),
-                    (None, Some(s)) => dem::units::parse(s)
-                        .map(|(x, d)| (x, Some(d)))
-                        .map_err(|e| err(&format!("{key}.{k}"), e)),
-                    _ => Err(err(
-                        &format!("{key}.{k}"),
-                        "expected a number, or a string with a unit (\"1 MPa\")".into(),
-                    )),
-                }
-            };
-            let ((min, min_unit), (max, max_unit)) = (get("min")?, get("max")?);
-            if min_unit != max_unit {
-                let says = |u: Option<dem::units::Dimension>| {
-                    u.map_or("a plain number", dem::units::Dimension::describe)
-                };
-                return Err(err(
-                    &format!("{key}.max"),
-                    format!(
-                        "min is {} but max is {}: give both in units of the same quantity",
-                        says(min_unit),
-                        says(max_unit)
-                    ),
-                ));
-            }
-            if min.is_nan() || max.is_nan() || min >= max {
-                return Err(err(
-                    &format!("{key}.min"),
-                    format!("expected min < max, got min = {min} and max = {max}"),
-                ));
-            }
-            if !(max - min).is_finite() {
-                return Err(err(
-                    &format!("{key}.min"),
-                    format!("expected finite numbers, got min = {min} and max = {max}"),
-                ));
-            }
-            // Run values are stored to 12 significant digits; a narrower range would collapse
-            // to one value on the way through the stages.
-            if max - min <= 1e-6 * min.abs().max(max.abs()) {
-                return Err(err(
-                    &format!("{key}.max"),
-                    format!("the range {min} .. {max} is too narrow: values are kept to 12 significant digits, so give a range wider than a millionth of its values"),
-                ));
-            }
-            let scale = match t.get("scale").map(|v| v.as_str()) {
-                None | Some(Some("linear")) => Scale::Linear,
-                Some(Some("log")) => Scale::Log,
-                _ => {
-                    return Err(err(
-                        &format!("{key}.scale"),
-                        "expected \"linear\" or \"log\"".into(),
-                    ))
-                }
-            };
-            if scale == Scale::Log && min <= 0.0 {
-                return Err(err(
-                    &format!("{key}.min"),
-                    format!("a log-scale parameter needs min > 0, got {min}"),
-                ));
-            }
-            let unit = match t.get("unit") {
-                None => None,
-                Some(toml::Value::String(u)) => Some(u.clone()),
-                Some(_) => {
-                    return Err(err(
-                        &format!("{key}.unit"),
-                        "expected a string, e.g. \"kg/m³\" or \"-\" for none".into(),
-                    ))
-                }
-            };
-            // Values are kept (and shown) in the base unit of a range given with a unit; a
-            // label of another unit would show 1e6 as "1e6 MPa".
-            if let (Some(d), Some(u)) = (min_unit, unit.as_deref()) {
-                if u.trim() != d.symbol() {
-                    return Err(err(
-                        &format!("{key}.unit"),
-                        format!(
-                            "min and max are given with units, so the values are kept and shown in {}; leave unit out or give unit = \"{}\"",
-                            d.symbol(),
-                            d.symbol()
-                        ),
-                    ));
-                }
-            }
-            parameters.push(Parameter {
-                name,
-                paths,
-                min,
-                max,
-                scale,
-                dimension: min_unit,
-                unit: unit.or_else(|| min_unit.map(|d| d.symbol().to_string())),
-            });
-        }
-
-        // Targets: one [target], or several [[target]] tables combined as [objective] says.
-        let combine = parse_objective(&doc, &err)?;
-        let seen: Vec<TestOutputs> = tests
-            .iter()
-            .zip(&outputs)
-            .map(|(t, (kind, outputs))| TestOutputs {
-                name: &t.name,
-                kind,
-                outputs,
-            })
-            .collect();
-        let tables: Vec<(String, &toml::Table)> = match doc.get("target") {
-            Some(toml::Value::Table(t)) => vec![("target".to_string(), t)],
-            Some(toml::Value::Array(a)) if !a.is_empty() => a
-                .iter()
-                .enumerate()
-                .map(|(i, v)| {
-                    v.as_table()
-                        .map(|t| (format!("target[{i}]"), t))
-                        .ok_or_else(|| err(&format!("target[{i}]"), "expected a table".into()))
-                })
-                .collect::<Result<_, _>>()?,
-            Some(_) => {
-                return Err(err(
-                    "target",
-                    "expected a [target] table or [[target]] tables".into(),
-                ))
-            }
-            None => {
-                return Err(err(
-                    "target",
-                    "missing: the lab value to calibrate against, e.g. [target] value = 38.65"
-                        .into(),
-                ))
-            }
-        };
-        let combine = match (tables.len(), combine) {
-            (1, Some(_)) => {
-                return Err(err(
-                    "objective",
-                    "combines several targets, and the study has one: remove [objective]".into(),
-                ))
-            }
-            (1, None) => None,
-            (_, Some(c)) => Some(c),
-            (n, None) => {
-                return Err(err(
-                    "objective",
-                    format!("missing: the study has {n} targets; say how they combine, e.g. [objective] combine = \"desirability\" (or \"weighted\")"),
-                ))
-            }
-        };
-        let targets = tables
-            .iter()
-            .map(|(key, t)| parse_target(t, key, &seen, combine, dir, &err))
-            .collect::<Result<Vec<_>, _>>()?;
-        for (i, a) in targets.iter().enumerate() {
-            for b in &targets[..i] {
-                if a.test == b.test && a.response == b.response {
-                    return Err(err(
-                        &format!("target[{i}].response"),
-                        format!(
-                            "{} of test {} is a target twice",
-                            a.response, tests[a.test].name
-                        ),
-                    ));
-                }
-                if a.test == b.test && a.curve.is_some() && b.curve.is_some() {
-                    return Err(err(
-                        &format!("target[{i}].curve"),
-                        format!("test {} is compared with lab curves twice: give one curve target per test, other measures of the same curve as its response", tests[a.test].name),
-                    ));
-                }
-            }
-        }
-        if let Some(i) = (0..tests.len()).find(|i| !targets.iter().any(|t| t.test == *i)) {
-            return Err(err(
-                "target",
-                format!("no target is measured in test {}: each test needs at least one (its target's test = \"{}\")", tests[i].name, tests[i].name),
-            ));
-        }
-        let target = match combine {
-            Some(c) => Target::combined(c),
-            None => targets[0].clone(),
-        };
-
-        let ranges: Vec<(String, f64, f64)> = parameters
-            .iter()
-            .map(|p| (p.name.clone(), p.min, p.max))
-            .collect();
-        let plan = parse_plan(&doc, &err, &ranges)?;
-        let executor = crate::executor::parse_executor(&doc, dir, &err)?;
-
-        let study = Study {
-            path: path.to_path_buf(),
-            name,
-            seed,
-            tests,
-            parameters,
-            imports,
-            targets,
-            combine,
-            target,
-            plan,
-            run_time_limit_s,
-            backend,
-            executor,
-            text: text.to_string(),
-        };
-        // The test must read with every parameter set (middle values), and its settings and
-        // materials must hold at each end of every range (the others in the middle), so that
-        // a range the test would refuse (a restitution up to 1.6) shows now rather than after a
-        // stage of failed runs. `check_scene` builds the whole scene before a study runs.
-        let middle: Vec<f64> = study.parameters.iter().map(Parameter::middle).collect();
-        // A range given with a unit must fit each key it is written to; checked one parameter
-        // at a time so that the error names the parameter.
-        for (i, p) in study.parameters.iter().enumerate() {
-            let Some(unit) = p.dimension else { continue };
-            for (path, ks) in &p.paths {
-                for &k in ks {
-                    let mut table = study.tests[k].table.clone();
-                    path.set_quantity(&mut table, middle[i], Some(unit))?;
-                    let label = study.test_label(k);
-                    virtual_tests::TestFile::from_table_in(&label, &table, &study.tests[k].dir)
-                        .map_err(|e| {
-                            let e = e.strip_prefix(&format!("{label}: ")).unwrap_or(&e);
-                            err(
-                                &format!("parameter[{i}].min"),
-                                format!(
-                                    "{} is given in units of {}, which \"{path}\" does not take: {e}",
-                                    p.name,
-                                    unit.describe()
-                                ),
-                            )
-                        })?;
-                }
-            }
-        }
-        study.check_values(&middle)?;
-        for (i, p) in study.parameters.iter().enumerate() {
-            for (end, v) in [("min", p.min), ("max", p.max)] {
-                let mut values = middle.clone();
-                values[i] = v;
-                study.check_values(&values).map_err(|e| {
-                    err(
-                        &format!("parameter[{i}].{end}"),
-                        format!("{} = {v} is refused by the test: {e}", p.name),
-                    )
-                })?;
-            }
-        }
-        Ok(study)
-    }
-
     /// How error messages name test `k`: the study file and, with several tests, its name.
     pub fn test_label(&self, k: usize) -> String {
         test_label(
@@ -604,23 +187,6 @@ impl Study {
             &self.tests,
             &self.tests[k],
         )
-    }
-
-    /// Each test with `values` written in must read, pass its settings checks and have valid
-    /// materials and interactions.
-    fn check_values(&self, values: &[f64]) -> Result<(), String> {
-        for (k, t) in self.tests.iter().enumerate() {
-            let file = virtual_tests::TestFile::from_table_in(
-                &self.test_label(k),
-                &self.test_with(k, values),
-                &t.dir,
-            )?;
-            virtual_tests::check_file(&file)?;
-            if !file.parts.materials.is_empty() {
-                file.check_materials()?;
-            }
-        }
-        Ok(())
     }
 
     /// Builds each test's starting scene at the middle of every range (materials, geometry,
@@ -653,7 +219,7 @@ impl Study {
 
 /// How errors name test `t`: `<study>: test` for a study of one test, `<study>: test <name>`
 /// with several.
-fn test_label(file: &str, tests: &[TestSpec], t: &TestSpec) -> String {
+pub(crate) fn test_label(file: &str, tests: &[TestSpec], t: &TestSpec) -> String {
     if tests.len() == 1 {
         format!("{file}: test")
     } else {
@@ -661,291 +227,144 @@ fn test_label(file: &str, tests: &[TestSpec], t: &TestSpec) -> String {
     }
 }
 
-/// Reads a test file (relative to the study's folder) or takes an inline table.
-fn read_test(
-    dir: &Path,
-    v: &toml::Value,
-    key: &str,
-    err: &dyn Fn(&str, String) -> String,
-) -> Result<(toml::Table, String, PathBuf), String> {
-    let (table, source, test_dir) = match v {
-        toml::Value::String(p) => {
-            let tp = dir.join(p);
-            let t = std::fs::read_to_string(&tp)
-                .map_err(|e| err(key, format!("cannot read {}: {e}", tp.display())))?;
-            let table: toml::Table = toml::from_str(&t)
-                .map_err(|e| format!("{}: {}", tp.display(), one_line(&e.to_string())))?;
-            let parent = tp.parent().map(Path::to_path_buf).unwrap_or_default();
-            (table, tp.display().to_string(), parent)
-        }
-        toml::Value::Table(t) => (t.clone(), "inline".to_string(), dir.to_path_buf()),
-        _ => {
-            return Err(err(
-                key,
-                "expected a test file's path or an inline table".into(),
-            ))
-        }
-    };
-    let test_dir = if test_dir.as_os_str().is_empty() {
-        PathBuf::from(".")
-    } else {
-        test_dir
-    };
-    Ok((table, source, test_dir))
-}
-
-/// `test = "file.toml"`, an inline `[test]`, or `[[test]]` tables with `name` and `file` (or
-/// the test's content inline).
-fn parse_tests(
-    doc: &toml::Table,
-    dir: &Path,
-    err: &dyn Fn(&str, String) -> String,
-) -> Result<Vec<TestSpec>, String> {
-    let kind_of = |t: &toml::Table| {
-        t.get("test")
-            .and_then(|v| v.as_str())
-            .unwrap_or("test")
-            .to_string()
-    };
-    match doc.get("test") {
-        None => Err(err(
-            "test",
-            "missing (a test file's path, e.g. test = \"repose.toml\", an inline [test] table, or [[test]] tables with name and file)".into(),
-        )),
-        Some(toml::Value::Array(list)) if !list.is_empty() => {
-            let mut tests: Vec<TestSpec> = Vec::new();
-            for (i, item) in list.iter().enumerate() {
-                let key = format!("test[{i}]");
-                let t = item
-                    .as_table()
-                    .ok_or_else(|| err(&key, "expected a table".into()))?;
-                let mut inline = t.clone();
-                inline.remove("name");
-                let file = inline.remove("file");
-                let (table, source, test_dir) = match file {
-                    Some(f @ toml::Value::String(_)) if inline.is_empty() => {
-                        read_test(dir, &f, &format!("{key}.file"), err)?
-                    }
-                    Some(toml::Value::String(_)) => {
-                        return Err(err(
-                            &format!("{key}.file"),
-                            "give file or the test inline, not both".into(),
-                        ))
-                    }
-                    Some(_) => {
-                        return Err(err(
-                            &format!("{key}.file"),
-                            "expected a test file's path (relative to the study)".into(),
-                        ))
-                    }
-                    None => read_test(dir, &toml::Value::Table(inline), &key, err)?,
-                };
-                let name = match t.get("name") {
-                    None => kind_of(&table),
-                    Some(toml::Value::String(s))
-                        if !s.is_empty()
-                            && s.chars()
-                                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') =>
-                    {
-                        s.clone()
-                    }
-                    Some(_) => {
-                        return Err(err(
-                            &format!("{key}.name"),
-                            "expected a name of letters, digits, _ and - (it names the test's folder in each run)".into(),
-                        ))
-                    }
-                };
-                if tests.iter().any(|x| x.name == name) {
-                    return Err(err(
-                        &format!("{key}.name"),
-                        format!("two tests are named \"{name}\": give each [[test]] its own name"),
-                    ));
-                }
-                tests.push(TestSpec {
-                    name,
-                    table,
-                    source,
-                    dir: test_dir,
-                });
-            }
-            Ok(tests)
-        }
-        Some(v @ (toml::Value::String(_) | toml::Value::Table(_))) => {
-            let (table, source, test_dir) = read_test(dir, v, "test", err)?;
-            Ok(vec![TestSpec {
-                name: kind_of(&table),
-                table,
-                source,
-                dir: test_dir,
-            }])
-        }
-        Some(_) => Err(err(
-            "test",
-            "expected a test file's path, an inline table, or [[test]] tables".into(),
-        )),
-    }
-}
-
-/// `[[import]]` tables: `study` (another study file), `parameter` (a name in its summary's
-/// calibrated values) and `path` or `paths` (where the value goes in this study's test). The
-/// value is read from the other study's `report/summary.json`, which `demcal run` writes.
-fn parse_imports(
-    doc: &toml::Table,
-    dir: &Path,
-    tests: &mut [TestSpec],
-    err: &dyn Fn(&str, String) -> String,
-) -> Result<Vec<Import>, String> {
-    let list = match doc.get("import") {
-        None => return Ok(Vec::new()),
-        Some(toml::Value::Array(a)) => a,
-        Some(_) => {
-            return Err(err(
-                "import",
-                "expected [[import]] tables with study, parameter and path".into(),
-            ))
-        }
-    };
-    let mut imports = Vec::new();
-    for (i, item) in list.iter().enumerate() {
-        let key = format!("import[{i}]");
-        let t = item
-            .as_table()
-            .ok_or_else(|| err(&key, "expected a table".into()))?;
-        for k in t.keys() {
-            if !IMPORT_KEYS.contains(&k.as_str()) {
-                return Err(err(
-                    &format!("{key}.{k}"),
-                    "unknown key (expected study, parameter, path or paths)".into(),
-                ));
-            }
-        }
-        let text = |k: &str| -> Result<String, String> {
-            t.get(k)
-                .and_then(|v| v.as_str())
-                .map(String::from)
-                .ok_or_else(|| err(&format!("{key}.{k}"), "missing (expected a string)".into()))
-        };
-        let study = text("study")?;
-        let parameter = text("parameter")?;
-        let paths = read_paths(t, &key, tests, err)?;
-        let study_path = dir.join(&study);
-        let other_dir = study_path
-            .parent()
-            .map(Path::to_path_buf)
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or_else(|| PathBuf::from("."));
-        let summary = other_dir.join("report").join("summary.json");
-        let body = std::fs::read_to_string(&summary).map_err(|e| {
-            err(
-                &format!("{key}.study"),
-                format!(
-                    "cannot read {} ({e}): run that study first (demcal run {})",
-                    summary.display(),
-                    study_path.display()
-                ),
-            )
-        })?;
-        let json: serde_json::Value = serde_json::from_str(&body).map_err(|e| {
-            err(
-                &format!("{key}.study"),
-                format!("{}: not a study summary: {e}", summary.display()),
-            )
-        })?;
-        if json["state"].as_str() != Some("complete") {
-            return Err(err(
-                &format!("{key}.study"),
-                format!(
-                    "{} is {}, not complete: finish it first (demcal run {})",
-                    study,
-                    json["state"].as_str().unwrap_or("of unknown state"),
-                    study_path.display()
-                ),
-            ));
-        }
-        let value = json["calibrated"][&parameter].as_f64().ok_or_else(|| {
-            let names: Vec<String> = json["calibrated"]
-                .as_object()
-                .map(|m| m.keys().cloned().collect())
-                .unwrap_or_default();
-            err(
-                &format!("{key}.parameter"),
-                format!(
-                    "\"{parameter}\" is not a calibrated value of {study} (it has: {})",
-                    names.join(", ")
-                ),
-            )
-        })?;
-        for (pp, ks) in &paths {
-            for &k in ks {
-                pp.set(&mut tests[k].table, value)
-                    .map_err(|e| err(&format!("{key}.path"), format!("\"{pp}\": {e}")))?;
-            }
-        }
-        imports.push(Import {
-            study,
-            summary,
-            parameter,
-            paths,
-            value,
-        });
-    }
-    Ok(imports)
-}
-
-/// `path = "..."` or `paths = [...]` of a `[[parameter]]` or `[[import]]` table `key`, each parsed
-/// and checked to reach a number in at least one of the tests; with each, the tests it reaches.
-fn read_paths(
-    t: &toml::Table,
-    key: &str,
-    tests: &[TestSpec],
-    err: &dyn Fn(&str, String) -> String,
-) -> Result<Vec<(ParamPath, Vec<usize>)>, String> {
-    let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
-        (Some(toml::Value::String(s)), None) => vec![s.clone()],
-        (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
-            .iter()
-            .map(|v| v.as_str().map(String::from))
-            .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| err(&format!("{key}.paths"), "expected a list of strings".into()))?,
-        (Some(_), Some(_)) => {
-            return Err(err(
-                &format!("{key}.path"),
-                "give path or paths, not both".into(),
-            ))
-        }
-        _ => {
-            return Err(err(
-                &format!("{key}.path"),
-                "missing: where the value goes in the test, e.g. \"interaction[bead,bead].static_friction\"".into(),
-            ))
-        }
-    };
-    let mut paths = Vec::new();
-    for s in &texts {
-        let pp = ParamPath::parse(s).map_err(|e| err(&format!("{key}.path"), e))?;
-        let checks: Vec<Result<f64, String>> = tests.iter().map(|x| pp.check(&x.table)).collect();
-        let ks: Vec<usize> = (0..tests.len()).filter(|&k| checks[k].is_ok()).collect();
-        if ks.is_empty() {
-            let why = match &checks[..] {
-                [Err(e)] => e.clone(),
-                _ => format!(
-                    "in none of the tests ({})",
-                    tests
-                        .iter()
-                        .zip(&checks)
-                        .map(|(x, c)| format!(
-                            "{}: {}",
-                            x.name,
-                            c.clone().err().unwrap_or_default()
-                        ))
-                        .collect::<Vec<_>>()
-                        .join("; ")
-                ),
+impl crate::record::RunSpec {
+    /// The exact test this run simulates, and its seed.
+    pub fn fingerprint(&self, study: &Study) -> String {
+        let Some(combine) = study.combine else {
+            let test = toml::to_string(&study.test_with(0, &self.values)).unwrap_or_default();
+            // A curve target's runs also depend on the lab curves they were compared with.
+            let curve = match &study.target.curve {
+                Some(c) => format!("{CURVE_LINE}{}\n", c.comparison().digest()),
+                None => String::new(),
             };
-            return Err(err(&format!("{key}.path"), format!("\"{s}\": {why}")));
+            return format!("{test}\n# seed = {}\n{curve}", self.seed);
+        };
+        // Several targets: every test, and how the targets score the run.
+        let mut f = String::new();
+        for (k, t) in study.tests.iter().enumerate() {
+            let test = toml::to_string(&study.test_with(k, &self.values)).unwrap_or_default();
+            f.push_str(&format!("# test {}\n{test}\n", t.name));
         }
-        paths.push((pp, ks));
+        f.push_str(&format!("# seed = {}\n", self.seed));
+        for t in &study.targets {
+            if let Some(c) = &t.curve {
+                f.push_str(&format!("{CURVE_LINE}{}\n", c.comparison().digest()));
+            }
+        }
+        let terms = serde_json::to_string(&study.terms()).unwrap_or_default();
+        f.push_str(&format!("{OBJECTIVE_LINE}{combine:?} {terms}\n"));
+        f
     }
-    Ok(paths)
+
+    pub fn inputs(&self, study: &Study) -> serde_json::Value {
+        serde_json::Value::Object(
+            study
+                .parameters
+                .iter()
+                .zip(&self.values)
+                .map(|(p, v)| (p.name.clone(), serde_json::json!(v)))
+                .collect(),
+        )
+    }
+}
+
+/// A stage of a plan, with its settings.
+pub trait Stage: Debug + Send + Sync + 'static {
+    /// The name the plan gives it (`stage = "..."`).
+    fn kind(&self) -> &'static str;
+
+    /// The report's heading for it ("response surface").
+    fn heading(&self) -> &'static str;
+
+    /// Whether it runs simulations (optimize only searches a model).
+    fn runs_simulations(&self) -> bool {
+        true
+    }
+
+    /// Whether the stages before it give it what it needs: the error says what to put first.
+    fn follows(&self, _before: &[Arc<dyn Stage>]) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Its first runs and its title, from the study and what the stages before it found. `st`
+    /// comes with the active parameters and their factors over the current region. An error
+    /// stops the study with the reason.
+    fn plan(&self, study: &Study, st: &mut StageResult, ctx: &Context) -> Result<(), String>;
+
+    /// After every planned run has finished: plans another round (true) or says the stage is
+    /// done (false). Only iterative stages plan rounds.
+    fn next_round(
+        &self,
+        _study: &Study,
+        _st: &mut StageResult,
+        _ctx: &Context,
+    ) -> Result<bool, String> {
+        Ok(false)
+    }
+
+    /// Once its runs are done: fits, selects, optimises or validates, and passes on what the
+    /// stages after it need.
+    fn conclude(
+        &self,
+        study: &Study,
+        st: &mut StageResult,
+        ctx: &mut Context,
+    ) -> Result<(), String>;
+
+    /// What it found in its own terms, for `summary.json` (under the stage's `outcome`).
+    fn summary(&self, _study: &Study, _st: &StageResult) -> Option<serde_json::Value> {
+        None
+    }
+
+    /// Its part of the report, after the heading, notes and runs table the report writes for
+    /// every stage.
+    fn report(&self, _section: &mut Section<'_>) {}
+
+    /// For a stage that wants another stage's settings (the report of an optimisation reads
+    /// its region).
+    fn as_any(&self) -> &dyn Any;
+}
+
+/// What a stage's report section writes into.
+pub struct Section<'a> {
+    pub(crate) h: &'a mut String,
+    pub(crate) figs: &'a mut dyn FigureSink,
+    pub study: &'a Study,
+    /// Every stage replayed, this one included.
+    pub stages: &'a [StageResult],
+    pub st: &'a StageResult,
+}
+
+/// An executor with its settings.
+pub trait Executor: Debug + Send + Sync {
+    /// The name `[executor] kind = "..."` and `--executor` give.
+    fn kind(&self) -> &'static str;
+
+    /// Whether the runs are made on this machine: the back end is then chosen here (a missing
+    /// GPU falls back to the CPU), and `--jobs` is how many run at once here. Elsewhere the
+    /// nodes have the GPUs, and `--jobs` is whatever [`Executor::with_jobs`] makes of it.
+    fn on_this_machine(&self) -> bool;
+
+    /// `demcal run --jobs N` for this executor: itself with N applied, and the runs this
+    /// process makes at once. An error names `--jobs` and what was expected.
+    fn with_jobs(&self, jobs: usize) -> Result<(Arc<dyn Executor>, usize), String>;
+
+    /// What it checks before anything is written or simulated (the cluster answers).
+    fn preflight(&self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Replays the study with itself making the missing runs, storing each as it finishes;
+    /// returns the replay and, when it has one, a closing line for the terminal.
+    fn run(
+        &self,
+        study: &Study,
+        store: &mut Store,
+        stored: &[RunRecord],
+        jobs: usize,
+        interrupted: Arc<AtomicBool>,
+    ) -> Result<(Result<Replay, String>, Option<String>), String>;
+
+    /// For a caller that wants its settings (tests, the Slurm status).
+    fn as_any(&self) -> &dyn Any;
 }

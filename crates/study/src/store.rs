@@ -90,8 +90,31 @@ fn migrate(conn: &Connection) -> rusqlite::Result<()> {
             }
         }
     }
-    conn.execute_batch(crate::slurm::ledger::SCHEMA)
+    conn.execute_batch(LEDGER_SCHEMA)
 }
+
+/// The tasks an executor that outlives its coordinator submitted (`slurm::ledger` reads and
+/// writes them): which task makes which run, and whether its result is stored.
+pub(crate) const LEDGER_SCHEMA: &str = "
+CREATE TABLE IF NOT EXISTS cluster_tasks (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    stage INTEGER NOT NULL,
+    idx INTEGER NOT NULL,
+    attempt INTEGER NOT NULL,
+    token TEXT NOT NULL,
+    job_name TEXT NOT NULL,
+    job_id TEXT,
+    task INTEGER NOT NULL,
+    fingerprint TEXT NOT NULL,
+    job_file TEXT NOT NULL,
+    record_file TEXT NOT NULL,
+    log_dir TEXT NOT NULL,
+    submitted_at TEXT NOT NULL,
+    state TEXT NOT NULL CHECK (state IN ('open', 'stored', 'retried', 'cancelled', 'dropped')),
+    note TEXT
+);
+CREATE INDEX IF NOT EXISTS cluster_tasks_open ON cluster_tasks (state, stage);
+";
 
 const SCHEMA: &str = "
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -329,7 +352,7 @@ impl StoreLock {
                     use std::io::Write;
                     // The host too: on a shared file system the lock may be seen from another
                     // login node, where this process id means nothing.
-                    f.write_all(format!("{me}\n{}\n", crate::job::machine_name()).as_bytes())
+                    f.write_all(format!("{me}\n{}\n", machine_name()).as_bytes())
                         .and_then(|_| f.sync_all())
                         .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
                     return Ok(StoreLock { path });
@@ -337,7 +360,7 @@ impl StoreLock {
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                     let text = std::fs::read_to_string(&path).unwrap_or_default();
                     let host = text.lines().nth(1).map(str::trim).unwrap_or("");
-                    if !host.is_empty() && !same_machine(host, &crate::job::machine_name()) {
+                    if !host.is_empty() && !same_machine(host, &machine_name()) {
                         let pid = text.lines().next().unwrap_or("?").trim();
                         return Err(format!(
                             "{}: the study is being run by process {pid} on {host} (lock file {}); stop it there, or if it no longer runs, remove that file",
@@ -451,6 +474,17 @@ pub fn now_utc() -> String {
         rem % 3600 / 60,
         rem % 60
     )
+}
+
+/// This machine's own name (the kernel's, not a Slurm node name that may alias it).
+pub fn machine_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .map(|h| h.trim().to_string())
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .or_else(|| std::env::var("COMPUTERNAME").ok())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "unknown".into())
 }
 
 #[cfg(test)]

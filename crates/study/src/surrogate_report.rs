@@ -7,13 +7,15 @@ use std::fmt::Write;
 
 use doe::plots::{self, colour_map, padded, FONT};
 
-use crate::report_figures::{drawn_pairs, Figures};
+use crate::report_figures::drawn_pairs;
 use plotters::prelude::*;
 use serde_json::json;
 
+use crate::record::StageResult;
 use crate::spec::Study;
-use crate::stages::{sig, StageResult};
 use crate::surrogate_stages::{BoOutcome, GaBpOutcome, SmcOutcome, SurrogateOutcome};
+use crate::text::sig;
+use crate::text::FigureSink;
 
 const BLUE: RGBColor = RGBColor(40, 100, 200);
 const ORANGE: RGBColor = RGBColor(230, 120, 20);
@@ -95,7 +97,7 @@ pub fn stage_json(study: &Study, st: &StageResult) -> Option<(&'static str, serd
 }
 
 /// A row of the stage's figures, each captioned with the stage (its title is drawn inside).
-fn plots_row(h: &mut String, figs: &mut Figures, st: &StageResult, svgs: Vec<String>) {
+fn plots_row(h: &mut String, figs: &mut dyn FigureSink, st: &StageResult, svgs: Vec<String>) {
     let stage = st.index + 1;
     let items = svgs
         .into_iter()
@@ -112,7 +114,12 @@ fn plots_row(h: &mut String, figs: &mut Figures, st: &StageResult, svgs: Vec<Str
 }
 
 /// The stage's own section of the report, after its runs table.
-pub(crate) fn stage_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult) {
+pub(crate) fn stage_html(
+    h: &mut String,
+    figs: &mut dyn FigureSink,
+    study: &Study,
+    st: &StageResult,
+) {
     match &st.surrogate {
         Some(SurrogateOutcome::BayesOpt(o)) => bo_html(h, figs, study, st, o),
         Some(SurrogateOutcome::GaBp(o)) => ga_bp_html(h, figs, study, st, o),
@@ -129,7 +136,13 @@ fn objective_name(study: &Study) -> String {
     }
 }
 
-fn bo_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult, o: &BoOutcome) {
+fn bo_html(
+    h: &mut String,
+    figs: &mut dyn FigureSink,
+    study: &Study,
+    st: &StageResult,
+    o: &BoOutcome,
+) {
     if let Some(g) = &o.gp {
         write!(
             h,
@@ -220,7 +233,7 @@ fn bo_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult, 
 
 fn ga_bp_html(
     h: &mut String,
-    figs: &mut Figures,
+    figs: &mut dyn FigureSink,
     study: &Study,
     st: &StageResult,
     o: &GaBpOutcome,
@@ -317,7 +330,13 @@ fn ga_bp_html(
     plots_row(h, figs, st, row);
 }
 
-fn smc_html(h: &mut String, figs: &mut Figures, study: &Study, st: &StageResult, o: &SmcOutcome) {
+fn smc_html(
+    h: &mut String,
+    figs: &mut dyn FigureSink,
+    study: &Study,
+    st: &StageResult,
+    o: &SmcOutcome,
+) {
     let Some(last) = o.rounds.iter().rev().find(|r| !r.weights.is_empty()) else {
         return;
     };

@@ -4,66 +4,12 @@
 //! The objective a surrogate stage works on is the relative error |sim - lab| / |lab| for a
 //! matched response, or the response itself for a minimised one (a curve MSE).
 
-use surrogate::bayesopt::IterationSummary;
-use surrogate::genetic::GaResult;
-use surrogate::gp::Gp;
-use surrogate::network::TrainedNetwork;
 use surrogate::smc::Posterior;
 
+use crate::record::{run_seed, Context, RunSpec, StageResult};
+pub use crate::record::{BoOutcome, GaBpOutcome, SmcOutcome, SmcRound, SurrogateOutcome};
 use crate::spec::{Combine, Study};
-use crate::stages::{run_seed, tidy, Context, RunSpec, StageResult};
-
-/// What a surrogate stage found, for the report and the summary.
-#[derive(Clone, Debug)]
-pub enum SurrogateOutcome {
-    BayesOpt(Box<BoOutcome>),
-    GaBp(Box<GaBpOutcome>),
-    Smc(SmcOutcome),
-}
-
-#[derive(Clone, Debug)]
-pub struct BoOutcome {
-    /// Runs planned in each round (the hypercube first).
-    pub rounds: Vec<usize>,
-    /// After each finished round: the best objective observed and the GP's predicted minimum.
-    pub history: Vec<IterationSummary>,
-    pub stop: Option<String>,
-    /// The last GP, fitted to every finished run's objective (coded factors of the stage).
-    pub gp: Option<Gp>,
-}
-
-#[derive(Clone, Debug)]
-pub struct GaBpOutcome {
-    /// Where the training rows came from.
-    pub source: String,
-    /// Training rows: the active parameters coded over `factors`, and the response.
-    pub x: Vec<Vec<f64>>,
-    pub y: Vec<f64>,
-    pub trained: TrainedNetwork,
-    /// GA-BP-GA: the coded inputs whose prediction is nearest the lab value.
-    pub search: GaResult,
-    pub predicted: f64,
-}
-
-#[derive(Clone, Debug)]
-pub struct SmcRound {
-    /// First run index of the round, and how many runs it planned.
-    pub start: usize,
-    pub count: usize,
-    /// Each planned run's proposal density (coded box), in run order.
-    pub proposal_density: Vec<f64>,
-    /// Runs that gave a response, with their normalised weights.
-    pub used: Vec<usize>,
-    pub weights: Vec<f64>,
-    /// The posterior of the active parameters in actual units.
-    pub posterior: Posterior,
-}
-
-#[derive(Clone, Debug)]
-pub struct SmcOutcome {
-    pub rounds: Vec<SmcRound>,
-    pub stop: Option<String>,
-}
+use crate::text::tidy;
 
 /// The objective a surrogate minimises for a response `y`.
 pub fn objective(study: &Study, y: f64) -> f64 {

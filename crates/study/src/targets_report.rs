@@ -6,16 +6,10 @@ use std::fmt::Write;
 
 use serde_json::json;
 
+use crate::record::{target_values, StageResult, Validation};
 use crate::spec::{Combine, Study};
-use crate::stages::{sig, target_values, StageResult, Validation};
 use crate::store::RunRecord;
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
+use crate::text::{esc, sig};
 
 fn with_unit(v: String, unit: &str) -> String {
     if unit.is_empty() {

@@ -56,7 +56,7 @@ fn every_key_the_code_accepts_is_in_the_reference_and_no_other() {
             .map(|(s, k)| (s.to_string(), k)),
     );
     code.extend(virtual_tests::registry::reference_sections());
-    code.extend(study::spec::reference_sections());
+    code.extend(study::load::reference_sections());
     let mut faults = Vec::new();
     for (section, keys) in &code {
         let Some((_, body)) = doc.iter().find(|(name, _)| name == section) else {

@@ -663,7 +663,7 @@ fn the_store_is_locked_while_a_study_runs() {
 #[test]
 fn the_ccd_alpha_is_typed_when_read() {
     use doe::design::CcdAlpha;
-    use study::spec::RsmDesign;
+    use study::plan::RsmDesign;
     use study::stage::rsm::Rsm;
     let dir = fresh_dir("alpha");
     for (given, want) in [

@@ -5,10 +5,12 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
-use super::{Executor, ExecutorDef};
+use crate::executor::def::ExecutorDef;
+use crate::spec::Executor;
 use crate::runner::LocalExecutor;
 use crate::spec::Study;
-use crate::stages::{replay, Replay};
+use crate::record::Replay;
+use crate::stages::replay;
 use crate::store::{RunRecord, Store};
 
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -4,74 +4,14 @@
 //! the bottom is the one list of names. `lib.rs` and the CLI ask the chosen executor and hold no
 //! branch of their own for any one of them (ARCHITECTURE.md has the recipe).
 
-use std::any::Any;
-use std::fmt::Debug;
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
+pub mod def;
+pub use crate::spec::Executor;
 use crate::spec::Study;
-use crate::stages::Replay;
-use crate::store::{RunRecord, Store};
-
-/// An executor with its settings.
-pub trait Executor: Debug + Send + Sync {
-    /// The name `[executor] kind = "..."` and `--executor` give.
-    fn kind(&self) -> &'static str;
-
-    /// Whether the runs are made on this machine: the back end is then chosen here (a missing
-    /// GPU falls back to the CPU), and `--jobs` is how many run at once here. Elsewhere the
-    /// nodes have the GPUs, and `--jobs` is whatever [`Executor::with_jobs`] makes of it.
-    fn on_this_machine(&self) -> bool;
-
-    /// `demcal run --jobs N` for this executor: itself with N applied, and the runs this
-    /// process makes at once. An error names `--jobs` and what was expected.
-    fn with_jobs(&self, jobs: usize) -> Result<(Arc<dyn Executor>, usize), String>;
-
-    /// What it checks before anything is written or simulated (the cluster answers).
-    fn preflight(&self) -> Result<(), String> {
-        Ok(())
-    }
-
-    /// Replays the study with itself making the missing runs, storing each as it finishes;
-    /// returns the replay and, when it has one, a closing line for the terminal.
-    fn run(
-        &self,
-        study: &Study,
-        store: &mut Store,
-        stored: &[RunRecord],
-        jobs: usize,
-        interrupted: Arc<AtomicBool>,
-    ) -> Result<(Result<Replay, String>, Option<String>), String>;
-
-    /// For a caller that wants its settings (tests, the Slurm status).
-    fn as_any(&self) -> &dyn Any;
-}
-
-/// An executor as the study file and the command line name it.
-pub trait ExecutorDef: Executor + Sized + 'static {
-    const NAME: &'static str;
-    /// The keys of `[executor]` besides `kind`.
-    const KEYS: &'static [&'static str];
-    /// Its settings from `[executor]`; `dir` is the study's folder (relative paths start
-    /// there), `err` names the file and key.
-    fn parse(
-        t: &toml::Table,
-        dir: &Path,
-        err: &dyn Fn(&str, String) -> String,
-    ) -> Result<Self, String>;
-    /// With every setting at its default (`--executor NAME` on a study that names another).
-    fn defaults() -> Self;
-    /// On `--restart`: takes back what the old results still have out (queued tasks), whatever
-    /// executor the study uses now. Returns how many.
-    fn withdraw(_store: &Store) -> Result<usize, String> {
-        Ok(0)
-    }
-    /// What `demcal status` adds about its work in the store.
-    fn status_lines(_study: &Study, _store: &Store) -> Result<String, String> {
-        Ok(String::new())
-    }
-}
+use crate::store::Store;
+pub use def::ExecutorDef;
 
 /// The registry: each line an executor's module and type; the first is the default.
 macro_rules! executors {

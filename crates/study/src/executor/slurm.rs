@@ -7,11 +7,13 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
-use super::{Executor, ExecutorDef};
+use crate::executor::def::ExecutorDef;
+use crate::spec::Executor;
 use crate::slurm::settings::{parse_slurm, KEYS, MOST_RUNNING};
 use crate::slurm::{self as cluster, SlurmExecutor, SlurmSettings};
 use crate::spec::Study;
-use crate::stages::{replay, Replay};
+use crate::record::Replay;
+use crate::stages::replay;
 use crate::store::{RunRecord, Store};
 
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -2,34 +2,14 @@
 //! and task makes which run, with which job file, in which attempt, and whether its result has
 //! been stored. A task is written before `sbatch` is called (with a token in its job name), given
 //! its job id the moment `sbatch` answers, and closed in the same transaction that stores its run,
-//! so a coordinator killed at any point finds on restart exactly the tasks still out there.
+//! so a coordinator killed at any point finds on restart exactly the tasks still out there. The
+//! table is the store's (`store::LEDGER_SCHEMA`): the store owns every schema.
 
 use std::path::PathBuf;
 
 use rusqlite::params;
 
 use crate::store::{insert_in, RunRecord, Store};
-
-pub(crate) const SCHEMA: &str = "
-CREATE TABLE IF NOT EXISTS cluster_tasks (
-    id INTEGER PRIMARY KEY AUTOINCREMENT,
-    stage INTEGER NOT NULL,
-    idx INTEGER NOT NULL,
-    attempt INTEGER NOT NULL,
-    token TEXT NOT NULL,
-    job_name TEXT NOT NULL,
-    job_id TEXT,
-    task INTEGER NOT NULL,
-    fingerprint TEXT NOT NULL,
-    job_file TEXT NOT NULL,
-    record_file TEXT NOT NULL,
-    log_dir TEXT NOT NULL,
-    submitted_at TEXT NOT NULL,
-    state TEXT NOT NULL CHECK (state IN ('open', 'stored', 'retried', 'cancelled', 'dropped')),
-    note TEXT
-);
-CREATE INDEX IF NOT EXISTS cluster_tasks_open ON cluster_tasks (state, stage);
-";
 
 /// One task of a submitted array.
 #[derive(Clone, Debug, PartialEq)]

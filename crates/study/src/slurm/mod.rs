@@ -41,14 +41,16 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::job::Job;
+use crate::record::{RunSpec, StageResult};
 use crate::run_error::{RunError, RunErrorKind};
 use crate::spec::Study;
-use crate::stages::{Execute, RunSpec, StageResult};
+use crate::stages::Execute;
 use crate::store::{RunRecord, Status, Store};
+use crate::text::job_list;
 use ledger::Task;
 use queue::Verdict;
 pub use settings::{OnInterrupt, SlurmSettings};
-pub use status::{job_list, status_lines};
+pub use status::status_lines;
 pub use submit::withdraw_open;
 
 /// How long a task that completed (exit 0) may take to show its result on this machine: NFS

@@ -6,15 +6,7 @@ use super::ledger::Task;
 use super::queue;
 use crate::spec::Study;
 use crate::store::Store;
-
-/// Job ids in numeric order, each once, joined by commas.
-pub fn job_list<'s>(ids: impl Iterator<Item = &'s str>) -> String {
-    let set: BTreeSet<(usize, &str)> = ids.map(|i| (i.len(), i)).collect();
-    set.into_iter()
-        .map(|(_, i)| i)
-        .collect::<Vec<_>>()
-        .join(", ")
-}
+use crate::text::job_list;
 
 /// `demcal status`'s lines for the Slurm tasks: per stage, how many are queued (and why),
 /// running and finished, with their job ids. Asks `squeue` about the open ones when it can.

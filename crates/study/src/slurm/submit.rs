@@ -11,8 +11,8 @@ use std::sync::atomic::Ordering;
 use super::ledger::Task;
 use super::{queue, script, SlurmExecutor, Tracked};
 use crate::job::Job;
+use crate::record::{RunSpec, StageResult};
 use crate::spec::Study;
-use crate::stages::{RunSpec, StageResult};
 use crate::store::{now_utc, Store};
 
 impl SlurmExecutor<'_> {
@@ -234,7 +234,7 @@ impl SlurmExecutor<'_> {
                 stage.index + 1,
                 stage.kind,
                 tracked.len(),
-                super::job_list(tracked.iter().filter_map(|t| t.task.job_id.as_deref()))
+                crate::text::job_list(tracked.iter().filter_map(|t| t.task.job_id.as_deref()))
             );
             self.stats.reattached += tracked.len();
         }
@@ -286,7 +286,7 @@ pub fn withdraw_open(store: &Store) -> Result<usize, String> {
     if open.is_empty() {
         return Ok(0);
     }
-    let jobs = super::job_list(open.iter().filter_map(|t| t.job_id.as_deref()));
+    let jobs = crate::text::job_list(open.iter().filter_map(|t| t.job_id.as_deref()));
     // The old store is moved aside whatever happens: a restart must always be possible.
     let cancelled = queue::check_available().and_then(|_| {
         withdraw(

@@ -10,10 +10,12 @@ use std::any::Any;
 use surrogate::bayesopt::{self, BoOptions, IterationSummary};
 use surrogate::gp::{GpOptions, Kernel};
 
-use super::{Section, Stage, StageDef, StageTable};
-use crate::plan::MAX_SURROGATE_RUNS;
+use crate::spec::{Section, Stage};
+use crate::stage::table::{StageDef, StageTable};
+use crate::limits::MAX_SURROGATE_RUNS;
 use crate::spec::Study;
-use crate::stages::{run_seed, sig, Context, StageResult};
+use crate::record::{Context, run_seed, StageResult};
+use crate::text::sig;
 use crate::surrogate_stages::{calibrate, finished, push_runs, BoOutcome, SurrogateOutcome};
 
 #[derive(Clone, Debug, PartialEq)]

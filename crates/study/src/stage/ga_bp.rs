@@ -11,10 +11,12 @@ use surrogate::bayesopt;
 use surrogate::genetic::{self, GaOptions};
 use surrogate::network::{self, BpOptions};
 
-use super::{Section, Stage, StageDef, StageTable};
-use crate::plan::{MAX_GA, MAX_SURROGATE_RUNS};
+use crate::spec::{Section, Stage};
+use crate::stage::table::{StageDef, StageTable};
+use crate::limits::{MAX_GA, MAX_SURROGATE_RUNS};
 use crate::spec::Study;
-use crate::stages::{run_seed, sig, tidy, Context, StageResult};
+use crate::record::{Context, run_seed, StageResult};
+use crate::text::{sig, tidy};
 use crate::surrogate_stages::{calibrate, push_runs, GaBpOutcome, SurrogateOutcome};
 
 #[derive(Clone, Debug, PartialEq)]

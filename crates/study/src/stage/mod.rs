@@ -9,97 +9,12 @@
 //! from the study and the stored runs alone, so a study killed anywhere replays to the same
 //! point.
 
-use std::any::Any;
-use std::fmt::Debug;
 use std::sync::Arc;
 
-use crate::report_figures::Figures;
-use crate::spec::Study;
-use crate::stages::{Context, StageResult};
+pub use crate::spec::{Section, Stage};
 
-mod table;
-pub use table::StageTable;
-
-/// A stage of a plan, with its settings.
-pub trait Stage: Debug + Send + Sync + 'static {
-    /// The name the plan gives it (`stage = "..."`).
-    fn kind(&self) -> &'static str;
-
-    /// The report's heading for it ("response surface").
-    fn heading(&self) -> &'static str;
-
-    /// Whether it runs simulations (optimize only searches a model).
-    fn runs_simulations(&self) -> bool {
-        true
-    }
-
-    /// Whether the stages before it give it what it needs: the error says what to put first.
-    fn follows(&self, _before: &[Arc<dyn Stage>]) -> Result<(), String> {
-        Ok(())
-    }
-
-    /// Its first runs and its title, from the study and what the stages before it found. `st`
-    /// comes with the active parameters and their factors over the current region. An error
-    /// stops the study with the reason.
-    fn plan(&self, study: &Study, st: &mut StageResult, ctx: &Context) -> Result<(), String>;
-
-    /// After every planned run has finished: plans another round (true) or says the stage is
-    /// done (false). Only iterative stages plan rounds.
-    fn next_round(
-        &self,
-        _study: &Study,
-        _st: &mut StageResult,
-        _ctx: &Context,
-    ) -> Result<bool, String> {
-        Ok(false)
-    }
-
-    /// Once its runs are done: fits, selects, optimises or validates, and passes on what the
-    /// stages after it need.
-    fn conclude(
-        &self,
-        study: &Study,
-        st: &mut StageResult,
-        ctx: &mut Context,
-    ) -> Result<(), String>;
-
-    /// What it found in its own terms, for `summary.json` (under the stage's `outcome`).
-    fn summary(&self, _study: &Study, _st: &StageResult) -> Option<serde_json::Value> {
-        None
-    }
-
-    /// Its part of the report, after the heading, notes and runs table the report writes for
-    /// every stage.
-    fn report(&self, _section: &mut Section<'_>) {}
-
-    /// For a stage that wants another stage's settings (the report of an optimisation reads
-    /// its region).
-    fn as_any(&self) -> &dyn Any;
-}
-
-/// A stage as the plan reads it.
-pub trait StageDef: Stage + Sized {
-    const NAME: &'static str;
-    /// The keys its table takes besides `stage`.
-    const KEYS: &'static [&'static str];
-    /// Its settings from its table (defaults filled in); errors name the key.
-    fn parse(t: &StageTable) -> Result<Self, String>;
-}
-
-/// What a stage's report section writes into.
-pub struct Section<'a> {
-    pub(crate) h: &'a mut String,
-    pub(crate) figs: &'a mut Figures,
-    pub study: &'a Study,
-    /// Every stage replayed, this one included.
-    pub stages: &'a [StageResult],
-    pub st: &'a StageResult,
-}
-
-/// Whether any stage of `before` is one of `kinds`.
-pub(crate) fn any_of(before: &[Arc<dyn Stage>], kinds: &[&str]) -> bool {
-    before.iter().any(|s| kinds.contains(&s.kind()))
-}
+pub mod table;
+pub use table::{any_of, StageDef, StageTable};
 
 /// The registry: each line a stage's module and type.
 macro_rules! stages {

@@ -10,11 +10,12 @@ use std::sync::Arc;
 use doe::optimize::{Criterion, Goal, Problem, Subject};
 use doe::{Experiment, Fit};
 
-use super::{any_of, Section, Stage, StageDef, StageTable};
+use crate::spec::{Section, Stage};
+use crate::stage::table::{any_of, StageDef, StageTable};
 use crate::design_stages::target_fits;
-use crate::plan::MAX_SOLUTIONS;
+use crate::limits::MAX_SOLUTIONS;
 use crate::spec::{Combine, Study};
-use crate::stages::{run_seed, Context, StageResult};
+use crate::record::{run_seed, Context, SearchRegion, StageResult};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Optimize {
@@ -167,37 +168,6 @@ impl Stage for Optimize {
 
     fn as_any(&self) -> &dyn Any {
         self
-    }
-}
-
-/// Where `optimize` searches the fitted model.
-#[derive(Clone, Debug, PartialEq)]
-pub enum SearchRegion {
-    /// The factorial box, coded ±1: the screening or CCD ranges (Design-Expert's "in range").
-    Cube,
-    /// As far as the design's runs reach on each factor: out to the axial points (±alpha) of a
-    /// central composite design, as seeds 002-004 optimise; ±1 for a box design.
-    Axial,
-    /// Limits in the parameters' own units, by name; a factor not named keeps ±1.
-    Limits(Vec<(String, f64, f64)>),
-}
-
-impl SearchRegion {
-    /// Words for the report.
-    pub fn describe(&self) -> String {
-        match self {
-            SearchRegion::Cube => "within its coded range −1 to +1".into(),
-            SearchRegion::Axial => {
-                "out to the design's axial points (coded −alpha to +alpha)".into()
-            }
-            SearchRegion::Limits(l) => format!(
-                "within the limits given: {}",
-                l.iter()
-                    .map(|(n, lo, hi)| format!("{n} {lo} .. {hi}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        }
     }
 }
 

@@ -7,15 +7,17 @@ use std::any::Any;
 use doe::design::{self, CcdAlpha};
 use doe::{Curvature, Fit, ModelOrder};
 
-use super::{Section, Stage, StageDef, StageTable};
+use crate::spec::{Section, Stage};
+use crate::stage::table::{StageDef, StageTable};
 use crate::design_stages::{
     enough, experiment, plateau_hint, replicates_key, specs_from_design, target_fits,
     with_failures,
 };
 use crate::paths::number;
-use crate::plan::MAX_CENTER_POINTS;
+use crate::limits::MAX_CENTER_POINTS;
 use crate::spec::{Combine, Study};
-use crate::stages::{sig, Context, StageResult};
+use crate::record::{Context, StageResult};
+use crate::text::sig;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum RsmDesign {

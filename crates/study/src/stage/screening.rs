@@ -8,14 +8,15 @@ use std::fmt::Write;
 use doe::design;
 use doe::{Curvature, Fit, ModelOrder};
 
-use super::{Section, Stage, StageDef, StageTable};
+use crate::spec::{Section, Stage};
+use crate::stage::table::{StageDef, StageTable};
 use crate::design_stages::{
     enough, experiment, plateau_hint, replicates_key, specs_from_design, with_failures,
 };
-use crate::plan::MAX_CENTER_POINTS;
-use crate::report::esc;
+use crate::limits::MAX_CENTER_POINTS;
+use crate::text::esc;
 use crate::spec::Study;
-use crate::stages::{Context, StageResult};
+use crate::record::{Context, StageResult};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum ScreeningDesign {

@@ -6,10 +6,12 @@ use std::any::Any;
 
 use surrogate::smc::{self, LikelihoodScale};
 
-use super::{Section, Stage, StageDef, StageTable};
-use crate::plan::MAX_SURROGATE_RUNS;
+use crate::spec::{Section, Stage};
+use crate::stage::table::{StageDef, StageTable};
+use crate::limits::MAX_SURROGATE_RUNS;
 use crate::spec::Study;
-use crate::stages::{run_seed, sig, tidy, Context, StageResult};
+use crate::record::{Context, run_seed, StageResult};
+use crate::text::{sig, tidy};
 use crate::surrogate_stages::{
     calibrate, empty_posterior, misfit, push_runs, SmcOutcome, SmcRound, SurrogateOutcome,
 };

@@ -11,12 +11,14 @@
 use std::any::Any;
 use std::sync::Arc;
 
-use super::{any_of, Section, Stage, StageDef, StageTable};
-use crate::plan::MAX_STEPS;
+use crate::spec::{Section, Stage};
+use crate::stage::table::{any_of, StageDef, StageTable};
+use crate::limits::MAX_STEPS;
 use crate::report_figures as figures;
-use crate::report::esc;
+use crate::text::esc;
 use crate::spec::Study;
-use crate::stages::{run_seed, sig, tidy, Context, RunSpec, StageResult};
+use crate::record::{Context, run_seed, RunSpec, StageResult};
+use crate::text::{sig, tidy};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Steepest {

@@ -15,14 +15,16 @@ use std::sync::Arc;
 use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 use plotters::prelude::*;
 
-use super::{Section, Stage, StageDef, StageTable};
+use crate::spec::{Section, Stage};
+use crate::stage::table::{StageDef, StageTable};
 use crate::design_stages::{bracket_note, with_failures};
 use crate::paths::number;
-use crate::plan::MAX_REPLICATES;
-use crate::report::esc;
+use crate::limits::MAX_REPLICATES;
+use crate::text::esc;
 use crate::report_figures::{mean_sd, response_label};
 use crate::spec::Study;
-use crate::stages::{run_seed, sig, tidy, Context, RunSpec, StageResult};
+use crate::record::{Context, run_seed, RunSpec, StageResult};
+use crate::text::{sig, tidy};
 
 /// Most values a sweep may take.
 pub const MAX_SWEEP_VALUES: usize = 1000;

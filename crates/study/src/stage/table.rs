@@ -1,6 +1,9 @@
 //! A stage's table in the plan, read key by key with one-line errors naming the key.
 
+use std::sync::Arc;
+
 use crate::paths::number;
+use crate::spec::Stage;
 
 /// A stage's table (`{ stage = "rsm", alpha = "face" }`) and what its values are checked
 /// against: the study's parameters (name, min, max) for keys that name them.
@@ -150,4 +153,18 @@ impl<'a> StageTable<'a> {
             )),
         }
     }
+}
+
+/// A stage as the plan reads it.
+pub trait StageDef: Stage + Sized {
+    const NAME: &'static str;
+    /// The keys its table takes besides `stage`.
+    const KEYS: &'static [&'static str];
+    /// Its settings from its table (defaults filled in); errors name the key.
+    fn parse(t: &StageTable) -> Result<Self, String>;
+}
+
+/// Whether any stage of `before` is one of `kinds`.
+pub fn any_of(before: &[Arc<dyn Stage>], kinds: &[&str]) -> bool {
+    before.iter().any(|s| kinds.contains(&s.kind()))
 }

@@ -4,11 +4,13 @@
 
 use std::any::Any;
 
-use super::{Section, Stage, StageDef, StageTable};
+use crate::spec::{Section, Stage};
+use crate::stage::table::{StageDef, StageTable};
 use crate::design_stages::enough;
-use crate::plan::{MAX_REPLICATES, MAX_SOLUTIONS};
+use crate::limits::{MAX_REPLICATES, MAX_SOLUTIONS};
 use crate::spec::Study;
-use crate::stages::{run_seed, sig, target_values, Context, RunSpec, StageResult, Validation};
+use crate::record::{Context, run_seed, RunSpec, StageResult, target_values, Validation};
+use crate::text::sig;
 use crate::store::{RunRecord, Status};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -163,7 +165,7 @@ impl Stage for Validate {
     }
 
     fn report(&self, s: &mut Section<'_>) {
-        crate::report::validation_html(s.h, s.figs, s.study, s.stages, s.st);
+        crate::report_validation::validation_html(s.h, s.figs, s.study, s.stages, s.st);
     }
 
     fn as_any(&self) -> &dyn Any {

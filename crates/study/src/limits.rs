@@ -1,0 +1,11 @@
+//! How much a plan may ask for: beyond these a stage would only eat memory and time.
+
+/// Largest counts of the design stages.
+pub const MAX_CENTER_POINTS: usize = 1000;
+pub const MAX_STEPS: usize = 1000;
+pub const MAX_REPLICATES: usize = 1000;
+pub const MAX_SOLUTIONS: usize = 1000;
+
+/// Largest sizes a surrogate stage may ask for.
+pub const MAX_SURROGATE_RUNS: usize = 100_000;
+pub const MAX_GA: usize = 100_000;

@@ -1,0 +1,49 @@
+//! Text the report and the messages share: HTML escaping, how numbers and names are written.
+//! The bottom of the crate: it imports nothing of it.
+
+use std::collections::BTreeSet;
+
+/// `s` safe inside HTML text and attribute values.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// A name for a narrow column heading: it may break after its underscores.
+pub(crate) fn breakable(name: &str) -> String {
+    esc(name).replace('_', "_<wbr>")
+}
+
+/// The letter a parameter goes by in tables (A, B, ... without I, as Design-Expert names factors).
+pub(crate) fn letter(i: usize) -> String {
+    doe::design::factor_letter(i)
+}
+
+/// `v` to 12 significant digits: coded-to-actual arithmetic leaves 0.29999999999999993 where the
+/// design means 0.3, and stored values, fingerprints and tables should say 0.3.
+pub fn tidy(v: f64) -> f64 {
+    format!("{v:.11e}").parse().unwrap_or(v)
+}
+
+/// `v` to 4 significant digits, as the report and the messages write numbers.
+pub fn sig(v: f64) -> String {
+    doe::fit::fmt_sig(v)
+}
+
+/// Job ids in numeric order, each once, joined by commas.
+pub fn job_list<'s>(ids: impl Iterator<Item = &'s str>) -> String {
+    let set: BTreeSet<(usize, &str)> = ids.map(|i| (i.len(), i)).collect();
+    set.into_iter()
+        .map(|(_, i)| i)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Where a report section puts its figures: numbered, captioned, written as SVG and PNG
+/// (`report_figures::Figures`). A stage's section and the report's parts write through it.
+pub trait FigureSink {
+    /// A row of figures (file stem, SVG or why it could not be drawn, caption).
+    fn row(&mut self, h: &mut String, items: Vec<(String, Result<String, String>, String)>);
+}

@@ -321,7 +321,7 @@ impl Stage for Sweep {
             let text: Vec<String> = eq
                 .iter()
                 .map(|(t, c)| {
-                    let name = t.name(&[out.factor.name.clone()]);
+                    let name = t.name(std::slice::from_ref(&out.factor.name));
                     if name.is_empty() || name == "Intercept" {
                         sig(*c)
                     } else {

@@ -6,10 +6,12 @@
 use doe::design::Design;
 use doe::{Curvature, Experiment, Factor, Fit, ModelOrder};
 
+use crate::curve::{stored_curve, Curve};
 use crate::limits::MAX_REPLICATES;
 use crate::record::{run_seed, Context, RunSpec, StageResult};
 use crate::spec::{Combine, Study};
 use crate::stage::table::StageTable;
+use crate::store::Status;
 use crate::text::{sig, tidy};
 
 /// The active parameters' factors over their current region.
@@ -78,10 +80,14 @@ pub(crate) fn experiment(study: &Study, st: &StageResult) -> Experiment {
 }
 
 /// Says in the stage's notes whether its responses enclose the lab value: a model fitted to
-/// responses all on one side of it can only reach it by extrapolating (seed 000 checks this
-/// first, its Fig. 13). Nothing for a minimised response.
+/// responses all on one side of it can only reach it by extrapolating. For a curve target
+/// (minimised curve_mse), whether the runs' curves enclose the lab curve, as seed 000 checks
+/// first (its Fig. 13).
 pub(crate) fn bracket_note(study: &Study, st: &mut StageResult) {
     if study.target.minimised() {
+        if let Some(note) = curve_bracket(study, st) {
+            st.notes.push(note);
+        }
         return;
     }
     let ys: Vec<f64> = st.successes().iter().map(|(_, y)| *y).collect();
@@ -193,4 +199,83 @@ pub(crate) fn target_fits(
                 .map_err(|e| format!("the model of {}: {e}", exp.response_name))
         })
         .collect()
+}
+
+/// Points along the lab curve the curve bracket check looks at.
+const BRACKET_POINTS: usize = 200;
+
+/// Over how much of the lab curve's range the runs' (normalised) curves lie on both sides of it,
+/// and where it lies above or below them all; None without a curve target or two curves.
+fn curve_bracket(study: &Study, st: &StageResult) -> Option<String> {
+    let lab = study.target.curve.as_ref()?.comparison().lab_normalised();
+    let sims: Vec<Curve> = st
+        .records
+        .iter()
+        .flatten()
+        .filter(|r| r.status == Status::Done)
+        .filter_map(|r| stored_curve(&r.outputs))
+        .collect();
+    if sims.len() < 2 {
+        return None;
+    }
+    let (lo, hi) = lab.range();
+    let (mut inside, mut seen) = (0usize, 0usize);
+    let (mut above, mut below): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    for x in Curve::grid(lo, hi, BRACKET_POINTS) {
+        // Only the runs whose curve reaches x (a run may stop early, once the specimen failed).
+        let ys: Vec<f64> = sims
+            .iter()
+            .filter(|c| {
+                let (a, b) = c.range();
+                a <= x && x <= b
+            })
+            .map(|c| c.at(x))
+            .collect();
+        if ys.len() < 2 {
+            continue;
+        }
+        seen += 1;
+        let (min, max) = ys
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| {
+                (a.min(*y), b.max(*y))
+            });
+        let y = lab.at(x);
+        if y > max {
+            above.push(x);
+        } else if y < min {
+            below.push(x);
+        } else {
+            inside += 1;
+        }
+    }
+    if seen == 0 {
+        return Some("bracket check: no two runs' curves cover the lab curve's range".into());
+    }
+    let (xname, _) = study
+        .target
+        .curve
+        .as_ref()
+        .map_or(("x", ""), |c| c.normalisation.x_axis());
+    let stretch = |xs: &[f64], side: &str| -> Option<String> {
+        let (a, b) = (xs.first()?, xs.last()?);
+        Some(format!(
+            "; it lies {side} them all over {:.0} % ({xname} {} .. {})",
+            100.0 * xs.len() as f64 / seen as f64,
+            sig(*a),
+            sig(*b)
+        ))
+    };
+    Some(format!(
+        "bracket check: the {} runs' curves enclose the lab curve over {:.0} % of its range{}{}{}",
+        sims.len(),
+        100.0 * inside as f64 / seen as f64,
+        stretch(&above, "above").unwrap_or_default(),
+        stretch(&below, "below").unwrap_or_default(),
+        if inside < seen {
+            ": the best curve reachable in these ranges misses the lab's there; widen or move the ranges"
+        } else {
+            ""
+        }
+    ))
 }

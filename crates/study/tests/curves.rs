@@ -56,8 +56,7 @@ fn lab_force(x: f64) -> f64 {
 }
 
 fn fresh_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("demcal-curves-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = test_support::fresh_dir("curves", name);
     std::fs::create_dir_all(dir.join("lab")).unwrap();
     dir
 }
@@ -313,4 +312,45 @@ fn the_twin_stalk_study_runs_end_to_end() {
         assert!(html.contains(part), "report lacks {part}");
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Seed 000 first checks that its design's curves bracket the lab curve (its Fig. 13). Over
+/// k 4000..8000 and q 1e5..4e5 the factorial's curves enclose the lab's (k 5000, q 2e5); with k
+/// from 6000 and q up to 2e5 every run is stiffer than the lab specimen, and the note says
+/// where the lab curve lies below them all.
+#[test]
+fn the_design_curves_are_checked_to_bracket_the_lab_curve() {
+    let screening = |text: &str| {
+        text.replace(
+            r#"plan = [{ stage = "screening", design = "factorial" }, "steepest", "rsm", "optimize", "validate"]"#,
+            r#"plan = [{ stage = "screening", design = "factorial" }]"#,
+        )
+    };
+    let dir = fresh_dir("bracket");
+    write_lab(&dir, 0.0);
+    let path = write_study(&dir, &screening(STUDY));
+    let out = run(&path).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let notes = test_support::summary(&dir)["stages"][0]["notes"].to_string();
+    assert!(
+        notes.contains(
+            "bracket check: the 9 runs' curves enclose the lab curve over 100 % of its range"
+        ),
+        "{notes}"
+    );
+    let stiff = screening(STUDY)
+        .replace("min = 4000", "min = 6000")
+        .replace("max = 4e5", "max = 2e5");
+    let path = write_study(&dir, &stiff);
+    let _ = std::fs::remove_file(dir.join("study.db"));
+    let out = run(&path).unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    let notes = test_support::summary(&dir)["stages"][0]["notes"].to_string();
+    assert!(
+        notes.contains(
+            "enclose the lab curve over 0 % of its range; it lies below them all over 100 %"
+        ),
+        "{notes}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
 }

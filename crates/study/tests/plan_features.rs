@@ -4,14 +4,12 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use test_support::summary;
 
 use study::RunOptions;
 
 fn fresh_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("demcal-plan-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    test_support::fresh_dir("plan", name)
 }
 
 fn run_study(dir: &Path, text: &str) -> Result<String, String> {
@@ -25,11 +23,6 @@ fn run_study(dir: &Path, text: &str) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
-}
-
-fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
-        .unwrap()
 }
 
 /// value = 30 + 20 a (+ a trace of b), a and b in 0 .. 1. The CCD keeps its axial points

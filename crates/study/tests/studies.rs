@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use test_support::summary;
 
 use study::{RunOptions, Study};
 
@@ -52,10 +53,7 @@ value = 30.0
 "#;
 
 fn fresh_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("demcal-study-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    test_support::fresh_dir("study", name)
 }
 
 fn write_study(dir: &Path, text: &str) -> PathBuf {
@@ -73,11 +71,6 @@ fn run(path: &Path, jobs: usize) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
-}
-
-fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
-        .unwrap()
 }
 
 #[test]

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use test_support::summary;
 
 use study::RunOptions;
 
@@ -48,10 +49,7 @@ max = 1.0
 }
 
 fn fresh_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("demcal-surrogate-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    test_support::fresh_dir("surrogate", name)
 }
 
 fn run_study(dir: &Path, text: &str) -> Result<String, String> {
@@ -65,11 +63,6 @@ fn run_study(dir: &Path, text: &str) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
-}
-
-fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
-        .unwrap()
 }
 
 fn calibrated(s: &serde_json::Value, name: &str) -> f64 {

@@ -175,6 +175,7 @@ impl Stage for BayesOpt {
         st: &mut StageResult,
         ctx: &mut Context,
     ) -> Result<(), String> {
+        crate::design_stages::bracket_note(study, st);
         let Some(SurrogateOutcome::BayesOpt(out)) = &st.surrogate else {
             unreachable!()
         };

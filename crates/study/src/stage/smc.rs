@@ -189,10 +189,11 @@ impl Stage for Smc {
 
     fn conclude(
         &self,
-        _study: &Study,
+        study: &Study,
         st: &mut StageResult,
         ctx: &mut Context,
     ) -> Result<(), String> {
+        crate::design_stages::bracket_note(study, st);
         let Some(SurrogateOutcome::Smc(out)) = &st.surrogate else {
             unreachable!()
         };

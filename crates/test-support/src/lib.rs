@@ -180,6 +180,21 @@ fn interaction(text: &mut String, [a, b]: [&str; 2], i: &Interaction) {
     );
 }
 
+/// A new, empty folder `demcal-<kind>-<name>-<process id>` in the system's temp folder (an old one
+/// of the same name is removed first), for a test's study or scene files.
+pub fn fresh_dir(kind: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("demcal-{kind}-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The `report/summary.json` a study in `dir` wrote.
+pub fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
+        .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -242,19 +257,4 @@ rolling_friction = 0.1
         assert!(text.contains("shear_modulus = 7.9e10\n"), "{text}");
         assert!(text.contains("density = 7850\n"), "{text}");
     }
-}
-
-/// A new, empty folder `demcal-<kind>-<name>-<process id>` in the system's temp folder (an old one
-/// of the same name is removed first), for a test's study or scene files.
-pub fn fresh_dir(kind: &str, name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("demcal-{kind}-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// The `report/summary.json` a study in `dir` wrote.
-pub fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
-        .unwrap()
 }

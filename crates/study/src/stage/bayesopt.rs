@@ -129,7 +129,7 @@ impl Stage for BayesOpt {
             ));
         }
         let Some(SurrogateOutcome::BayesOpt(mut out)) = st.surrogate.take() else {
-            unreachable!("a bayesopt stage without its outcome")
+            return Err("internal: the bayesopt stage's rounds were not planned before it went on".into())
         };
         let iteration = out.rounds.len() - 1;
         let planned: usize = out.rounds.iter().sum();
@@ -177,7 +177,7 @@ impl Stage for BayesOpt {
     ) -> Result<(), String> {
         crate::design_stages::bracket_note(study, st);
         let Some(SurrogateOutcome::BayesOpt(out)) = &st.surrogate else {
-            unreachable!()
+            return Err("internal: the bayesopt stage concluded without its rounds".into())
         };
         let gp = out.gp.as_ref().ok_or("no Gaussian process was fitted")?;
         // With noisy runs the lowest observed objective is partly luck: the calibrated run

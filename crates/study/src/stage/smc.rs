@@ -89,7 +89,7 @@ impl Stage for Smc {
         ctx: &Context,
     ) -> Result<bool, String> {
         let Some(SurrogateOutcome::Smc(mut out)) = st.surrogate.take() else {
-            unreachable!("an smc stage without its outcome")
+            return Err("internal: the smc stage's rounds were not planned before it went on".into())
         };
         let round = out.rounds.len() - 1;
         let (start, count) = (out.rounds[round].start, out.rounds[round].count);
@@ -195,7 +195,7 @@ impl Stage for Smc {
     ) -> Result<(), String> {
         crate::design_stages::bracket_note(study, st);
         let Some(SurrogateOutcome::Smc(out)) = &st.surrogate else {
-            unreachable!()
+            return Err("internal: the smc stage concluded without its rounds".into())
         };
         let mut point = ctx.values.clone();
         let last = out.rounds.last().ok_or("no iteration")?;

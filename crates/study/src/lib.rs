@@ -260,9 +260,9 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
         };
         writeln!(s, "  {}. {:<10} {line}", i + 1, stage.kind()).unwrap();
         if let Some(st) = r.stages.get(i) {
-            if !st.selected.is_empty() {
+            if !st.selected().is_empty() {
                 let names: Vec<&str> = st
-                    .selected
+                    .selected()
                     .iter()
                     .map(|&p| study.parameters[p].name.as_str())
                     .collect();

@@ -99,10 +99,6 @@ pub struct StageResult {
     /// The model the stage fitted (reduced when asked), and the full one before reduction.
     pub fit: Option<Fit>,
     pub full_fit: Option<Fit>,
-    /// Screening: the parameters that go on.
-    pub selected: Vec<usize>,
-    /// Steepest: the step nearest the lab value.
-    pub best_step: Option<usize>,
     pub solutions: Vec<Solution>,
     /// Optimize: for each factor (coded, in `active` order), the stretch around the first
     /// solution over which the desirability stays within [`EQUALLY_GOOD`] of its best, the
@@ -139,8 +135,6 @@ impl StageResult {
             records: Vec::new(),
             fit: None,
             full_fit: None,
-            selected: Vec::new(),
-            best_step: None,
             solutions: Vec::new(),
             equally_good: Vec::new(),
             target_fits: Vec::new(),
@@ -191,6 +185,17 @@ impl StageResult {
     /// The stage's own outcome, when it is a `T`.
     pub fn outcome<T: Any>(&self) -> Option<&T> {
         self.outcome.as_deref()?.downcast_ref::<T>()
+    }
+
+    /// Screening: the parameters that go on (none for another stage).
+    pub fn selected(&self) -> &[usize] {
+        self.outcome::<ScreeningOutcome>()
+            .map_or(&[], |o| o.selected.as_slice())
+    }
+
+    /// Steepest: the step nearest the lab value (index into the runs).
+    pub fn best_step(&self) -> Option<usize> {
+        self.outcome::<SteepestOutcome>().map(|o| o.best_step)
     }
 
     /// Each point's finished runs with a response (replicates of one point together), in the
@@ -435,4 +440,16 @@ impl SearchRegion {
             ),
         }
     }
+}
+
+/// What a screening found: the parameters that go on (indices into the study's).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScreeningOutcome {
+    pub selected: Vec<usize>,
+}
+
+/// What a steepest path found: the step nearest the lab value (index into its runs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SteepestOutcome {
+    pub best_step: usize,
 }

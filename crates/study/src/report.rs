@@ -317,7 +317,7 @@ fn stage_html(
 
 fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
     let best = if st.kind == "steepest" {
-        st.best_step
+        st.best_step()
     } else {
         None
     };

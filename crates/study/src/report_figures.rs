@@ -147,7 +147,7 @@ pub(crate) fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, S
                 ),
             ),
         ];
-        if st.best_step.is_some() {
+        if st.best_step().is_some() {
             items.push((Mark::Ring(green), "nearest the lab value".to_string()));
         }
         let used = legend_row(root, &items, 16, 26, SIZE.0 as i32 - 32)?;
@@ -191,7 +191,7 @@ pub(crate) fn steepest_plot(study: &Study, st: &StageResult) -> Result<String, S
         chart
             .draw_series(pts.iter().map(|p| Circle::new(*p, 6, blue.filled())))
             .map_err(plots::err)?;
-        if let Some(b) = st.best_step {
+        if let Some(b) = st.best_step() {
             if let Some(p) = pts.iter().find(|p| p.0 == (b + 1) as f64) {
                 chart
                     .draw_series([Circle::new(*p, 12, green.stroke_width(3))])

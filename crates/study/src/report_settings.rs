@@ -110,7 +110,7 @@ pub(crate) enum Fate {
 pub(crate) fn fates(study: &Study, r: &Replay) -> Vec<Fate> {
     let mut fate = vec![Fate::Calibrated; study.parameters.len()];
     for st in &r.stages {
-        if st.kind == "screening" && !st.selected.is_empty() {
+        if st.kind == "screening" && !st.selected().is_empty() {
             let p_of = |j: usize| {
                 let fit = st.fit.as_ref()?;
                 fit.terms
@@ -121,7 +121,7 @@ pub(crate) fn fates(study: &Study, r: &Replay) -> Vec<Fate> {
                     .and_then(|(_, row)| row.p)
             };
             for (j, &pi) in st.active.iter().enumerate() {
-                if !st.selected.contains(&pi) {
+                if !st.selected().contains(&pi) {
                     let p = p_of(j)
                         .map(|p| format!(", p = {} in the screening model", doe::fit::fmt_p(p)))
                         .unwrap_or_default();

@@ -16,7 +16,7 @@ use crate::design_stages::{
 use crate::limits::MAX_CENTER_POINTS;
 use crate::text::esc;
 use crate::spec::Study;
-use crate::record::{Context, StageResult};
+use crate::record::{Context, ScreeningOutcome, StageResult};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum ScreeningDesign {
@@ -196,7 +196,7 @@ impl Stage for Screening {
         ctx.model_targets = st.target_values(study.targets.len());
         ctx.model_quadratic = false;
         ctx.active = selected.clone();
-        st.selected = selected;
+        st.outcome = Some(std::sync::Arc::new(ScreeningOutcome { selected }));
         st.fit = Some(fit);
         Ok(())
     }
@@ -204,11 +204,11 @@ impl Stage for Screening {
     fn report(&self, s: &mut Section<'_>) {
         let Some(fit) = &s.st.fit else { return };
         crate::report_model::screening(s.h, s.figs, s.study, s.st, fit);
-        if !s.st.selected.is_empty() {
+        if !s.st.selected().is_empty() {
             write!(
                 s.h,
                 "<p>Going on to the next stages: <b>{}</b>. The others are held at the middle of their ranges.</p>",
-                s.st.selected
+                s.st.selected()
                     .iter()
                     .map(|&i| esc(&s.study.parameters[i].name))
                     .collect::<Vec<_>>()

@@ -17,7 +17,7 @@ use crate::limits::MAX_STEPS;
 use crate::report_figures as figures;
 use crate::text::esc;
 use crate::spec::Study;
-use crate::record::{Context, run_seed, RunSpec, StageResult};
+use crate::record::{Context, run_seed, RunSpec, StageResult, SteepestOutcome};
 use crate::text::{sig, tidy};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -334,7 +334,7 @@ impl Stage for Steepest {
                 sig(best_y)
             ),
         });
-        st.best_step = Some(b);
+        st.outcome = Some(Arc::new(SteepestOutcome { best_step: b }));
         Ok(())
     }
 

@@ -184,32 +184,15 @@ fn search_region(t: &StageTable) -> Result<SearchRegion, String> {
             for (name, v) in named {
                 let k = format!("region.{name}");
                 let (_, min, max) = t.parameter(&k, name)?;
-                let pair: Vec<f64> = v
-                    .as_array()
-                    .map(|a| {
-                        a.iter()
-                            .filter_map(|x| x.as_float().or(x.as_integer().map(|i| i as f64)))
-                            .collect()
-                    })
-                    .unwrap_or_default();
-                match pair[..] {
-                    [lo, hi] if lo.is_finite() && hi.is_finite() && lo < hi => {
-                        // The parameter's range is where it may be set at all.
-                        if lo < min || hi > max {
-                            return Err(t.fail(
-                                &k,
-                                format!("[{lo}, {hi}] leaves the parameter's range {min} .. {max}"),
-                            ));
-                        }
-                        limits.push((name.clone(), lo, hi))
-                    }
-                    _ => {
-                        return Err(t.fail(
-                            &k,
-                            "expected [low, high], two finite numbers with low < high, in the parameter's units",
-                        ))
-                    }
+                let (lo, hi) = t.pair(&k, v, "in the parameter's units")?;
+                // The parameter's range is where it may be set at all.
+                if lo < min || hi > max {
+                    return Err(t.fail(
+                        &k,
+                        format!("[{lo}, {hi}] leaves the parameter's range {min} .. {max}"),
+                    ));
                 }
+                limits.push((name.clone(), lo, hi))
             }
             Ok(SearchRegion::Limits(limits))
         }

@@ -103,9 +103,11 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     if opts.restart && db.exists() {
         // Work of the old results still out (Slurm tasks) would go on writing into the run
         // folders.
-        let cancelled = executor::withdraw_all(&Store::open(&db, false)?)?;
-        if cancelled > 0 {
-            eprintln!("cancelled {cancelled} task(s) of the old results");
+        for (name, cancelled) in executor::withdraw_all(&Store::open(&db, false)?)? {
+            eprintln!(
+                "cancelled {cancelled} {} task(s) of the old results",
+                text::capitalised(name)
+            );
         }
         let aside = db.with_extension(format!(
             "db.old-{}",

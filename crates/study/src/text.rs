@@ -32,6 +32,14 @@ pub fn sig(v: f64) -> String {
     doe::fit::fmt_sig(v)
 }
 
+/// `name` with its first letter a capital, as a sentence names an executor (`slurm` → `Slurm`).
+pub fn capitalised(name: &str) -> String {
+    let mut c = name.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
+}
+
 /// Job ids in numeric order, each once, joined by commas.
 pub fn job_list<'s>(ids: impl Iterator<Item = &'s str>) -> String {
     let set: BTreeSet<(usize, &str)> = ids.map(|i| (i.len(), i)).collect();

@@ -48,11 +48,17 @@ macro_rules! executors {
             None
         }
 
-        /// Every executor's [`ExecutorDef::withdraw`]: the total taken back.
-        pub fn withdraw_all(store: &Store) -> Result<usize, String> {
-            let mut n = 0;
-            $(n += <$module::$ty as ExecutorDef>::withdraw(store)?;)*
-            Ok(n)
+        /// Every executor's [`ExecutorDef::withdraw`]: what each took back, by executor name
+        /// (those that took back nothing left out).
+        pub fn withdraw_all(store: &Store) -> Result<Vec<(&'static str, usize)>, String> {
+            let mut taken = Vec::new();
+            $(
+                let n = <$module::$ty as ExecutorDef>::withdraw(store)?;
+                if n > 0 {
+                    taken.push((<$module::$ty as ExecutorDef>::NAME, n));
+                }
+            )*
+            Ok(taken)
         }
 
         /// Every executor's [`ExecutorDef::status_lines`].

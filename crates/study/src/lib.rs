@@ -15,6 +15,7 @@ pub mod curve_compare;
 mod curve_report;
 mod design_stages;
 pub mod executor;
+pub mod file;
 pub mod job;
 pub mod lab_curve;
 pub mod limits;

@@ -8,31 +8,13 @@ use std::path::{Path, PathBuf};
 
 use doe::Scale;
 
-use crate::paths::{number, ParamPath};
+use crate::file::{keys_of, ImportEntry, ParameterEntry, ScaleName, StudyFile};
+use crate::paths::ParamPath;
 use crate::plan::parse_plan;
 use crate::spec::{test_label, Import, Parameter, Study, TestSpec};
 use crate::target::{parse_objective, parse_target, Target, TestOutputs};
 use virtual_tests::file::one_line;
 
-/// The keys of a study file's top level.
-pub(crate) const STUDY_KEYS: &[&str] = &[
-    "name",
-    "seed",
-    "test",
-    "parameter",
-    "target",
-    "plan",
-    "run_time_limit_s",
-    "import",
-    "objective",
-    "backend",
-    "executor",
-];
-/// The keys of a `[[parameter]]`.
-pub(crate) const PARAMETER_KEYS: &[&str] =
-    &["name", "path", "paths", "min", "max", "scale", "unit"];
-/// The keys of an `[[import]]`.
-pub(crate) const IMPORT_KEYS: &[&str] = &["study", "parameter", "path", "paths"];
 /// The keys of a `[[test]]` beside the test's own content given inline.
 pub(crate) const TEST_KEYS: &[&str] = &["name", "file"];
 
@@ -40,17 +22,17 @@ pub(crate) const TEST_KEYS: &[&str] = &["name", "file"];
 /// accepts, so that the reference is checked against the code.
 pub fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
     let mut v = vec![
-        ("study file".to_string(), STUDY_KEYS.to_vec()),
+        ("study file".to_string(), keys_of::<StudyFile>()),
         ("[[test]]".to_string(), TEST_KEYS.to_vec()),
-        ("[[parameter]]".to_string(), PARAMETER_KEYS.to_vec()),
-        ("[[import]]".to_string(), IMPORT_KEYS.to_vec()),
+        ("[[parameter]]".to_string(), keys_of::<ParameterEntry>()),
+        ("[[import]]".to_string(), keys_of::<ImportEntry>()),
         (
             "[target]".to_string(),
             [crate::target::TARGET_KEYS, crate::lab_curve::CURVE_KEYS].concat(),
         ),
         (
             "[objective]".to_string(),
-            crate::target::OBJECTIVE_KEYS.to_vec(),
+            keys_of::<crate::file::ObjectiveEntry>(),
         ),
     ];
     for stage in crate::plan::STAGE_NAMES {
@@ -82,45 +64,22 @@ impl Study {
         let err = |key: &str, msg: String| format!("{file}: {key}: {msg}");
         let doc: toml::Table =
             toml::from_str(text).map_err(|e| format!("{file}: {}", one_line(&e.to_string())))?;
-        for k in doc.keys() {
-            if !STUDY_KEYS.contains(&k.as_str()) {
-                return Err(err(
-                    k,
-                    format!("unknown key (expected {})", STUDY_KEYS.join(", ")),
-                ));
-            }
-        }
-        let name = match doc.get("name") {
-            None => path
-                .file_stem()
+        let raw: StudyFile =
+            crate::file::read("", toml::Value::Table(doc)).map_err(|(k, m)| err(&k, m))?;
+        let name = raw.name.clone().unwrap_or_else(|| {
+            path.file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "study".into()),
-            Some(toml::Value::String(s)) => s.clone(),
-            Some(_) => return Err(err("name", "expected a string".into())),
-        };
-        let seed = match doc.get("seed") {
-            None => 1,
-            Some(toml::Value::Integer(s)) if *s >= 0 => *s as u64,
-            Some(_) => return Err(err("seed", "expected a whole number >= 0".into())),
-        };
-        let run_time_limit_s = match doc.get("run_time_limit_s") {
-            None => None,
-            Some(v) => Some(
-                number(v)
-                    .filter(|t| *t > 0.0)
-                    .ok_or_else(|| err("run_time_limit_s", "expected seconds > 0".into()))?,
-            ),
-        };
-
-        let backend = match doc.get("backend") {
+                .unwrap_or_else(|| "study".into())
+        });
+        let seed = raw.seed.unwrap_or(1);
+        let run_time_limit_s = raw.run_time_limit_s;
+        let backend = match &raw.backend {
             None => "cpu".to_string(),
-            Some(toml::Value::String(b)) if dem::sim::BACKEND_NAMES.contains(&b.as_str()) => {
-                b.clone()
-            }
-            Some(v) => {
+            Some(b) if dem::sim::BACKEND_NAMES.contains(&b.as_str()) => b.clone(),
+            Some(b) => {
                 return Err(err(
                     "backend",
-                    format!("expected {}, got {v}", dem::sim::backend_choices()),
+                    format!("expected {}, got \"{b}\"", dem::sim::backend_choices()),
                 ))
             }
         };
@@ -128,8 +87,8 @@ impl Study {
         // The tests: a path to a test file, the test file's content inline, or several
         // [[test]] tables, each with a name and a file or the content inline.
         let dir = path.parent().unwrap_or(Path::new(""));
-        let mut tests = parse_tests(&doc, dir, &err)?;
-        let imports = parse_imports(&doc, dir, &mut tests, &err)?;
+        let mut tests = parse_tests(raw.test.as_ref(), dir, &err)?;
+        let imports = parse_imports(raw.import.as_deref().unwrap_or(&[]), dir, &mut tests, &err)?;
         let mut outputs = Vec::new();
         for t in &tests {
             let name = test_label(&file, &tests, t);
@@ -141,16 +100,14 @@ impl Study {
         // A study without parameters only validates: the values another study calibrated
         // ([[import]]) on a test of its own, as seed 000 validates its shear calibration by
         // three-point bending.
-        let validates_only = matches!(doc.get("plan"), Some(toml::Value::Array(a))
+        let validates_only = matches!(&raw.plan, Some(toml::Value::Array(a))
         if !a.is_empty() && a.iter().all(|s| {
             s.as_str().or_else(|| s.get("stage").and_then(|v| v.as_str())) == Some("validate")
         }));
-        let none = Vec::new();
-        let list = match doc.get("parameter") {
-            Some(toml::Value::Array(a)) if !a.is_empty() => a,
-            Some(_) => return Err(err("parameter", "expected [[parameter]] tables".into())),
-            None if validates_only => &none,
-            None => {
+        let list = match raw.parameter.as_deref() {
+            Some(a) if !a.is_empty() => a,
+            _ if validates_only => &[],
+            _ => {
                 return Err(err(
                     "parameter",
                     "missing: give at least one [[parameter]] with name, path, min and max (a study without parameters can only validate: plan = [\"validate\"], with the calibrated values from [[import]])".into(),
@@ -160,45 +117,16 @@ impl Study {
         let mut parameters: Vec<Parameter> = Vec::new();
         for (i, p) in list.iter().enumerate() {
             let key = format!("parameter[{i}]");
-            let t = p
-                .as_table()
-                .ok_or_else(|| err(&key, "expected a table".into()))?;
-            for k in t.keys() {
-                if !PARAMETER_KEYS.contains(&k.as_str()) {
-                    return Err(err(
-                        &format!("{key}.{k}"),
-                        "unknown key (expected name, path or paths, min, max, scale, unit)".into(),
-                    ));
-                }
-            }
-            let name = t
-                .get("name")
-                .and_then(|v| v.as_str())
-                .ok_or_else(|| err(&format!("{key}.name"), "missing (expected a string)".into()))?
-                .to_string();
+            let name = p.name.clone();
             if parameters.iter().any(|q| q.name == name) {
                 return Err(err(
                     &format!("{key}.name"),
                     format!("\"{name}\" is given twice"),
                 ));
             }
-            let paths = read_paths(t, &key, &tests, &err)?;
-            let get = |k: &str| -> Result<(f64, Option<dem::units::Dimension>), String> {
-                let v = t.get(k).ok_or_else(|| {
-                    err(&format!("{key}.{k}"), "missing (expected a number)".into())
-                })?;
-                match (number(v), v.as_str()) {
-                    (Some(x), _) => Ok((x, None)),
-                    (None, Some(s)) => dem::units::parse(s)
-                        .map(|(x, d)| (x, Some(d)))
-                        .map_err(|e| err(&format!("{key}.{k}"), e)),
-                    _ => Err(err(
-                        &format!("{key}.{k}"),
-                        "expected a number, or a string with a unit (\"1 MPa\")".into(),
-                    )),
-                }
-            };
-            let ((min, min_unit), (max, max_unit)) = (get("min")?, get("max")?);
+            let paths = read_paths(p.path.as_ref(), p.paths.as_deref(), &key, &tests, &err)?;
+            let (min, min_unit) = (p.min.value, p.min.dimension);
+            let (max, max_unit) = (p.max.value, p.max.dimension);
             if min_unit != max_unit {
                 let says = |u: Option<dem::units::Dimension>| {
                     u.map_or("a plain number", dem::units::Dimension::describe)
@@ -232,15 +160,9 @@ impl Study {
                     format!("the range {min} .. {max} is too narrow: values are kept to 12 significant digits, so give a range wider than a millionth of its values"),
                 ));
             }
-            let scale = match t.get("scale").map(|v| v.as_str()) {
-                None | Some(Some("linear")) => Scale::Linear,
-                Some(Some("log")) => Scale::Log,
-                _ => {
-                    return Err(err(
-                        &format!("{key}.scale"),
-                        "expected \"linear\" or \"log\"".into(),
-                    ))
-                }
+            let scale = match p.scale {
+                ScaleName::Linear => Scale::Linear,
+                ScaleName::Log => Scale::Log,
             };
             if scale == Scale::Log && min <= 0.0 {
                 return Err(err(
@@ -248,16 +170,7 @@ impl Study {
                     format!("a log-scale parameter needs min > 0, got {min}"),
                 ));
             }
-            let unit = match t.get("unit") {
-                None => None,
-                Some(toml::Value::String(u)) => Some(u.clone()),
-                Some(_) => {
-                    return Err(err(
-                        &format!("{key}.unit"),
-                        "expected a string, e.g. \"kg/m³\" or \"-\" for none".into(),
-                    ))
-                }
-            };
+            let unit = p.unit.clone();
             // Values are kept (and shown) in the base unit of a range given with a unit; a
             // label of another unit would show 1e6 as "1e6 MPa".
             if let (Some(d), Some(u)) = (min_unit, unit.as_deref()) {
@@ -284,7 +197,7 @@ impl Study {
         }
 
         // Targets: one [target], or several [[target]] tables combined as [objective] says.
-        let combine = parse_objective(&doc, &err)?;
+        let combine = parse_objective(raw.objective.as_ref(), &err)?;
         let seen: Vec<TestOutputs> = tests
             .iter()
             .zip(&outputs)
@@ -294,7 +207,7 @@ impl Study {
                 outputs,
             })
             .collect();
-        let tables: Vec<(String, &toml::Table)> = match doc.get("target") {
+        let tables: Vec<(String, &toml::Table)> = match &raw.target {
             Some(toml::Value::Table(t)) => vec![("target".to_string(), t)],
             Some(toml::Value::Array(a)) if !a.is_empty() => a
                 .iter()
@@ -373,8 +286,8 @@ impl Study {
             .iter()
             .map(|p| (p.name.clone(), p.min, p.max))
             .collect();
-        let plan = parse_plan(&doc, &err, &ranges)?;
-        let executor = crate::executor::parse_executor(&doc, dir, &err)?;
+        let plan = parse_plan(raw.plan.as_ref(), &err, &ranges)?;
+        let executor = crate::executor::parse_executor(raw.executor.as_ref(), dir, &err)?;
 
         let study = Study {
             path: path.to_path_buf(),
@@ -491,7 +404,7 @@ fn read_test(
 /// `test = "file.toml"`, an inline `[test]`, or `[[test]]` tables with `name` and `file` (or
 /// the test's content inline).
 fn parse_tests(
-    doc: &toml::Table,
+    test: Option<&toml::Value>,
     dir: &Path,
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Vec<TestSpec>, String> {
@@ -501,7 +414,7 @@ fn parse_tests(
             .unwrap_or("test")
             .to_string()
     };
-    match doc.get("test") {
+    match test {
         None => Err(err(
             "test",
             "missing (a test file's path, e.g. test = \"repose.toml\", an inline [test] table, or [[test]] tables with name and file)".into(),
@@ -585,44 +498,22 @@ fn parse_tests(
 /// calibrated values) and `path` or `paths` (where the value goes in this study's test). The
 /// value is read from the other study's `report/summary.json`, which `demcal run` writes.
 fn parse_imports(
-    doc: &toml::Table,
+    list: &[ImportEntry],
     dir: &Path,
     tests: &mut [TestSpec],
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Vec<Import>, String> {
-    let list = match doc.get("import") {
-        None => return Ok(Vec::new()),
-        Some(toml::Value::Array(a)) => a,
-        Some(_) => {
-            return Err(err(
-                "import",
-                "expected [[import]] tables with study, parameter and path".into(),
-            ))
-        }
-    };
     let mut imports = Vec::new();
-    for (i, item) in list.iter().enumerate() {
+    for (i, entry) in list.iter().enumerate() {
         let key = format!("import[{i}]");
-        let t = item
-            .as_table()
-            .ok_or_else(|| err(&key, "expected a table".into()))?;
-        for k in t.keys() {
-            if !IMPORT_KEYS.contains(&k.as_str()) {
-                return Err(err(
-                    &format!("{key}.{k}"),
-                    "unknown key (expected study, parameter, path or paths)".into(),
-                ));
-            }
-        }
-        let text = |k: &str| -> Result<String, String> {
-            t.get(k)
-                .and_then(|v| v.as_str())
-                .map(String::from)
-                .ok_or_else(|| err(&format!("{key}.{k}"), "missing (expected a string)".into()))
-        };
-        let study = text("study")?;
-        let parameter = text("parameter")?;
-        let paths = read_paths(t, &key, tests, err)?;
+        let (study, parameter) = (entry.study.clone(), entry.parameter.clone());
+        let paths = read_paths(
+            entry.path.as_ref(),
+            entry.paths.as_deref(),
+            &key,
+            tests,
+            err,
+        )?;
         let study_path = dir.join(&study);
         let other_dir = study_path
             .parent()
@@ -690,18 +581,15 @@ fn parse_imports(
 /// `path = "..."` or `paths = [...]` of a `[[parameter]]` or `[[import]]` table `key`, each parsed
 /// and checked to reach a number in at least one of the tests; with each, the tests it reaches.
 fn read_paths(
-    t: &toml::Table,
+    path: Option<&String>,
+    paths: Option<&[String]>,
     key: &str,
     tests: &[TestSpec],
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Vec<(ParamPath, Vec<usize>)>, String> {
-    let texts: Vec<String> = match (t.get("path"), t.get("paths")) {
-        (Some(toml::Value::String(s)), None) => vec![s.clone()],
-        (None, Some(toml::Value::Array(a))) if !a.is_empty() => a
-            .iter()
-            .map(|v| v.as_str().map(String::from))
-            .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| err(&format!("{key}.paths"), "expected a list of strings".into()))?,
+    let texts: Vec<String> = match (path, paths) {
+        (Some(s), None) => vec![s.clone()],
+        (None, Some(a)) if !a.is_empty() => a.to_vec(),
         (Some(_), Some(_)) => {
             return Err(err(
                 &format!("{key}.path"),

@@ -13,12 +13,12 @@ pub use crate::stage::{stage_keys, stage_list, Stage, STAGE_NAMES};
 pub use crate::limits::*;
 
 pub(crate) fn parse_plan(
-    doc: &toml::Table,
+    plan: Option<&toml::Value>,
     err: &dyn Fn(&str, String) -> String,
     params: &[(String, f64, f64)],
 ) -> Result<Vec<Arc<dyn Stage>>, String> {
     let stages = stage_list();
-    let items = match doc.get("plan") {
+    let items = match plan {
         None => {
             return Err(err(
                 "plan",

@@ -20,6 +20,7 @@ use doe::optimize::{Criterion, Goal};
 use serde::{Deserialize, Serialize};
 
 use crate::curve::CURVE_RESPONSES;
+use crate::file::{CombineName, ObjectiveEntry};
 use crate::lab_curve::{CurveTarget, CURVE_KEYS};
 use crate::paths::number;
 
@@ -232,35 +233,18 @@ impl Term {
 
 /// Reads `[objective]`: how several targets are combined.
 pub fn parse_objective(
-    doc: &toml::Table,
+    objective: Option<&toml::Value>,
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Option<Combine>, String> {
-    let Some(v) = doc.get("objective") else {
+    let Some(v) = objective else {
         return Ok(None);
     };
-    let t = v
-        .as_table()
-        .ok_or_else(|| err("objective", "expected a table with combine".into()))?;
-    for k in t.keys() {
-        if !OBJECTIVE_KEYS.contains(&k.as_str()) {
-            return Err(err(
-                &format!("objective.{k}"),
-                "unknown key (expected combine)".into(),
-            ));
-        }
-    }
-    match t.get("combine").map(|v| v.as_str()) {
-        Some(Some("weighted")) => Ok(Some(Combine::Weighted)),
-        Some(Some("desirability")) => Ok(Some(Combine::Desirability)),
-        None => Err(err(
-            "objective.combine",
-            "missing (expected \"weighted\" or \"desirability\")".into(),
-        )),
-        Some(_) => Err(err(
-            "objective.combine",
-            "expected \"weighted\" or \"desirability\"".into(),
-        )),
-    }
+    let entry: ObjectiveEntry =
+        crate::file::read("objective", v.clone()).map_err(|(k, m)| err(&k, m))?;
+    Ok(Some(match entry.combine {
+        CombineName::Weighted => Combine::Weighted,
+        CombineName::Desirability => Combine::Desirability,
+    }))
 }
 
 /// A test as targets see it: its name in the study and what it can give.
@@ -285,7 +269,6 @@ pub(crate) const TARGET_KEYS: &[&str] = &[
     "high",
 ];
 /// The keys of `[objective]`.
-pub(crate) const OBJECTIVE_KEYS: &[&str] = &["combine"];
 
 pub fn parse_target(
     t: &toml::Table,

@@ -262,6 +262,30 @@ fn invalid_study_files_name_the_key() {
             BOWL.replace("seed = 3", "seed = 3\njobs = 2"),
             "jobs: unknown key",
         ),
+        // Read through serde (`study::file`): its messages in the same words.
+        (
+            BOWL.replace("seed = 3", "seed = -3"),
+            "seed: expected a whole number >= 0, got -3",
+        ),
+        (
+            BOWL.replace("min = 0.1\nmax = 0.9", "minimum = 0.1\nmax = 0.9"),
+            "parameter[1].minimum: unknown key (expected name, path, paths, min, max, scale, unit)",
+        ),
+        (
+            BOWL.replace("min = 0.1\nmax = 0.9", "max = 0.9"),
+            "parameter[1].min: missing",
+        ),
+        (
+            BOWL.replace("min = 0.1\nmax = 0.9", "min = true\nmax = 0.9"),
+            "parameter[1].min: expected a number, or a string with a unit such as \"3 mm\", got boolean true",
+        ),
+        (
+            BOWL.replace(
+                "name = \"d\"\npath = \"function.variables.d\"",
+                "name = \"d\"\npath = \"function.variables.d\"\nscale = \"logarithmic\"",
+            ),
+            "parameter[3].scale: expected \"linear\" or \"log\", got \"logarithmic\"",
+        ),
         (
             BOWL.replace(
                 "plan = [\"screening\",",

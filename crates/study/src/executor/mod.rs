@@ -86,11 +86,11 @@ fn names(sep: &str) -> String {
 
 /// Reads `[executor]` (absent: the default, this machine).
 pub fn parse_executor(
-    doc: &toml::Table,
+    executor: Option<&toml::Value>,
     dir: &Path,
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Arc<dyn Executor>, String> {
-    let t = match doc.get("executor") {
+    let t = match executor {
         None => return Ok(defaults_of(EXECUTOR_NAMES[0]).expect("the default is registered")),
         Some(toml::Value::Table(t)) => t,
         Some(_) => {

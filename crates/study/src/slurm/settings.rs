@@ -330,9 +330,11 @@ mod tests {
 
     fn parse(text: &str) -> Result<ExecutorSpec, String> {
         let doc: toml::Table = toml::from_str(text).unwrap();
-        let e = crate::executor::parse_executor(&doc, Path::new("/studies"), &|k, m| {
-            format!("s.toml: {k}: {m}")
-        })?;
+        let e = crate::executor::parse_executor(
+            doc.get("executor"),
+            Path::new("/studies"),
+            &|k, m| format!("s.toml: {k}: {m}"),
+        )?;
         Ok(match e.as_any().downcast_ref::<Slurm>() {
             Some(Slurm(s)) => ExecutorSpec::Slurm(Box::new(s.clone())),
             None => ExecutorSpec::Local,

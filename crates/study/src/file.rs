@@ -63,6 +63,141 @@ pub struct ObjectiveEntry {
     pub combine: CombineName,
 }
 
+/// A `[target]` (or one of several `[[target]]`): the lab value of one of a test's responses, or
+/// the lab's curves to compare the test's curve with (the curve keys, `curve` to `length_m`), and
+/// how it weighs against the other targets.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetEntry {
+    pub response: Option<String>,
+    pub value: Option<Number>,
+    pub replicates: Option<Vec<Number>>,
+    pub unit: Option<String>,
+    pub test: Option<String>,
+    pub weight: Option<Number>,
+    pub importance: Option<Whole>,
+    pub low: Option<Number>,
+    pub high: Option<Number>,
+    pub curve: Option<String>,
+    pub lab_curves: Option<FileNames>,
+    pub normalisation: Option<NormalisationName>,
+    pub area_m2: Option<Number>,
+    pub length_m: Option<Number>,
+}
+
+impl TargetEntry {
+    /// Whether key `k` is given.
+    pub fn given(&self, k: &str) -> bool {
+        match k {
+            "response" => self.response.is_some(),
+            "value" => self.value.is_some(),
+            "replicates" => self.replicates.is_some(),
+            "unit" => self.unit.is_some(),
+            "test" => self.test.is_some(),
+            "weight" => self.weight.is_some(),
+            "importance" => self.importance.is_some(),
+            "low" => self.low.is_some(),
+            "high" => self.high.is_some(),
+            "curve" => self.curve.is_some(),
+            "lab_curves" => self.lab_curves.is_some(),
+            "normalisation" => self.normalisation.is_some(),
+            "area_m2" => self.area_m2.is_some(),
+            "length_m" => self.length_m.is_some(),
+            _ => false,
+        }
+    }
+}
+
+/// How simulated and lab curves are scaled before they are compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NormalisationName {
+    None,
+    LabPeak,
+    StressStrain,
+}
+
+/// A number (TOML's integers too), named so in errors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Number(pub f64);
+
+impl<'de> Deserialize<'de> for Number {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl de::Visitor<'_> for V {
+            type Value = Number;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Number, E> {
+                Ok(Number(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Number, E> {
+                Ok(Number(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Number, E> {
+                Ok(Number(v as f64))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A whole number, named so in errors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Whole(pub i64);
+
+impl<'de> Deserialize<'de> for Whole {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl de::Visitor<'_> for V {
+            type Value = Whole;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a whole number")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Whole, E> {
+                Ok(Whole(v))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Whole, E> {
+                i64::try_from(v)
+                    .map(Whole)
+                    .map_err(|_| E::custom(format!("{v} is too large")))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A file name or a non-empty list of them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileNames(pub Vec<String>);
+
+impl<'de> Deserialize<'de> for FileNames {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> de::Visitor<'de> for V {
+            type Value = FileNames;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a CSV file name or a non-empty list of them")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<FileNames, E> {
+                Ok(FileNames(vec![v.to_string()]))
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(self, mut a: A) -> Result<FileNames, A::Error> {
+                let mut names = Vec::new();
+                while let Some(n) = a.next_element::<String>()? {
+                    names.push(n);
+                }
+                if names.is_empty() {
+                    return Err(de::Error::invalid_length(0, &self));
+                }
+                Ok(FileNames(names))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ScaleName {
@@ -138,19 +273,36 @@ fn explain(at: &str, message: &str) -> (String, String) {
             let expected = expected
                 .trim_start_matches(", expected one of ")
                 .trim_start_matches(", expected ");
-            let choices = expected.replace('`', "\"");
+            let choices = or_list(&expected.replace('`', "\""));
             return (at.to_string(), format!("expected {choices}, got \"{got}\""));
         }
     }
-    for lead in ["invalid type: ", "invalid value: "] {
+    for lead in ["invalid type: ", "invalid value: ", "invalid length "] {
         if let Some(rest) = msg.strip_prefix(lead) {
             if let Some((got, expected)) = rest.rsplit_once(", expected ") {
-                let got = got.replace('`', "");
+                // A derived struct expects "struct ParameterEntry": in a file, a table.
+                let expected = if expected.starts_with("struct ") {
+                    "a table"
+                } else {
+                    expected
+                };
+                let mut got = got.replace('`', "");
+                if lead == "invalid length " {
+                    got = format!("{got} entries");
+                }
                 return (at.to_string(), format!("expected {expected}, got {got}"));
             }
         }
     }
     (at.to_string(), msg)
+}
+
+/// `a, b, c` as `a, b or c`.
+fn or_list(list: &str) -> String {
+    match list.rsplit_once(", ") {
+        Some((head, last)) => format!("{head} or {last}"),
+        None => list.to_string(),
+    }
 }
 
 /// The keys the struct `T` reads, in its order, as serde's derive lists them.
@@ -195,6 +347,11 @@ mod tests {
         assert!(
             m.starts_with("unknown key (expected name, seed, test, "),
             "{m}"
+        );
+        let (k, m) = top("parameter = [3]").unwrap_err();
+        assert_eq!(
+            (k.as_str(), m.as_str()),
+            ("parameter[0]", "expected a table, got integer 3")
         );
         let (k, m) = top("seed = -1").unwrap_err();
         assert_eq!(

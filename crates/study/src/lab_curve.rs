@@ -9,14 +9,14 @@
 use std::path::Path;
 
 use crate::curve::{self, Comparison, Curve, Measures, Normalisation, COMPARE_POINTS};
-use crate::paths::number;
+use crate::file::{FileNames, NormalisationName, Number, TargetEntry};
 
 /// Most data rows a lab file may have.
 pub const MAX_ROWS: usize = 1_000_000;
 /// Most replicate columns a lab file may have.
 pub const MAX_COLUMNS: usize = 1000;
 
-/// The keys of `[target]` that only a curve target takes.
+/// The keys of `[target]` that only a curve target takes (`file::TargetEntry` reads them).
 pub const CURVE_KEYS: &[&str] = &[
     "curve",
     "lab_curves",
@@ -82,65 +82,41 @@ impl CurveTarget {
     /// Reads the curve keys of `[target]` (None without `curve`); lab files are taken relative
     /// to `dir`. `err` makes the one-line error for a key.
     pub fn parse(
-        t: &toml::Table,
+        t: &TargetEntry,
         dir: &Path,
         err: &dyn Fn(&str, String) -> String,
     ) -> Result<Option<CurveTarget>, String> {
-        let curve = match t.get("curve") {
-            None => {
-                if let Some(k) = CURVE_KEYS.iter().find(|k| t.contains_key(**k)) {
-                    return Err(err(
-                        &format!("target.{k}"),
-                        "only with target.curve (the test's curve to compare, e.g. curve = \"force_displacement\")".into(),
-                    ));
-                }
-                return Ok(None);
-            }
-            Some(toml::Value::String(s)) => s.clone(),
-            Some(_) => {
+        let Some(curve) = t.curve.clone() else {
+            if let Some(k) = CURVE_KEYS.iter().find(|k| t.given(k)) {
                 return Err(err(
-                    "target.curve",
-                    "expected the name of the test's curve, e.g. \"force_displacement\"".into(),
-                ))
+                    &format!("target.{k}"),
+                    "only with target.curve (the test's curve to compare, e.g. curve = \"force_displacement\")".into(),
+                ));
             }
+            return Ok(None);
         };
-        let files: Vec<String> = match t.get("lab_curves") {
-            Some(toml::Value::String(s)) => vec![s.clone()],
-            Some(toml::Value::Array(a)) if !a.is_empty() => a
-                .iter()
-                .map(|v| v.as_str().map(String::from))
-                .collect::<Option<Vec<_>>>()
-                .ok_or_else(|| {
-                    err("target.lab_curves", "expected a list of file names".into())
-                })?,
-            Some(_) => {
-                return Err(err(
-                    "target.lab_curves",
-                    "expected a CSV file name or a non-empty list of them".into(),
-                ))
-            }
-            None => {
-                return Err(err(
-                    "target.lab_curves",
-                    "missing: the lab's force-displacement CSV file(s), e.g. lab_curves = [\"lab/shear_1.csv\"]".into(),
-                ))
-            }
+        let Some(FileNames(files)) = t.lab_curves.clone() else {
+            return Err(err(
+                "target.lab_curves",
+                "missing: the lab's force-displacement CSV file(s), e.g. lab_curves = [\"lab/shear_1.csv\"]".into(),
+            ));
         };
-        let positive = |k: &str| -> Result<Option<f64>, String> {
-            t.get(k)
-                .map(|v| {
-                    number(v)
-                        .filter(|a| a.is_finite() && *a > 0.0)
-                        .ok_or_else(|| err(&format!("target.{k}"), "expected a number > 0".into()))
-                })
-                .transpose()
+        let positive = |k: &str, v: Option<Number>| -> Result<Option<f64>, String> {
+            v.map(|Number(a)| {
+                (a.is_finite() && a > 0.0)
+                    .then_some(a)
+                    .ok_or_else(|| err(&format!("target.{k}"), "expected a number > 0".into()))
+            })
+            .transpose()
         };
-        let (area, length) = (positive("area_m2")?, positive("length_m")?);
-        const NORMS: &str = "\"none\", \"lab_peak\" or \"stress_strain\"";
-        let normalisation = match t.get("normalisation").map(|v| v.as_str()) {
-            Some(Some("none")) => Normalisation::None,
-            Some(Some("lab_peak")) => Normalisation::LabPeak,
-            Some(Some("stress_strain")) => match (area, length) {
+        let (area, length) = (
+            positive("area_m2", t.area_m2)?,
+            positive("length_m", t.length_m)?,
+        );
+        let normalisation = match t.normalisation {
+            Some(NormalisationName::None) => Normalisation::None,
+            Some(NormalisationName::LabPeak) => Normalisation::LabPeak,
+            Some(NormalisationName::StressStrain) => match (area, length) {
                 (Some(area_m2), Some(length_m)) => Normalisation::StressStrain { area_m2, length_m },
                 (None, _) => return Err(err(
                     "target.area_m2",
@@ -151,21 +127,15 @@ impl CurveTarget {
                     "missing: stress_strain divides the displacement by the specimen's length (m)".into(),
                 )),
             },
-            Some(_) => {
-                return Err(err(
-                    "target.normalisation",
-                    format!("expected {NORMS}"),
-                ))
-            }
             None => {
                 return Err(err(
                     "target.normalisation",
-                    format!("missing: how curves are scaled before they are compared ({NORMS})"),
+                    "missing: how curves are scaled before they are compared (\"none\", \"lab_peak\" or \"stress_strain\")".into(),
                 ))
             }
         };
         if !matches!(normalisation, Normalisation::StressStrain { .. }) {
-            if let Some(k) = ["area_m2", "length_m"].iter().find(|k| t.contains_key(**k)) {
+            if let Some(k) = ["area_m2", "length_m"].iter().find(|k| t.given(k)) {
                 return Err(err(
                     &format!("target.{k}"),
                     "only with normalisation = \"stress_strain\"".into(),
@@ -503,6 +473,8 @@ mod tests {
         let err = |k: &str, m: String| format!("s.toml: {k}: {m}");
         let parse = |text: &str| {
             let t: toml::Table = toml::from_str(text).unwrap();
+            let t: TargetEntry =
+                crate::file::read("target", toml::Value::Table(t)).map_err(|(k, m)| err(&k, m))?;
             CurveTarget::parse(&t, &d, &err)
         };
         assert_eq!(parse("value = 3").unwrap(), None);

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use doe::Scale;
 
-use crate::file::{keys_of, ImportEntry, ParameterEntry, ScaleName, StudyFile};
+use crate::file::{keys_of, ImportEntry, ParameterEntry, ScaleName, StudyFile, TargetEntry};
 use crate::paths::ParamPath;
 use crate::plan::parse_plan;
 use crate::spec::{test_label, Import, Parameter, Study, TestSpec};
@@ -26,10 +26,7 @@ pub fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
         ("[[test]]".to_string(), TEST_KEYS.to_vec()),
         ("[[parameter]]".to_string(), keys_of::<ParameterEntry>()),
         ("[[import]]".to_string(), keys_of::<ImportEntry>()),
-        (
-            "[target]".to_string(),
-            [crate::target::TARGET_KEYS, crate::lab_curve::CURVE_KEYS].concat(),
-        ),
+        ("[target]".to_string(), keys_of::<TargetEntry>()),
         (
             "[objective]".to_string(),
             keys_of::<crate::file::ObjectiveEntry>(),
@@ -207,17 +204,13 @@ impl Study {
                 outputs,
             })
             .collect();
-        let tables: Vec<(String, &toml::Table)> = match &raw.target {
-            Some(toml::Value::Table(t)) => vec![("target".to_string(), t)],
+        let tables: Vec<(String, &toml::Value)> = match &raw.target {
+            Some(t @ toml::Value::Table(_)) => vec![("target".to_string(), t)],
             Some(toml::Value::Array(a)) if !a.is_empty() => a
                 .iter()
                 .enumerate()
-                .map(|(i, v)| {
-                    v.as_table()
-                        .map(|t| (format!("target[{i}]"), t))
-                        .ok_or_else(|| err(&format!("target[{i}]"), "expected a table".into()))
-                })
-                .collect::<Result<_, _>>()?,
+                .map(|(i, v)| (format!("target[{i}]"), v))
+                .collect(),
             Some(_) => {
                 return Err(err(
                     "target",
@@ -232,6 +225,12 @@ impl Study {
                 ))
             }
         };
+        let entries = tables
+            .iter()
+            .map(|(key, v)| {
+                crate::file::read::<TargetEntry>(key, (*v).clone()).map_err(|(k, m)| err(&k, m))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         let combine = match (tables.len(), combine) {
             (1, Some(_)) => {
                 return Err(err(
@@ -250,7 +249,8 @@ impl Study {
         };
         let targets = tables
             .iter()
-            .map(|(key, t)| parse_target(t, key, &seen, combine, dir, &err))
+            .zip(&entries)
+            .map(|((key, _), t)| parse_target(t, key, &seen, combine, dir, &err))
             .collect::<Result<Vec<_>, _>>()?;
         for (i, a) in targets.iter().enumerate() {
             for b in &targets[..i] {

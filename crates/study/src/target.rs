@@ -20,9 +20,10 @@ use doe::optimize::{Criterion, Goal};
 use serde::{Deserialize, Serialize};
 
 use crate::curve::CURVE_RESPONSES;
+use crate::file::TargetEntry;
 use crate::file::{CombineName, ObjectiveEntry};
-use crate::lab_curve::{CurveTarget, CURVE_KEYS};
-use crate::paths::number;
+use crate::file::{Number, Whole};
+use crate::lab_curve::CurveTarget;
 
 /// The lab value (or curve) a test's response is compared with.
 #[derive(Clone, Debug)]
@@ -256,43 +257,16 @@ pub struct TestOutputs<'a> {
 
 /// Reads one target table, `key` (`target` or `target[i]`). `combine` is how the study combines
 /// its targets (None for a single target); `dir` is where lab curve files are taken from.
-/// The keys of a `[target]` (besides a curve target's, [`CURVE_KEYS`]).
-pub(crate) const TARGET_KEYS: &[&str] = &[
-    "response",
-    "value",
-    "replicates",
-    "unit",
-    "test",
-    "weight",
-    "importance",
-    "low",
-    "high",
-];
-/// The keys of `[objective]`.
-
 pub fn parse_target(
-    t: &toml::Table,
+    t: &TargetEntry,
     key: &str,
     tests: &[TestOutputs],
     combine: Option<Combine>,
     dir: &Path,
     err: &dyn Fn(&str, String) -> String,
 ) -> Result<Target, String> {
-    const KEYS: &[&str] = TARGET_KEYS;
-    for k in t.keys() {
-        if !KEYS.contains(&k.as_str()) && !CURVE_KEYS.contains(&k.as_str()) {
-            return Err(err(
-                &format!("{key}.{k}"),
-                format!(
-                    "unknown key (expected {}, {})",
-                    KEYS.join(", "),
-                    CURVE_KEYS.join(", ")
-                ),
-            ));
-        }
-    }
     let only = |k: &str, with: Option<Combine>, what: &str| -> Result<(), String> {
-        if t.contains_key(k) && combine != with {
+        if t.given(k) && combine != with {
             return Err(err(&format!("{key}.{k}"), what.into()));
         }
         Ok(())
@@ -311,7 +285,7 @@ pub fn parse_target(
     for k in ["importance", "low", "high"] {
         only(k, Some(Combine::Desirability), desirability)?;
     }
-    let test = match t.get("test") {
+    let test = match &t.test {
         None if tests.len() == 1 => 0,
         None => {
             return Err(err(
@@ -323,23 +297,15 @@ pub fn parse_target(
                 ),
             ))
         }
-        Some(toml::Value::String(s)) => {
-            tests.iter().position(|x| x.name == s).ok_or_else(|| {
-                err(
-                    &format!("{key}.test"),
-                    format!(
-                        "\"{s}\" is not a test of the study (expected {})",
-                        names(tests)
-                    ),
-                )
-            })?
-        }
-        Some(_) => {
-            return Err(err(
+        Some(s) => tests.iter().position(|x| x.name == s).ok_or_else(|| {
+            err(
                 &format!("{key}.test"),
-                format!("expected a test's name ({})", names(tests)),
-            ))
-        }
+                format!(
+                    "\"{s}\" is not a test of the study (expected {})",
+                    names(tests)
+                ),
+            )
+        })?,
     };
     let TestOutputs { kind, outputs, .. } = tests[test];
     // The curve keys' errors name this target's key.
@@ -357,7 +323,7 @@ pub fn parse_target(
             ));
         }
     }
-    let response = match t.get("response") {
+    let response = match &t.response {
         None if curve.is_some() => "curve_mse".to_string(),
         None => outputs
             .first()
@@ -368,19 +334,15 @@ pub fn parse_target(
                 )
             })?
             .to_string(),
-        Some(toml::Value::String(r)) if outputs.contains(&r.as_str()) => r.clone(),
-        Some(toml::Value::String(r))
-            if curve.is_some() && CURVE_RESPONSES.contains(&r.as_str()) =>
-        {
-            r.clone()
-        }
-        Some(toml::Value::String(r)) if CURVE_RESPONSES.contains(&r.as_str()) => {
+        Some(r) if outputs.contains(&r.as_str()) => r.clone(),
+        Some(r) if curve.is_some() && CURVE_RESPONSES.contains(&r.as_str()) => r.clone(),
+        Some(r) if CURVE_RESPONSES.contains(&r.as_str()) => {
             return Err(err(
                 &format!("{key}.response"),
                 format!("{r} compares the test's curve with the lab's: give {key}.curve, {key}.lab_curves and {key}.normalisation"),
             ))
         }
-        Some(v) => {
+        Some(r) => {
             let mut expected = outputs.to_vec();
             if curve.is_some() {
                 expected.extend(CURVE_RESPONSES);
@@ -388,7 +350,7 @@ pub fn parse_target(
             return Err(err(
                 &format!("{key}.response"),
                 format!(
-                    "{v} is not an outcome of {kind} (expected one of: {})",
+                    "\"{r}\" is not an outcome of {kind} (expected one of: {})",
                     expected.join(", ")
                 ),
             ));
@@ -396,21 +358,21 @@ pub fn parse_target(
     };
     let minimised = response == "curve_mse";
     if minimised {
-        if let Some(k) = ["value", "replicates"].iter().find(|k| t.contains_key(**k)) {
+        if let Some(k) = ["value", "replicates"].iter().find(|k| t.given(k)) {
             return Err(err(
                 &format!("{key}.{k}"),
                 "curve_mse is minimised (its target is 0): give no value".into(),
             ));
         }
     }
-    let replicates: Vec<f64> = match (t.get("replicates"), &curve) {
+    let replicates: Vec<f64> = match (&t.replicates, &curve) {
         (None, Some(c)) if CURVE_RESPONSES.contains(&response.as_str()) => {
             c.replicate_measures(&response)
         }
         (None, _) => Vec::new(),
-        (Some(toml::Value::Array(a)), _) => a
+        (Some(a), _) => a
             .iter()
-            .map(|v| number(v).filter(|x| x.is_finite()))
+            .map(|&Number(v)| v.is_finite().then_some(v))
             .collect::<Option<Vec<_>>>()
             .ok_or_else(|| {
                 err(
@@ -418,17 +380,10 @@ pub fn parse_target(
                     "expected a list of finite numbers".into(),
                 )
             })?,
-        (Some(_), _) => {
-            return Err(err(
-                &format!("{key}.replicates"),
-                "expected a list of numbers".into(),
-            ))
-        }
     };
-    let value = match t.get("value") {
+    let value = match t.value {
         None if minimised => 0.0,
-        Some(v) => number(v)
-            .ok_or_else(|| err(&format!("{key}.value"), "expected a number".into()))?,
+        Some(Number(v)) => v,
         None if !replicates.is_empty() => replicates.iter().sum::<f64>() / replicates.len() as f64,
         None if curve.is_some() && CURVE_RESPONSES.contains(&response.as_str()) => {
             return Err(err(
@@ -449,8 +404,8 @@ pub fn parse_target(
             format!("expected a non-zero number (relative errors divide by it), got {value}"),
         ));
     }
-    let unit = match (t.get("unit").and_then(|v| v.as_str()), &curve) {
-        (Some(u), _) => u.to_string(),
+    let unit = match (&t.unit, &curve) {
+        (Some(u), _) => u.clone(),
         (None, Some(c)) => c.normalisation.unit_of(&response),
         (None, None) => String::new(),
     };
@@ -473,7 +428,7 @@ pub fn parse_target(
 
 /// The weight, importance and limits of a target.
 fn parse_term(
-    t: &toml::Table,
+    t: &TargetEntry,
     key: &str,
     test: usize,
     response: &str,
@@ -498,15 +453,19 @@ fn parse_term(
         }
         _ => 1.0,
     };
-    let weight = match t.get("weight") {
+    let weight = match t.weight {
         None => 1.0,
-        Some(v) => number(v)
-            .filter(|w| *w > 0.0 && w.is_finite())
-            .ok_or_else(|| err(&format!("{key}.weight"), "expected a number > 0".into()))?,
+        Some(Number(w)) if w > 0.0 && w.is_finite() => w,
+        Some(_) => {
+            return Err(err(
+                &format!("{key}.weight"),
+                "expected a number > 0".into(),
+            ))
+        }
     };
-    let importance = match t.get("importance") {
+    let importance = match t.importance {
         None => 3,
-        Some(toml::Value::Integer(i)) if (1..=5).contains(i) => *i as u8,
+        Some(Whole(i)) if (1..=5).contains(&i) => i as u8,
         Some(_) => {
             return Err(err(
                 &format!("{key}.importance"),
@@ -514,27 +473,26 @@ fn parse_term(
             ))
         }
     };
-    let limit = |k: &str| -> Result<Option<f64>, String> {
-        t.get(k)
-            .map(|v| {
-                number(v)
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| err(&format!("{key}.{k}"), "expected a number".into()))
-            })
-            .transpose()
+    let limit = |k: &str, v: Option<Number>| -> Result<Option<f64>, String> {
+        v.map(|Number(x)| {
+            x.is_finite()
+                .then_some(x)
+                .ok_or_else(|| err(&format!("{key}.{k}"), "expected a finite number".into()))
+        })
+        .transpose()
     };
     // By default a target is worth nothing 50 % away from the lab value; a curve when its
     // relative error reaches 50 %.
     let (low, high) = if minimised {
-        (0.0, limit("high")?.unwrap_or(0.25 * curve_scale))
+        (0.0, limit("high", t.high)?.unwrap_or(0.25 * curve_scale))
     } else {
         let half = 0.5 * value.abs();
         (
-            limit("low")?.unwrap_or(value - half),
-            limit("high")?.unwrap_or(value + half),
+            limit("low", t.low)?.unwrap_or(value - half),
+            limit("high", t.high)?.unwrap_or(value + half),
         )
     };
-    if minimised && t.contains_key("low") {
+    if minimised && t.given("low") {
         return Err(err(
             &format!("{key}.low"),
             "a curve MSE is best at 0: give only high, the MSE at which it is worth nothing".into(),

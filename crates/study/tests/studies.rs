@@ -287,6 +287,14 @@ fn invalid_study_files_name_the_key() {
             "parameter[3].scale: expected \"linear\" or \"log\", got \"logarithmic\"",
         ),
         (
+            BOWL.replace("[target]\nvalue = 30.0", "[target]\nvalue = \"thirty\""),
+            "target.value: expected a number, got string \"thirty\"",
+        ),
+        (
+            BOWL.replace("[target]\nvalue = 30.0", "[target]\nvalu = 30.0"),
+            "target.valu: unknown key (expected response, value, replicates, unit, test, weight, importance, low, high, curve, lab_curves, normalisation, area_m2, length_m)",
+        ),
+        (
             BOWL.replace(
                 "plan = [\"screening\",",
                 "plan = [{ stage = \"screening\", center_points = 1000000000 },",

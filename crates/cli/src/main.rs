@@ -110,7 +110,7 @@ enum Command {
     /// Run (or resume) a calibration study: every stage of its plan, the runs stored in
     /// <study>.db next to it, then the report in report/ next to it.
     #[command(
-        after_help = "Example:\n  demcal run examples/quickstart/study.toml --jobs 2\n  demcal run cluster-study.toml --executor slurm --jobs 50"
+        after_help = "Example:\n  demcal run examples/quickstart/study.toml --jobs 2\n  demcal run cluster-study.toml --executor slurm --jobs 50\n\nExit status: 0 finished; 1 stopped (a stage could not go on; see the report) or failed; 2 the study file (or a file or test it names) is wrong, nothing ran; 75 another demcal run holds the study's store, nothing ran; 130 Ctrl-C, finished runs kept (run the same command to go on)."
     )]
     Run {
         /// The study file (TOML: tests, parameters, target, plan; see docs/reference.md).
@@ -449,7 +449,15 @@ fn main() -> ExitCode {
             restart,
             retry_failed,
             backend,
-        } => run_study(&study, jobs, executor, restart, retry_failed, backend),
+        } => match run_study(&study, jobs, executor, restart, retry_failed, backend) {
+            // The exit status says what kind of end it was (a study file to fix, a store another
+            // run holds, Ctrl-C), for scripts that act on it.
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(e.exit_code());
+            }
+            Ok(()) => Ok(()),
+        },
         Command::RunOne {
             job,
             record,
@@ -520,7 +528,7 @@ fn run_study(
     restart: bool,
     retry_failed: bool,
     backend: Option<String>,
-) -> Result<(), String> {
+) -> Result<(), study::RunStudyError> {
     // Where the runs are made says what --jobs means: runs at once here, or what the executor
     // makes of it elsewhere (a Slurm array's throttle). A study that does not load fails in
     // study::run with its own message.

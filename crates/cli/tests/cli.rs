@@ -561,7 +561,8 @@ fn a_killed_study_resumes_without_losing_or_repeating_runs() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&second.stderr);
-    assert_eq!(second.status.code(), Some(1), "{err}");
+    // 75, EX_TEMPFAIL: a script may try again later.
+    assert_eq!(second.status.code(), Some(75), "{err}");
     assert_eq!(
         err.trim_end(),
         format!(
@@ -624,6 +625,51 @@ fn a_killed_study_resumes_without_losing_or_repeating_runs() {
     assert_eq!(col(&results_rows(&whole)), col(&after));
 }
 
+/// Ctrl-C (SIGINT) mid-study: the runs finished so far are kept, the message says how to go on,
+/// and the exit status is 130, as the shell reports an interrupted command.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_study_exits_130_and_keeps_its_runs() {
+    let dir = temp_dir("study-int");
+    let path = dir.join("study.toml");
+    std::fs::write(&path, slow_bowl()).unwrap();
+    let child = demcal()
+        .args([
+            "run".as_ref(),
+            path.as_os_str(),
+            "--jobs".as_ref(),
+            "2".as_ref(),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !dir.join("study.db").exists() && t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("interrupted: ") && err.contains("run the same command again to go on"),
+        "{err}"
+    );
+    // The store is whole and the study goes on from it.
+    let out = demcal()
+        .args(["status".as_ref(), path.as_os_str()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("state: "));
+}
+
 #[test]
 fn study_errors_are_one_line() {
     let dir = temp_dir("study-error");
@@ -633,7 +679,8 @@ fn study_errors_are_one_line() {
         .args(["run".as_ref(), path.as_os_str()])
         .output()
         .unwrap();
-    assert!(!out.status.success());
+    // 2: a study file to fix, nothing ran.
+    assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(
@@ -645,7 +692,7 @@ fn study_errors_are_one_line() {
         .args(["run".as_ref(), path.as_os_str()])
         .output()
         .unwrap();
-    assert!(!out.status.success());
+    assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(

@@ -14,6 +14,7 @@ pub mod curve;
 pub mod curve_compare;
 mod curve_report;
 mod design_stages;
+pub mod error;
 pub mod executor;
 pub mod file;
 pub mod job;
@@ -47,6 +48,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
+pub use error::{LockError, RunStudyError};
 pub use job::Job;
 pub use run_error::{RunError, RunErrorKind};
 pub use spec::Study;
@@ -71,9 +73,14 @@ pub struct RunOptions {
     pub executor: Option<String>,
 }
 
-/// Runs (or resumes) a study, then writes its report. Returns what to print.
-pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Result<String, String> {
-    let mut study = Study::load(path)?;
+/// Runs (or resumes) a study, then writes its report. Returns what to print; the error says
+/// why it ended without finishing, typed as the caller may act on it ([`RunStudyError`]).
+pub fn run(
+    path: &Path,
+    opts: &RunOptions,
+    interrupted: Arc<AtomicBool>,
+) -> Result<String, RunStudyError> {
+    let mut study = Study::load(path).map_err(RunStudyError::StudyFile)?;
     let executor = executor::chosen(&study, opts.executor.as_deref())?;
     let (executor, jobs) = if opts.jobs_given || executor.on_this_machine() {
         executor.with_jobs(opts.jobs)?
@@ -100,7 +107,7 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     let _lock = store::StoreLock::acquire(&db)?;
     // The first run's scene, built now: a test that cannot even be set up fails before any
     // store or run exists.
-    study.check_scene()?;
+    study.check_scene().map_err(RunStudyError::StudyFile)?;
     if opts.restart && db.exists() {
         // Work of the old results still out (Slurm tasks) would go on writing into the run
         // folders.
@@ -132,11 +139,22 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     }
     let stored = store.runs()?;
     let started = std::time::Instant::now();
-    let (outcome, closing) = executor.run(&study, &mut store, &stored, jobs, interrupted)?;
+    // An executor stops on Ctrl-C with the number of runs it kept; that is no failure of the
+    // study.
+    let ended = |e: String| {
+        if interrupted.load(std::sync::atomic::Ordering::SeqCst) {
+            RunStudyError::Interrupted(e)
+        } else {
+            RunStudyError::Other(e)
+        }
+    };
+    let (outcome, closing) = executor
+        .run(&study, &mut store, &stored, jobs, interrupted.clone())
+        .map_err(ended)?;
     if let Some(line) = closing {
         eprintln!("{line}");
     }
-    let replay = outcome?;
+    let replay = outcome.map_err(ended)?;
     store.set_meta("last_study_text", &study.text)?;
     let dir = report::write(&study, &replay, &store.runs()?, None)?;
     let mut out = status_text(&study, &replay);
@@ -148,7 +166,10 @@ pub fn run(path: &Path, opts: &RunOptions, interrupted: Arc<AtomicBool>) -> Resu
     )
     .unwrap();
     match &replay.state {
-        State::Stopped(why) => Err(format!("{out}{}: {why}", study.path.display())),
+        State::Stopped(why) => Err(RunStudyError::Stopped(format!(
+            "{out}{}: {why}",
+            study.path.display()
+        ))),
         _ => Ok(out),
     }
 }

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use rusqlite::{params, Connection, OptionalExtension};
 
+use crate::error::LockError;
 use crate::run_error::RunErrorKind;
 
 /// How a finished run ended.
@@ -338,7 +339,7 @@ impl StoreLock {
         PathBuf::from(name)
     }
 
-    pub fn acquire(store: &Path) -> Result<StoreLock, String> {
+    pub fn acquire(store: &Path) -> Result<StoreLock, LockError> {
         let path = StoreLock::path_for(store);
         let me = std::process::id();
         // Two tries: the second after removing a stale lock.
@@ -354,7 +355,9 @@ impl StoreLock {
                     // login node, where this process id means nothing.
                     f.write_all(format!("{me}\n{}\n", machine_name()).as_bytes())
                         .and_then(|_| f.sync_all())
-                        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+                        .map_err(|e| {
+                            LockError::Io(format!("{}: cannot write: {e}", path.display()))
+                        })?;
                     return Ok(StoreLock { path });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
@@ -362,11 +365,11 @@ impl StoreLock {
                     let host = text.lines().nth(1).map(str::trim).unwrap_or("");
                     if !host.is_empty() && !same_machine(host, &machine_name()) {
                         let pid = text.lines().next().unwrap_or("?").trim();
-                        return Err(format!(
+                        return Err(LockError::Held(format!(
                             "{}: the study is being run by process {pid} on {host} (lock file {}); stop it there, or if it no longer runs, remove that file",
                             store.display(),
                             path.display()
-                        ));
+                        )));
                     }
                     match text.lines().next().and_then(|l| l.trim().parse::<u32>().ok()) {
                         Some(pid) if pid != me && !process_exists(pid) => {
@@ -374,29 +377,34 @@ impl StoreLock {
                             let _ = std::fs::remove_file(&path);
                         }
                         Some(pid) => {
-                            return Err(format!(
+                            return Err(LockError::Held(format!(
                                 "{}: the study is being run by process {pid} (lock file {}); wait for it to end, or stop it",
                                 store.display(),
                                 path.display()
-                            ))
+                            )))
                         }
                         // Being written this instant, or not ours to read.
                         None => {
-                            return Err(format!(
+                            return Err(LockError::Held(format!(
                                 "{}: the study is being run by another process (lock file {}); if no demcal run is going, remove that file",
                                 store.display(),
                                 path.display()
-                            ))
+                            )))
                         }
                     }
                 }
-                Err(e) => return Err(format!("{}: cannot create: {e}", path.display())),
+                Err(e) => {
+                    return Err(LockError::Io(format!(
+                        "{}: cannot create: {e}",
+                        path.display()
+                    )))
+                }
             }
         }
-        Err(format!(
+        Err(LockError::Held(format!(
             "{}: cannot take the lock: another process took it over at the same moment",
             path.display()
-        ))
+        )))
     }
 }
 

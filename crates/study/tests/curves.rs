@@ -94,6 +94,7 @@ fn run(path: &Path) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
+    .map_err(|e| e.to_string())
 }
 
 #[test]

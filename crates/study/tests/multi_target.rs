@@ -83,6 +83,7 @@ fn run_study(dir: &Path, text: &str) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
+    .map_err(|e| e.to_string())
 }
 
 #[test]

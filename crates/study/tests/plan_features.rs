@@ -23,6 +23,7 @@ fn run_study(dir: &Path, text: &str) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
+    .map_err(|e| e.to_string())
 }
 
 /// value = 30 + 20 a (+ a trace of b), a and b in 0 .. 1. The CCD keeps its axial points

@@ -71,6 +71,7 @@ fn run(path: &Path, jobs: usize) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
+    .map_err(|e| e.to_string())
 }
 
 #[test]
@@ -361,7 +362,12 @@ fn runs_over_the_time_limit_fail_and_an_interrupt_stores_nothing() {
         Arc::new(AtomicBool::new(true)),
     )
     .unwrap_err();
-    assert!(e.contains("interrupted: 0 finished runs"), "{e}");
+    // Typed, so that the command line exits 130 and a script can tell it from a failure.
+    assert!(matches!(e, study::RunStudyError::Interrupted(_)), "{e:?}");
+    assert!(
+        e.to_string().contains("interrupted: 0 finished runs"),
+        "{e}"
+    );
     assert!(study::status(&path)
         .unwrap()
         .contains("2 runs: 0 done, 0 failed, 2 pending"));
@@ -650,7 +656,10 @@ fn the_store_is_locked_while_a_study_runs() {
         std::process::id(),
         lock_file.display()
     );
-    assert_eq!(study::store::StoreLock::acquire(&db).unwrap_err(), busy);
+    assert_eq!(
+        study::store::StoreLock::acquire(&db).unwrap_err(),
+        study::LockError::Held(busy.clone())
+    );
     // `demcal run` takes the same lock before anything else; nothing is stored.
     assert_eq!(run(&path, 1).unwrap_err(), busy);
     assert!(!db.exists());
@@ -674,11 +683,11 @@ fn the_store_is_locked_while_a_study_runs() {
     std::fs::write(&lock_file, format!("{pid}\nanother-login-node\n")).unwrap();
     assert_eq!(
         study::store::StoreLock::acquire(&db).unwrap_err(),
-        format!(
+        study::LockError::Held(format!(
             "{}: the study is being run by process {pid} on another-login-node (lock file {}); stop it there, or if it no longer runs, remove that file",
             db.display(),
             lock_file.display()
-        )
+        ))
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -63,6 +63,7 @@ fn run_study(dir: &Path, text: &str) -> Result<String, String> {
         },
         Arc::new(AtomicBool::new(false)),
     )
+    .map_err(|e| e.to_string())
 }
 
 fn calibrated(s: &serde_json::Value, name: &str) -> f64 {

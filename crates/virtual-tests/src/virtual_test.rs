@@ -30,17 +30,22 @@ pub enum Response {
 
 /// Why a run gave no outcome, typed so that a study can tell a bad setting from a diverged
 /// simulation. Each holds the one-line message (naming the file and the key where there is one).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum TestError {
     /// The settings, or the scene they make, were refused (before or while building).
+    #[error("{0}")]
     Settings(String),
     /// The simulation blew up: positions or velocities not finite.
+    #[error("{0}")]
     Diverged(String),
     /// A particle left the simulation domain.
+    #[error("{0}")]
     Escaped(String),
     /// The run finished but the measurement could not be made (or its pictures not written).
+    #[error("{0}")]
     Measurement(String),
     /// The progress callback stopped the run (an interrupt, a time limit): its message.
+    #[error("{0}")]
     Stopped(String),
 }
 
@@ -56,14 +61,6 @@ impl TestError {
         }
     }
 }
-
-impl std::fmt::Display for TestError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.message())
-    }
-}
-
-impl std::error::Error for TestError {}
 
 /// Untyped errors inside a test's run come from setting it up (the scene its settings make, a
 /// geometry it looks for): measurement failures and stops are typed where they happen.

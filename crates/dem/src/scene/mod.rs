@@ -38,25 +38,22 @@ pub const MAX_STEPS: u64 = 10_000_000_000;
 /// against it before anything is allocated.
 pub const MAX_SPHERES: usize = 10_000_000;
 
-/// A scene problem: `file: key: message`.
-#[derive(Clone, Debug, PartialEq)]
+/// A scene problem: `file: key: message` (`file: message` where no key is to blame).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}: {}{message}", key_and_colon(.key))]
 pub struct SceneError {
     pub file: String,
     pub key: String,
     pub message: String,
 }
 
-impl std::fmt::Display for SceneError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.key.is_empty() {
-            write!(f, "{}: {}", self.file, self.message)
-        } else {
-            write!(f, "{}: {}: {}", self.file, self.key, self.message)
-        }
+fn key_and_colon(key: &str) -> String {
+    if key.is_empty() {
+        String::new()
+    } else {
+        format!("{key}: ")
     }
 }
-
-impl std::error::Error for SceneError {}
 
 /// Output settings of a scene.
 #[derive(Clone, Debug)]

@@ -55,50 +55,28 @@ impl Default for SimulationParams {
     }
 }
 
-/// Why a running simulation was stopped.
-#[derive(Clone, Debug, PartialEq)]
+/// Why a running simulation was stopped. A study stores each kind as its own failure
+/// (`RunErrorKind`), so the variants are what callers tell apart.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SimError {
-    NotFinite {
-        time: f64,
-        particle: u32,
-    },
+    #[error(
+        "simulation diverged at t = {time:.6} s: particle {particle} has a non-finite position or \
+         velocity (time step too large for the stiffness, or overlapping start)"
+    )]
+    NotFinite { time: f64, particle: u32 },
+    #[error(
+        "particle {particle} left the simulation domain at t = {time:.6} s (at [{:.4}, {:.4}, {:.4}] m)",
+        .position.x, .position.y, .position.z
+    )]
     LeftDomain {
         time: f64,
         particle: u32,
         position: DVec3,
     },
     /// A step extension stopped the run (bonds that cannot form, say): its one-line reason.
-    Extension {
-        time: f64,
-        message: String,
-    },
+    #[error("stopped at t = {time:.6} s: {message}")]
+    Extension { time: f64, message: String },
 }
-
-impl std::fmt::Display for SimError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            SimError::NotFinite { time, particle } => write!(
-                f,
-                "simulation diverged at t = {time:.6} s: particle {particle} has a non-finite position or \
-                 velocity (time step too large for the stiffness, or overlapping start)"
-            ),
-            SimError::LeftDomain {
-                time,
-                particle,
-                position,
-            } => write!(
-                f,
-                "particle {particle} left the simulation domain at t = {time:.6} s (at [{:.4}, {:.4}, {:.4}] m)",
-                position.x, position.y, position.z
-            ),
-            SimError::Extension { time, message } => {
-                write!(f, "stopped at t = {time:.6} s: {message}")
-            }
-        }
-    }
-}
-
-impl std::error::Error for SimError {}
 
 /// Wall time spent in each stage of the step, LAMMPS-style.
 #[derive(Clone, Debug, Default)]

@@ -279,7 +279,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
                 st.pending(),
                 if st.complete { "" } else { " (in progress)" }
             ),
-            Some(st) if st.complete => format!("{} solution(s)", st.solutions.len()),
+            Some(st) if st.complete => format!("{} solution(s)", st.solutions().len()),
             _ => "waiting for the stages before it".to_string(),
         };
         writeln!(s, "  {}. {:<10} {line}", i + 1, stage.kind()).unwrap();
@@ -292,7 +292,7 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
                     .collect();
                 writeln!(s, "     going on: {}", names.join(", ")).unwrap();
             }
-            if let Some(v) = &st.validation {
+            if let Some(v) = st.validation() {
                 writeln!(
                     s,
                     "     validation: {} = {}{} over {} runs{}",

@@ -99,24 +99,11 @@ pub struct StageResult {
     /// The model the stage fitted (reduced when asked), and the full one before reduction.
     pub fit: Option<Fit>,
     pub full_fit: Option<Fit>,
-    pub solutions: Vec<Solution>,
-    /// Optimize: for each factor (coded, in `active` order), the stretch around the first
-    /// solution over which the desirability stays within [`EQUALLY_GOOD`] of its best, the
-    /// other factors held: the whole range for a factor the model does not determine.
-    pub equally_good: Vec<(f64, f64)>,
-    /// Optimize in a desirability study: each target's model, in the study's order (the
-    /// solutions' predicted responses follow it).
-    pub target_fits: Vec<Fit>,
     /// Optimize and validate: every parameter's value at the calibrated point.
     pub calibrated: Option<Vec<f64>>,
-    pub validation: Option<Validation>,
-    /// Validate: which of the optimisation's solutions was validated and calibrated (0: the
-    /// first; another only with `candidates`).
-    pub chosen_solution: usize,
-    /// What a surrogate stage (bayesopt, ga_bp, smc) fitted and found.
-    pub surrogate: Option<SurrogateOutcome>,
-    /// What a stage found in a type of its own (a sweep's fitted curve and inversion): read
-    /// with [`StageResult::outcome`].
+    /// What the stage found, in its own type (`OptimizeOutcome`, `ValidateOutcome`,
+    /// `SurrogateOutcome`, `SweepOutcome`, ...): set with [`StageResult::set_outcome`], read with
+    /// [`StageResult::outcome`] or the accessors below.
     pub outcome: Option<Arc<dyn Any + Send + Sync>>,
     pub notes: Vec<String>,
     pub complete: bool,
@@ -135,13 +122,7 @@ impl StageResult {
             records: Vec::new(),
             fit: None,
             full_fit: None,
-            solutions: Vec::new(),
-            equally_good: Vec::new(),
-            target_fits: Vec::new(),
             calibrated: None,
-            validation: None,
-            chosen_solution: 0,
-            surrogate: None,
             outcome: None,
             notes: Vec::new(),
             complete: false,
@@ -185,6 +166,58 @@ impl StageResult {
     /// The stage's own outcome, when it is a `T`.
     pub fn outcome<T: Any>(&self) -> Option<&T> {
         self.outcome.as_deref()?.downcast_ref::<T>()
+    }
+
+    /// Sets what the stage found.
+    pub fn set_outcome<T: Any + Send + Sync>(&mut self, outcome: T) {
+        self.outcome = Some(Arc::new(outcome));
+    }
+
+    /// Takes back what the stage found so far, to add to it (an iterative stage's rounds);
+    /// None, and the outcome left alone, when it is not a `T`.
+    pub fn take_outcome<T: Any + Clone + Send + Sync>(&mut self) -> Option<T> {
+        let found = self.outcome.take()?;
+        match found.downcast::<T>() {
+            Ok(t) => Some(Arc::unwrap_or_clone(t)),
+            Err(other) => {
+                self.outcome = Some(other);
+                None
+            }
+        }
+    }
+
+    /// Optimize: the solutions, best first (none for another stage).
+    pub fn solutions(&self) -> &[Solution] {
+        self.outcome::<OptimizeOutcome>()
+            .map_or(&[], |o| o.solutions.as_slice())
+    }
+
+    /// Optimize: each factor's equally good stretch ([`OptimizeOutcome::equally_good`]).
+    pub fn equally_good(&self) -> &[(f64, f64)] {
+        self.outcome::<OptimizeOutcome>()
+            .map_or(&[], |o| o.equally_good.as_slice())
+    }
+
+    /// Optimize in a desirability study: each target's model ([`OptimizeOutcome::target_fits`]).
+    pub fn target_fits(&self) -> &[Fit] {
+        self.outcome::<OptimizeOutcome>()
+            .map_or(&[], |o| o.target_fits.as_slice())
+    }
+
+    /// Validate: the validation of the calibrated point.
+    pub fn validation(&self) -> Option<&Validation> {
+        self.outcome::<ValidateOutcome>()?.validation.as_ref()
+    }
+
+    /// Validate: which of the optimisation's solutions was validated (0: the first).
+    pub fn chosen_solution(&self) -> usize {
+        self.outcome::<ValidateOutcome>()
+            .map_or(0, |o| o.chosen_solution)
+    }
+
+    /// A surrogate stage (bayesopt, ga_bp, smc): what it fitted and found.
+    pub fn surrogate(&self) -> Option<&SurrogateOutcome> {
+        self.outcome::<SurrogateOutcome>()
     }
 
     /// Screening: the parameters that go on (none for another stage).
@@ -421,6 +454,30 @@ pub enum SearchRegion {
     Axial,
     /// Limits in the parameters' own units, by name; a factor not named keeps ±1.
     Limits(Vec<(String, f64, f64)>),
+}
+
+/// What optimize found.
+#[derive(Clone, Debug, Default)]
+pub struct OptimizeOutcome {
+    /// The solutions, best first.
+    pub solutions: Vec<Solution>,
+    /// For each factor (coded, in `active` order), the stretch around the first solution over
+    /// which the desirability stays within [`EQUALLY_GOOD`] of its best, the other factors held:
+    /// the whole range for a factor the model does not determine.
+    pub equally_good: Vec<(f64, f64)>,
+    /// In a desirability study: each target's model, in the study's order (the solutions'
+    /// predicted responses follow it).
+    pub target_fits: Vec<Fit>,
+}
+
+/// What validate found.
+#[derive(Clone, Debug, Default)]
+pub struct ValidateOutcome {
+    /// The validation of the calibrated point (None when too few runs finished).
+    pub validation: Option<Validation>,
+    /// Which of the optimisation's solutions was validated and calibrated (0: the first;
+    /// another only with `candidates`).
+    pub chosen_solution: usize,
 }
 
 impl SearchRegion {

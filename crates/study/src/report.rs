@@ -159,7 +159,7 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> (String, Figures) {
         )
         .unwrap();
     }
-    let validation = r.stages.iter().rev().find_map(|s| s.validation.clone());
+    let validation = r.stages.iter().rev().find_map(|s| s.validation().cloned());
     let failed = stored.iter().filter(|x| x.status == Status::Failed).count();
     let wall: f64 = stored.iter().map(|x| x.wall_s).sum();
     h.push_str("<div class=\"cards\">");

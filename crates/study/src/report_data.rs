@@ -133,7 +133,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             .map(|(p, x)| (p.name.clone(), json!(x)))
             .collect::<serde_json::Map<_, _>>()
     });
-    let validation = r.stages.iter().rev().find_map(|s| s.validation.clone());
+    let validation = r.stages.iter().rev().find_map(|s| s.validation().cloned());
     let state = match &r.state {
         State::Complete => "complete".to_string(),
         State::Pending { stage } => format!("pending at stage {}", stage + 1),
@@ -181,7 +181,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         "validation_std": validation.as_ref().and_then(|v| v.std),
         "validation_runs": validation.as_ref().map(|v| v.runs),
         // Which of the optimisation's solutions the validation chose (1: the first).
-        "validation_solution": r.stages.iter().rev().find(|s| s.validation.is_some()).map(|s| s.chosen_solution + 1),
+        "validation_solution": r.stages.iter().rev().find(|s| s.validation().is_some()).map(|s| s.chosen_solution() + 1),
         "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
         "objective": targets_report::summary(study, validation.as_ref()),
         "runs_made": where_ran(stored),
@@ -203,7 +203,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             "selected": s.selected().iter().map(|&i| study.parameters[i].name.clone()).collect::<Vec<_>>(),
             "best_step": s.best_step().map(|b| b + 1),
             "model": s.fit.as_ref().map(|f| f.to_json()),
-            "solutions": s.solutions,
+            "solutions": s.solutions(),
             "notes": s.notes,
             });
             if let Some((key, value)) = crate::surrogate_report::stage_json(study, s) {

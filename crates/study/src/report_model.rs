@@ -46,22 +46,22 @@ pub(crate) fn optimum_after<'a>(
     stages
         .iter()
         .skip(st.index + 1)
-        .find(|s| s.kind == "optimize" && s.target_fits.is_empty() && !s.solutions.is_empty())
+        .find(|s| s.kind == "optimize" && s.target_fits().is_empty() && !s.solutions().is_empty())
 }
 
 /// The model's 95 % prediction interval at the validated solution of the last optimisation (the
 /// first, unless a validation of several candidates chose another).
 pub(crate) fn interval_at_optimum(stages: &[StageResult]) -> Option<(Interval, &StageResult)> {
     let at = stages.iter().rposition(|s| {
-        s.kind == "optimize" && s.target_fits.is_empty() && !s.solutions.is_empty()
+        s.kind == "optimize" && s.target_fits().is_empty() && !s.solutions().is_empty()
     })?;
     let st = &stages[at];
     let chosen = stages
         .get(at + 1)
         .filter(|s| s.kind == "validate")
-        .map_or(0, |v| v.chosen_solution);
+        .map_or(0, |v| v.chosen_solution());
     let fit = st.fit.as_ref()?;
-    let solution = st.solutions.get(chosen)?;
+    let solution = st.solutions().get(chosen)?;
     Some((fit.prediction_interval(&solution.coded, 0.95)?, st))
 }
 
@@ -116,7 +116,7 @@ pub(crate) fn rsm(
     let stage = st.index + 1;
     let k = fit.experiment.factor_names.len();
     let response = esc(&response_label(study));
-    let optimum = optimum_after(stages, st).map(|o| o.solutions[0].coded.clone());
+    let optimum = optimum_after(stages, st).map(|o| o.solutions()[0].coded.clone());
     let held = optimum.clone().unwrap_or_else(|| vec![0.0; k]);
     let target = (!study.target.minimised()).then(|| {
         (
@@ -315,7 +315,7 @@ pub(crate) fn optimize(
         breakable(&response_label(study))
     )
     .unwrap();
-    for (i, s) in st.solutions.iter().enumerate() {
+    for (i, s) in st.solutions().iter().enumerate() {
         write!(
             h,
             "<tr{}><td>{}</td>",
@@ -335,10 +335,10 @@ pub(crate) fn optimize(
         .unwrap();
     }
     h.push_str("</table></div>");
-    if !st.equally_good.is_empty() {
+    if !st.equally_good().is_empty() {
         h.push_str("<p>How far each factor can move from solution 1, the others held, with the desirability staying within ");
         write!(h, "{EQUALLY_GOOD} of its best:</p><ul>").unwrap();
-        for (j, &(lo, hi)) in st.equally_good.iter().enumerate() {
+        for (j, &(lo, hi)) in st.equally_good().iter().enumerate() {
             let Some(f) = st.factors.get(j) else { continue };
             let in_model = fit
                 .terms
@@ -362,7 +362,7 @@ pub(crate) fn optimize(
         }
         h.push_str("</ul>");
     }
-    if let Some(s) = st.solutions.first() {
+    if let Some(s) = st.solutions().first() {
         if let Some(pi) = fit.prediction_interval(&s.coded, 0.95) {
             write!(
                 h,

@@ -132,14 +132,14 @@ pub(crate) fn fates(study: &Study, r: &Replay) -> Vec<Fate> {
                 }
             }
         }
-        if st.kind == "optimize" && st.target_fits.is_empty() {
+        if st.kind == "optimize" && st.target_fits().is_empty() {
             let Some(fit) = &st.fit else { continue };
             for (j, &pi) in st.active.iter().enumerate() {
                 let in_model = fit
                     .terms
                     .iter()
                     .any(|t| t.powers.get(j).is_some_and(|&p| p > 0));
-                let Some(&(lo, hi)) = st.equally_good.get(j) else {
+                let Some(&(lo, hi)) = st.equally_good().get(j) else {
                     continue;
                 };
                 let actual = |c: f64| st.factors.get(j).map_or(c, |f| f.to_actual(c));

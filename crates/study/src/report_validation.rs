@@ -27,7 +27,7 @@ pub(crate) fn validation_html(
     } else {
         format!(" {}", t.unit)
     };
-    if let Some(v) = &st.validation {
+    if let Some(v) = st.validation() {
         let sim = match v.std {
             Some(sd) => format!(
                 "<b>{}{unit}</b> (mean ± SD over {} runs)",

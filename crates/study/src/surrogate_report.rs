@@ -30,7 +30,7 @@ pub fn stage_json(study: &Study, st: &StageResult) -> Option<(&'static str, serd
             .map(|&i| study.parameters[i].name.clone())
             .collect()
     };
-    match st.surrogate.as_ref()? {
+    match st.surrogate()? {
         SurrogateOutcome::BayesOpt(o) => Some((
             "bayesopt",
             json!({
@@ -120,7 +120,7 @@ pub(crate) fn stage_html(
     study: &Study,
     st: &StageResult,
 ) {
-    match &st.surrogate {
+    match st.surrogate() {
         Some(SurrogateOutcome::BayesOpt(o)) => bo_html(h, figs, study, st, o),
         Some(SurrogateOutcome::GaBp(o)) => ga_bp_html(h, figs, study, st, o),
         Some(SurrogateOutcome::Smc(o)) => smc_html(h, figs, study, st, o),

@@ -113,11 +113,11 @@ pub(crate) fn targets_section(h: &mut String, study: &Study, validation: Option<
 /// The optimise stage of a desirability study: each solution's predicted value and desirability
 /// of every target, and the overall desirability.
 pub(crate) fn optimize_table(h: &mut String, study: &Study, st: &StageResult) {
-    if st.target_fits.is_empty() {
+    if st.target_fits().is_empty() {
         return;
     }
     h.push_str("<p>Each target's model and its fit:</p><table><tr><th class=\"l\">response</th><th>R²</th><th>adj. R²</th><th>model p</th></tr>");
-    for f in &st.target_fits {
+    for f in st.target_fits() {
         write!(
             h,
             "<tr><td class=\"l\">{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td></tr>",
@@ -142,7 +142,7 @@ pub(crate) fn optimize_table(h: &mut String, study: &Study, st: &StageResult) {
         .unwrap();
     }
     h.push_str("<th>desirability D</th></tr>");
-    for (i, s) in st.solutions.iter().enumerate() {
+    for (i, s) in st.solutions().iter().enumerate() {
         write!(
             h,
             "<tr{}><td>{}</td>",

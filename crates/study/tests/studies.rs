@@ -619,7 +619,7 @@ fn done_runs_without_a_response_do_not_count() {
         })
         .collect();
     let r = study::replay(&study, &stored, None).unwrap();
-    assert!(r.stages[0].validation.is_none());
+    assert!(r.stages[0].validation().is_none());
     match &r.state {
         study::State::Stopped(why) => assert!(
             why.starts_with("stage 1 (validate): 0 of 2 runs finished with a response")
@@ -803,7 +803,7 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
     let r = study::replay(&study, &stored, None).unwrap();
     let optimum = &r.stages[1];
     let validation = &r.stages[2];
-    assert_eq!(optimum.solutions.len(), 3);
+    assert_eq!(optimum.solutions().len(), 3);
     assert_eq!(validation.runs.len(), 6);
     assert_eq!(validation.runs[3].label, "solution 2 replicate 2");
     // Each candidate's mean, the one nearest 30 chosen, and its point calibrated.
@@ -822,7 +822,7 @@ fn a_validation_of_several_candidates_calibrates_the_nearest() {
     let chosen = (0..3)
         .min_by(|&a, &b| (means[a] - 30.0).abs().total_cmp(&(means[b] - 30.0).abs()))
         .unwrap();
-    let v = validation.validation.as_ref().unwrap();
+    let v = validation.validation().unwrap();
     assert_eq!(v.runs, 2);
     assert!(
         (v.mean - means[chosen]).abs() < 1e-12,

@@ -102,7 +102,7 @@ impl Stage for BayesOpt {
             self.kernel.name()
         );
         push_runs(study, st, ctx, &coded, "hypercube");
-        st.surrogate = Some(SurrogateOutcome::BayesOpt(Box::new(BoOutcome {
+        st.set_outcome(SurrogateOutcome::BayesOpt(Box::new(BoOutcome {
             rounds: vec![n],
             history: Vec::new(),
             stop: None,
@@ -128,7 +128,7 @@ impl Stage for BayesOpt {
                 st.first_failure()
             ));
         }
-        let Some(SurrogateOutcome::BayesOpt(mut out)) = st.surrogate.take() else {
+        let Some(SurrogateOutcome::BayesOpt(mut out)) = st.take_outcome::<SurrogateOutcome>() else {
             return Err("internal: the bayesopt stage's rounds were not planned before it went on".into())
         };
         let iteration = out.rounds.len() - 1;
@@ -153,12 +153,12 @@ impl Stage for BayesOpt {
         out.gp = Some(proposal.gp.clone());
         if let Some(why) = stop {
             out.stop = Some(why);
-            st.surrogate = Some(SurrogateOutcome::BayesOpt(out));
+            st.set_outcome(SurrogateOutcome::BayesOpt(out));
             return Ok(false);
         }
         debug_assert_eq!(proposal.points.len(), q);
         out.rounds.push(proposal.points.len());
-        st.surrogate = Some(SurrogateOutcome::BayesOpt(out));
+        st.set_outcome(SurrogateOutcome::BayesOpt(out));
         push_runs(
             study,
             st,
@@ -176,7 +176,7 @@ impl Stage for BayesOpt {
         ctx: &mut Context,
     ) -> Result<(), String> {
         crate::design_stages::bracket_note(study, st);
-        let Some(SurrogateOutcome::BayesOpt(out)) = &st.surrogate else {
+        let Some(SurrogateOutcome::BayesOpt(out)) = st.surrogate() else {
             return Err("internal: the bayesopt stage concluded without its rounds".into())
         };
         let gp = out.gp.as_ref().ok_or("no Gaussian process was fitted")?;

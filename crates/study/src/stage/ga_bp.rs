@@ -260,7 +260,7 @@ impl Stage for GaBp {
             sig(predicted),
             study.target.unit
         ));
-        st.surrogate = Some(SurrogateOutcome::GaBp(Box::new(GaBpOutcome {
+        st.set_outcome(SurrogateOutcome::GaBp(Box::new(GaBpOutcome {
             source,
             x,
             y,

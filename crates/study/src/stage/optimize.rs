@@ -15,7 +15,7 @@ use crate::stage::table::{any_of, StageDef, StageTable};
 use crate::design_stages::target_fits;
 use crate::limits::MAX_SOLUTIONS;
 use crate::spec::{Combine, Study};
-use crate::record::{run_seed, Context, SearchRegion, StageResult};
+use crate::record::{run_seed, Context, OptimizeOutcome, SearchRegion, StageResult};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Optimize {
@@ -90,7 +90,7 @@ impl Stage for Optimize {
         let desirability = study.combine == Some(Combine::Desirability)
             && ctx.model_targets.len() == rows
             && rows > 0;
-        let (found, equally_good) = if desirability {
+        let (found, equally_good, target_fits) = if desirability {
             // Design-Expert's numerical optimisation: each response its own model, their
             // desirabilities combined.
             let fits = target_fits(
@@ -120,16 +120,14 @@ impl Stage for Optimize {
                 problem.solve(self.starts, run_seed(study.seed, st.index, 0), self.solutions)?;
             let ranges = equally_good(&problem, &found);
             drop(problem);
-            st.target_fits = fits;
-            (found, ranges)
+            (found, ranges, fits)
         } else {
             let problem = single_response_problem(study, &fit, bounds);
             let found =
                 problem.solve(self.starts, run_seed(study.seed, st.index, 0), self.solutions)?;
             let ranges = equally_good(&problem, &found);
-            (found, ranges)
+            (found, ranges, Vec::new())
         };
-        st.equally_good = equally_good;
 
         let best = found.first().ok_or("the search found no solution")?.clone();
         // Every solution as every parameter's value, for a validation of several.
@@ -150,7 +148,11 @@ impl Stage for Optimize {
         }
         st.active = active;
         st.factors = fit.experiment.factors.clone().unwrap_or_default();
-        st.solutions = found;
+        st.set_outcome(OptimizeOutcome {
+            solutions: found,
+            equally_good,
+            target_fits,
+        });
         st.fit = Some(fit);
         ctx.calibrated = Some(point.clone());
         ctx.chosen_solution = 0;
@@ -159,7 +161,7 @@ impl Stage for Optimize {
     }
 
     fn report(&self, s: &mut Section<'_>) {
-        if !s.st.target_fits.is_empty() {
+        if !s.st.target_fits().is_empty() {
             crate::targets_report::optimize_table(s.h, s.study, s.st)
         } else if let Some(fit) = &s.st.fit {
             crate::report_model::optimize(s.h, s.study, s.st, fit, &self.region);

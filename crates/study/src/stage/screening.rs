@@ -196,7 +196,7 @@ impl Stage for Screening {
         ctx.model_targets = st.target_values(study.targets.len());
         ctx.model_quadratic = false;
         ctx.active = selected.clone();
-        st.outcome = Some(std::sync::Arc::new(ScreeningOutcome { selected }));
+        st.set_outcome(ScreeningOutcome { selected });
         st.fit = Some(fit);
         Ok(())
     }

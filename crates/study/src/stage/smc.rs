@@ -68,7 +68,7 @@ impl Stage for Smc {
         );
         push_runs(study, st, ctx, &coded, "iteration 1");
         let density = 0.5f64.powi(k as i32);
-        st.surrogate = Some(SurrogateOutcome::Smc(SmcOutcome {
+        st.set_outcome(SurrogateOutcome::Smc(SmcOutcome {
             rounds: vec![SmcRound {
                 start: 0,
                 count: n,
@@ -88,7 +88,7 @@ impl Stage for Smc {
         st: &mut StageResult,
         ctx: &Context,
     ) -> Result<bool, String> {
-        let Some(SurrogateOutcome::Smc(mut out)) = st.surrogate.take() else {
+        let Some(SurrogateOutcome::Smc(mut out)) = st.take_outcome::<SurrogateOutcome>() else {
             return Err("internal: the smc stage's rounds were not planned before it went on".into())
         };
         let round = out.rounds.len() - 1;
@@ -118,7 +118,7 @@ impl Stage for Smc {
             }
         }
         if used.len() < 2 {
-            st.surrogate = Some(SurrogateOutcome::Smc(out));
+            st.set_outcome(SurrogateOutcome::Smc(out));
             return Err(format!(
                 "{} of {count} runs of iteration {} gave a response; the filter needs at least 2{}",
                 used.len(),
@@ -164,7 +164,7 @@ impl Stage for Smc {
         };
         if let Some(why) = stop {
             out.stop = Some(why);
-            st.surrogate = Some(SurrogateOutcome::Smc(out));
+            st.set_outcome(SurrogateOutcome::Smc(out));
             return Ok(false);
         }
         let (next, next_density) = smc::next_samples(
@@ -182,7 +182,7 @@ impl Stage for Smc {
             weights: Vec::new(),
             posterior: empty_posterior(),
         });
-        st.surrogate = Some(SurrogateOutcome::Smc(out));
+        st.set_outcome(SurrogateOutcome::Smc(out));
         push_runs(study, st, ctx, &next, &format!("iteration {}", round + 2));
         Ok(true)
     }
@@ -194,7 +194,7 @@ impl Stage for Smc {
         ctx: &mut Context,
     ) -> Result<(), String> {
         crate::design_stages::bracket_note(study, st);
-        let Some(SurrogateOutcome::Smc(out)) = &st.surrogate else {
+        let Some(SurrogateOutcome::Smc(out)) = st.surrogate() else {
             return Err("internal: the smc stage concluded without its rounds".into())
         };
         let mut point = ctx.values.clone();

@@ -334,7 +334,7 @@ impl Stage for Steepest {
                 sig(best_y)
             ),
         });
-        st.outcome = Some(Arc::new(SteepestOutcome { best_step: b }));
+        st.set_outcome(SteepestOutcome { best_step: b });
         Ok(())
     }
 

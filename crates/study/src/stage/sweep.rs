@@ -277,11 +277,11 @@ impl Stage for Sweep {
             }
         }
         st.fit = Some(fit.clone());
-        st.outcome = Some(Arc::new(SweepOutcome {
+        st.set_outcome(SweepOutcome {
             fit,
             factor,
             inversion,
-        }));
+        });
         Ok(())
     }
 

@@ -9,7 +9,7 @@ use crate::stage::table::{StageDef, StageTable};
 use crate::design_stages::enough;
 use crate::limits::{MAX_REPLICATES, MAX_SOLUTIONS};
 use crate::spec::Study;
-use crate::record::{Context, run_seed, RunSpec, StageResult, target_values, Validation};
+use crate::record::{Context, run_seed, RunSpec, StageResult, target_values, ValidateOutcome, Validation};
 use crate::text::sig;
 use crate::store::{RunRecord, Status};
 
@@ -151,13 +151,16 @@ impl Stage for Validate {
             st.calibrated = Some(st.runs[chosen * replicates].values.clone());
         }
         // A validation of one point replicates what the context calibrated.
-        st.chosen_solution = if candidates > 1 {
+        let chosen_solution = if candidates > 1 {
             chosen
         } else {
             ctx.chosen_solution
         };
-        ctx.chosen_solution = st.chosen_solution;
-        st.validation = found[chosen].clone();
+        ctx.chosen_solution = chosen_solution;
+        st.set_outcome(ValidateOutcome {
+            validation: found[chosen].clone(),
+            chosen_solution,
+        });
         // A later stage (another validation) starts from the chosen point alone.
         ctx.calibrated = st.calibrated.clone();
         ctx.candidates.clear();

@@ -110,7 +110,7 @@ enum Command {
     /// Run (or resume) a calibration study: every stage of its plan, the runs stored in
     /// <study>.db next to it, then the report in report/ next to it.
     #[command(
-        after_help = "Example:\n  demcal run examples/quickstart/study.toml --jobs 2\n  demcal run cluster-study.toml --executor slurm --jobs 50\n\nExit status: 0 finished; 1 stopped (a stage could not go on; see the report) or failed; 2 the study file (or a file or test it names) is wrong, nothing ran; 75 another demcal run holds the study's store, nothing ran; 130 Ctrl-C, finished runs kept (run the same command to go on)."
+        after_help = "Exit status: 0 finished; 1 stopped (a stage could not go on; see the report) or failed; 2 the study file (or a file or test it names) is wrong, nothing ran; 75 another demcal run holds the study's store, nothing ran; 130 Ctrl-C, finished runs kept (run the same command to go on).\n\nExample:\n  demcal run examples/quickstart/study.toml --jobs 2\n  demcal run cluster-study.toml --executor slurm --jobs 50"
     )]
     Run {
         /// The study file (TOML: tests, parameters, target, plan; see docs/reference.md).

@@ -9,6 +9,40 @@
 use serde::de::{self, DeserializeOwned};
 use serde::Deserialize;
 
+/// An enum read from one of the strings its variants are named by in files; anything else (a
+/// wrong string, a number, a table) is refused with the choices.
+macro_rules! choices {
+    ($(#[$m:meta])* $name:ident { $($variant:ident = $text:literal),+ $(,)? }) => {
+        $(#[$m])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum $name { $($variant),+ }
+
+        impl $name {
+            /// The names files give the choices by.
+            pub const NAMES: &'static [&'static str] = &[$($text),+];
+        }
+
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let v = toml::Value::deserialize(d)?;
+                match v.as_str() {
+                    $(Some($text) => Ok($name::$variant),)+
+                    _ => Err(de::Error::custom(format!(
+                        "invalid value: {v}, expected {}",
+                        quoted_choices(Self::NAMES)
+                    ))),
+                }
+            }
+        }
+    };
+}
+
+/// `"a", "b" or "c"`.
+fn quoted_choices(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+    or_list(&quoted.join(", "))
+}
+
 /// The top level of a study file. The sections read by a registry (`plan` by the stages',
 /// `executor` by the executors') or with checks across tests (`test`, `target`, `objective`)
 /// stay TOML here and are handed on.
@@ -40,8 +74,7 @@ pub struct ParameterEntry {
     pub paths: Option<Vec<String>>,
     pub min: dem::units::Quantity,
     pub max: dem::units::Quantity,
-    #[serde(default)]
-    pub scale: ScaleName,
+    pub scale: Option<ScaleName>,
     pub unit: Option<String>,
 }
 
@@ -60,7 +93,7 @@ pub struct ImportEntry {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectiveEntry {
-    pub combine: CombineName,
+    pub combine: Option<CombineName>,
 }
 
 /// A `[target]` (or one of several `[[target]]`): the lab value of one of a test's responses, or
@@ -108,13 +141,9 @@ impl TargetEntry {
     }
 }
 
-/// How simulated and lab curves are scaled before they are compared.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum NormalisationName {
-    None,
-    LabPeak,
-    StressStrain,
+choices! {
+    /// How simulated and lab curves are scaled before they are compared.
+    NormalisationName { None = "none", LabPeak = "lab_peak", StressStrain = "stress_strain" }
 }
 
 /// A number (TOML's integers too), named so in errors.
@@ -198,19 +227,14 @@ impl<'de> Deserialize<'de> for FileNames {
     }
 }
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ScaleName {
-    #[default]
-    Linear,
-    Log,
+choices! {
+    /// A parameter's scale: its designs and models work on the value or on its logarithm.
+    ScaleName { Linear = "linear", Log = "log" }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum CombineName {
-    Weighted,
-    Desirability,
+choices! {
+    /// How several targets combine into one objective.
+    CombineName { Weighted = "weighted", Desirability = "desirability" }
 }
 
 /// `T` from the TOML `value`, which sits at `prefix` in the file (empty: the top level). The
@@ -290,6 +314,21 @@ fn explain(at: &str, message: &str) -> (String, String) {
                 if lead == "invalid length " {
                     got = format!("{got} entries");
                 }
+                // serde's words for TOML's tables and arrays.
+                if got == "map" {
+                    got = "a table".to_string();
+                } else if got == "sequence" {
+                    got = "a list".to_string();
+                }
+                if expected == "a sequence" {
+                    let name = at.rsplit('.').next().unwrap_or(at);
+                    let want = if got == "a table" {
+                        format!("[[{name}]] tables (write [[{name}]], not [{name}])")
+                    } else {
+                        format!("[[{name}]] tables")
+                    };
+                    return (at.to_string(), format!("expected {want}, got {got}"));
+                }
                 return (at.to_string(), format!("expected {expected}, got {got}"));
             }
         }
@@ -353,6 +392,24 @@ mod tests {
             (k.as_str(), m.as_str()),
             ("parameter[0]", "expected a table, got integer 3")
         );
+        let (k, m) = top("[parameter]\nname = \"a\"").unwrap_err();
+        assert_eq!(k, "parameter");
+        assert_eq!(
+            m,
+            "expected [[parameter]] tables (write [[parameter]], not [parameter]), got a table"
+        );
+        let (k, m) = top("[[parameter]]\nname = \"a\"\npath = \"x\"\nmin = 0\nmax = 1\nscale = 3")
+            .unwrap_err();
+        assert_eq!(k, "parameter[0].scale");
+        assert_eq!(m, "expected \"linear\" or \"log\", got 3");
+        let (_, m) = top(
+            "[[parameter]]\nname = \"a\"\npath = \"x\"\nmin = 0\nmax = 1\nscale = { log = {} }",
+        )
+        .unwrap_err();
+        assert!(
+            m.starts_with("expected \"linear\" or \"log\", got {"),
+            "{m}"
+        );
         let (k, m) = top("seed = -1").unwrap_err();
         assert_eq!(
             (k.as_str(), m.as_str()),
@@ -386,7 +443,7 @@ mod tests {
             Some(&["x".to_string(), "y".to_string()][..])
         );
         assert_eq!(p.min.value, 1e6);
-        assert_eq!(p.scale, ScaleName::Linear);
+        assert_eq!(p.scale, None);
     }
 
     #[test]

@@ -158,8 +158,8 @@ impl Study {
                 ));
             }
             let scale = match p.scale {
-                ScaleName::Linear => Scale::Linear,
-                ScaleName::Log => Scale::Log,
+                None | Some(ScaleName::Linear) => Scale::Linear,
+                Some(ScaleName::Log) => Scale::Log,
             };
             if scale == Scale::Log && min <= 0.0 {
                 return Err(err(

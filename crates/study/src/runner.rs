@@ -212,6 +212,9 @@ impl Execute for LocalExecutor<'_> {
         });
         bar.finish_and_clear();
         if let Some(e) = store_error {
+            // The flag stopped the other jobs; lowered again, it no longer says "Ctrl-C", so
+            // `study::run` reports a failed store (exit 1), not an interruption to resume.
+            self.interrupted.store(false, Ordering::SeqCst);
             return Err(e);
         }
         if self.interrupted.load(Ordering::Relaxed) {

@@ -242,10 +242,14 @@ pub fn parse_objective(
     };
     let entry: ObjectiveEntry =
         crate::file::read("objective", v.clone()).map_err(|(k, m)| err(&k, m))?;
-    Ok(Some(match entry.combine {
-        CombineName::Weighted => Combine::Weighted,
-        CombineName::Desirability => Combine::Desirability,
-    }))
+    match entry.combine {
+        Some(CombineName::Weighted) => Ok(Some(Combine::Weighted)),
+        Some(CombineName::Desirability) => Ok(Some(Combine::Desirability)),
+        None => Err(err(
+            "objective.combine",
+            "missing (expected \"weighted\" or \"desirability\")".into(),
+        )),
+    }
 }
 
 /// A test as targets see it: its name in the study and what it can give.

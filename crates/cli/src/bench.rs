@@ -86,9 +86,11 @@ pub fn batch(
 
 /// `demcal bench fill`: a random fill of `count` spheres, timed.
 pub fn fill(count: usize) -> Result<(), String> {
-    // A fill this size is about 80 bytes a sphere for its lists; 100 million is 8 GB.
-    if count == 0 || count > 100_000_000 {
-        return Err(format!("--count: expected 1 to 100000000, got {count}"));
+    // As many as a scene may hold, checked before anything is drawn: 1e8 reached 3.5 GB before
+    // the fill refused it.
+    let most = dem::scene::MAX_SPHERES;
+    if count == 0 || count > most {
+        return Err(format!("--count: expected 1 to {most}, got {count}"));
     }
     let r = dem::random_fill::fill_benchmark(count)?;
     println!(

@@ -874,6 +874,19 @@ fn doe_optimize_refuses_zero_solutions_and_a_nan_target() {
         one_line_error(&out),
         "error: --runs 1000000000: at most 100000 runs"
     );
+    // Refused before the spheres are drawn (1e8 reached 3.5 GB first).
+    let out = output_within(
+        {
+            let mut c = demcal();
+            c.args(["bench", "fill", "--count", "100000000"]);
+            c
+        },
+        20.0,
+    );
+    assert_eq!(
+        one_line_error(&out),
+        "error: --count: expected 1 to 10000000, got 100000000"
+    );
 }
 
 /// Without a terminal (a log file, a batch job), long runs still say how far they are: a plain
@@ -1039,4 +1052,28 @@ value = 30.0
     assert!(!out.status.success());
     let e = one_line_error(&out);
     assert!(e.contains("bad.json: seed: invalid type"), "{e}");
+}
+
+/// A path to something endless (/dev/zero) is refused after reading no more than the file kind's
+/// limit, where `demcal simulate /dev/zero` used to reach 4.2 GB.
+#[cfg(unix)]
+#[test]
+fn endless_files_are_refused_at_their_size_limit() {
+    for cmd in ["simulate", "test", "run"] {
+        let out = output_within(
+            {
+                let mut c = demcal();
+                c.args([cmd, "/dev/zero"]);
+                c
+            },
+            20.0,
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{cmd}");
+        assert_eq!(err.lines().count(), 1, "{cmd}: {err}");
+        assert!(
+            err.contains("/dev/zero") && err.contains("larger than 16 MiB"),
+            "{cmd}: {err}"
+        );
+    }
 }

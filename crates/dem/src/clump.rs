@@ -12,6 +12,10 @@ use glam::{DMat3, DQuat, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
+/// Most spheres one clump may have: a rod or a kernel of more would be a mesh of spheres, and
+/// mass properties and contacts scale with the count.
+pub const MAX_CLUMP_SPHERES: usize = 10_000;
+
 /// Spheres in the template's own frame (any origin).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ClumpTemplate {
@@ -59,6 +63,12 @@ impl ClumpTemplate {
         if spheres.is_empty() {
             return Err("clump: expected at least one sphere".into());
         }
+        if spheres.len() > MAX_CLUMP_SPHERES {
+            return Err(format!(
+                "clump: {} spheres, at most {MAX_CLUMP_SPHERES} in one clump",
+                spheres.len()
+            ));
+        }
         if let Some((_, r)) = spheres.iter().find(|(_, r)| r.is_nan() || *r <= 0.0) {
             return Err(format!("clump: sphere radius must be positive, got {r}"));
         }
@@ -69,6 +79,12 @@ impl ClumpTemplate {
     /// touch the ends), diameter `diameter`, along x: stalk and silage pieces.
     pub fn rod(length: f64, diameter: f64, count: usize) -> Result<ClumpTemplate, String> {
         let r = 0.5 * diameter;
+        // Checked before the spheres are made: 1e9 would ask 32 GB here.
+        if count > MAX_CLUMP_SPHERES {
+            return Err(format!(
+                "rod: count = {count} spheres, at most {MAX_CLUMP_SPHERES} in one clump"
+            ));
+        }
         if count == 0 || length < diameter || diameter <= 0.0 {
             return Err(format!(
                 "rod: expected count >= 1 and length >= diameter > 0, got count {count}, length {length}, diameter {diameter}"
@@ -530,5 +546,10 @@ mod tests {
         assert!((m.volume - 4.0 / 3.0 * PI * 1e-6).abs() < 1e-18);
         assert!((m.principal_inertia.x - 0.4 * m.volume * 1e-4).abs() < 1e-20);
         assert!(ClumpTemplate::rod(0.01, 0.02, 2).is_err());
+        // Refused before anything is allocated (this asked 32 GB).
+        assert_eq!(
+            ClumpTemplate::rod(0.03, 0.006, 1_000_000_000).unwrap_err(),
+            "rod: count = 1000000000 spheres, at most 10000 in one clump"
+        );
     }
 }

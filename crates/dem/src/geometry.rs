@@ -635,7 +635,8 @@ pub mod shapes {
 
 /// Reads a binary or ASCII STL file, scales it (e.g. 0.001 for a model drawn in mm) and offsets it.
 pub fn read_stl(path: &Path, scale: f64, offset: DVec3) -> Result<Vec<Element>, String> {
-    let mut file = std::fs::File::open(path).map_err(|e| format!("cannot open: {e}"))?;
+    let mut file = crate::files::open_checked(path, crate::files::MAX_MESH_BYTES)
+        .map_err(|e| format!("cannot open: {e}"))?;
     let mesh = stl_io::read_stl(&mut file).map_err(|e| format!("not a valid STL file: {e}"))?;
     let v = |i: usize| {
         let p = mesh.vertices[i];

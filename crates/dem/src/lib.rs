@@ -11,6 +11,7 @@ pub mod bond;
 pub mod clump;
 pub mod contact;
 pub mod factory;
+pub mod files;
 pub mod fill;
 pub mod geometry;
 pub mod keys;

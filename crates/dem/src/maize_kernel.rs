@@ -357,6 +357,15 @@ impl KernelShape {
             }
             chosen.push(candidates[best]);
         }
+        // Fewer than asked means the rest would cover nothing: say so rather than hand back a
+        // clump other than the one the file describes.
+        if chosen.len() < spheres {
+            return Err(format!(
+                "count = {spheres}: at most {} spheres add volume to this kernel (every point a sphere can reach is covered by then); give count <= {}",
+                chosen.len(),
+                chosen.len()
+            ));
+        }
         let template = ClumpTemplate::new(chosen)?;
         let props = template.mass_properties();
         let target = self.volume();
@@ -410,6 +419,23 @@ mod tests {
                 "{kind}: {analytic:e} vs {counted:e}"
             );
         }
+    }
+
+    /// More spheres than can add volume is refused with the most that can, where it used to
+    /// give a clump of that many without a word.
+    #[test]
+    fn a_count_past_what_adds_volume_is_refused_with_the_most_that_does() {
+        let s = KernelShape::published("flat").unwrap();
+        let e = s.fit(100_000).unwrap_err();
+        let most: usize = e
+            .split("at most ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{e}"));
+        assert!(e.starts_with("count = 100000: at most "), "{e}");
+        assert_eq!(s.fit(most).unwrap().template.spheres.len(), most);
+        assert!(s.fit(most + 1).is_err());
     }
 
     #[test]

@@ -587,6 +587,9 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
             if c.upper.is_nan() {
                 c.upper = to_unit(1.0);
             }
+            // A factor's limits become the search box: checked as a response goal's are, so
+            // that lower > upper is a message, not a clamp that panics.
+            c.validate().map_err(|e| format!("--goal '{g}': {e}"))?;
             let to_coded = |v: f64| match &exp.factors {
                 Some(f) => f[j].to_coded(v),
                 None => v,

@@ -17,10 +17,32 @@ pub struct DataTable {
     pub rows: Vec<Vec<String>>,
 }
 
+/// Most bytes a data table may have (as `dem::files::MAX_TABLE_BYTES`; this crate does not
+/// depend on the engine): a wrong path such as /dev/zero is refused, not read into memory.
+pub const MAX_TABLE_BYTES: u64 = 256 << 20;
+
+/// The file's text, refused past [`MAX_TABLE_BYTES`].
+fn read_limited(path: &Path) -> Result<String, String> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_TABLE_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > MAX_TABLE_BYTES {
+        return Err("larger than 256 MiB, the most a data table may be".into());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        format!(
+            "not text: invalid UTF-8 at byte {}",
+            e.utf8_error().valid_up_to()
+        )
+    })
+}
+
 impl DataTable {
     pub fn read(path: &Path) -> Result<DataTable, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        let text =
+            read_limited(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
         DataTable::parse(&path.display().to_string(), &text)
     }
 

@@ -288,6 +288,14 @@ impl Problem<'_> {
         for (_, c) in &self.criteria {
             c.validate()?;
         }
+        for (j, &(lo, hi)) in self.bounds.iter().enumerate() {
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return Err(format!(
+                    "optimise: factor {}'s search range {lo} .. {hi} is not a range (expected finite low <= high)",
+                    j + 1
+                ));
+            }
+        }
         let mut rng = Pcg64::seed_from_u64(seed);
         let mut points: Vec<Vec<f64>> = self.fits[0]
             .experiment

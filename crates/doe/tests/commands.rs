@@ -415,6 +415,11 @@ fn optimize_refuses_nonsense_goals_and_counts() {
         optimize_error(&["maximize:weight=nan"], 5, 40),
         "--goal 'maximize:weight=nan': weight: 'nan' is not a finite number"
     );
+    // A factor's limits upside down used to panic in f64::clamp (issue 40).
+    assert_eq!(
+        optimize_error(&["angle_deg:target=40", "D:range:lower=1:upper=-1"], 5, 40),
+        "--goal 'D:range:lower=1:upper=-1': goal on 'D': expected lower <= upper, got 1 and -1"
+    );
 }
 
 /// A cell too large to square and sum (1e300) is refused with its file, row and column, and a

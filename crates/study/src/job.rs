@@ -154,7 +154,7 @@ impl Job {
 
     /// Reads a job file; errors name the file and the key.
     pub fn load(path: &Path) -> Result<Job, String> {
-        let text = std::fs::read_to_string(path)
+        let text = dem::files::read_text(path, dem::files::MAX_TEXT_BYTES)
             .map_err(|e| format!("{}: cannot read the job file: {e}", path.display()))?;
         let de = &mut serde_json::Deserializer::from_str(&text);
         let job: Job = serde_path_to_error::deserialize(de).map_err(|e| {

@@ -233,7 +233,8 @@ struct Table {
 /// Errors name the file, the line and the column.
 fn read_table(path: &Path) -> Result<Table, String> {
     let name = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    let file = dem::files::open_checked(path, dem::files::MAX_TABLE_BYTES)
+        .map_err(|e| format!("{name}: cannot read: {e}"))?;
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)

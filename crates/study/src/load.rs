@@ -51,7 +51,7 @@ pub fn reference_sections() -> Vec<(String, Vec<&'static str>)> {
 
 impl Study {
     pub fn load(path: &Path) -> Result<Study, String> {
-        let text = std::fs::read_to_string(path)
+        let text = dem::files::read_text(path, dem::files::MAX_TEXT_BYTES)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
         Study::parse(path, &text)
     }
@@ -378,7 +378,7 @@ fn read_test(
     let (table, source, test_dir) = match v {
         toml::Value::String(p) => {
             let tp = dir.join(p);
-            let t = std::fs::read_to_string(&tp)
+            let t = dem::files::read_text(&tp, dem::files::MAX_TEXT_BYTES)
                 .map_err(|e| err(key, format!("cannot read {}: {e}", tp.display())))?;
             let table: toml::Table = toml::from_str(&t)
                 .map_err(|e| format!("{}: {}", tp.display(), one_line(&e.to_string())))?;
@@ -521,7 +521,7 @@ fn parse_imports(
             .filter(|p| !p.as_os_str().is_empty())
             .unwrap_or_else(|| PathBuf::from("."));
         let summary = other_dir.join("report").join("summary.json");
-        let body = std::fs::read_to_string(&summary).map_err(|e| {
+        let body = dem::files::read_text(&summary, dem::files::MAX_TEXT_BYTES).map_err(|e| {
             err(
                 &format!("{key}.study"),
                 format!(

@@ -54,7 +54,7 @@ pub fn names() -> Vec<&'static str> {
 impl TestFile {
     /// Reads a test file; relative paths in it are taken from its folder.
     pub fn load(path: &Path) -> Result<TestFile, String> {
-        let text = std::fs::read_to_string(path)
+        let text = dem::files::read_text(path, dem::files::MAX_TEXT_BYTES)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
         let name = path.display().to_string();
         let value: toml::Table =

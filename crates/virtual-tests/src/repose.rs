@@ -282,7 +282,8 @@ fn line_fit(pts: &[(f64, f64)]) -> (f64, f64) {
 /// export, be measured exactly as demcal measures its own.
 pub fn read_spheres(path: &std::path::Path) -> Result<(Vec<glam::DVec3>, Vec<f64>), String> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    let text = dem::files::read_text(path, dem::files::MAX_TABLE_BYTES)
+        .map_err(|e| format!("{name}: cannot read: {e}"))?;
     let columns = |header: &[&str]| -> Result<[usize; 4], String> {
         let mut idx = [usize::MAX; 4];
         for (k, want) in ["x", "y", "z", "radius"].iter().enumerate() {

@@ -192,3 +192,26 @@ fn settings_that_would_never_end_are_refused_before_the_run() {
         assert!(start.elapsed().as_secs_f64() < 5.0);
     }
 }
+
+/// A measurement that would grow without bound is refused before the run, naming the limit
+/// (1e9 planes grew to 7.9 GB after the whole simulation).
+#[test]
+fn too_many_measuring_planes_are_refused_before_the_run() {
+    let text = file("planes = 1000000000", 10);
+    let mut reports = 0;
+    let e = TestFile::parse("heap.toml", &text)
+        .and_then(|f| {
+            run_file(&f, None, None, &mut |_, _| {
+                reports += 1;
+                Ok(())
+            })
+            .map(|_| ())
+            .map_err(String::from)
+        })
+        .unwrap_err();
+    assert_eq!(
+        e,
+        "heap.toml: angle_of_repose.planes: expected 1 to 180, got 1000000000"
+    );
+    assert_eq!(reports, 0);
+}

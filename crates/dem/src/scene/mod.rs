@@ -92,10 +92,12 @@ impl Scene {
     /// when given (the command line's `--backend`).
     pub fn load_with_backend(path: &Path, backend: Option<&str>) -> Result<Scene, SceneError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-            file: name.clone(),
-            key: String::new(),
-            message: format!("cannot read the scene file: {e}"),
+        let text = crate::files::read_text(path, crate::files::MAX_TEXT_BYTES).map_err(|e| {
+            SceneError {
+                file: name.clone(),
+                key: String::new(),
+                message: format!("cannot read the scene file: {e}"),
+            }
         })?;
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
         let mut description = parse::scene(&text, &name, &base)?;

@@ -48,8 +48,8 @@ impl MeshSolid {
     /// Refuses a mesh that is not closed. Errors are one line naming the file.
     pub fn read(path: &Path, scale: f64) -> Result<MeshSolid, String> {
         let name = path.display();
-        let mut file =
-            std::fs::File::open(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+        let mut file = crate::files::open_checked(path, crate::files::MAX_MESH_BYTES)
+            .map_err(|e| format!("{name}: cannot open: {e}"))?;
         let mesh = stl_io::read_stl(&mut file)
             .map_err(|e| format!("{name}: not a valid STL file: {e}"))?;
         // stl_io merges equal vertices bit for bit; merge 0.0 with -0.0 as well, so that

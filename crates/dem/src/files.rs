@@ -1,0 +1,93 @@
+//! Files the user names, read with a size limit checked before or while they are read, so that
+//! a wrong path (`/dev/zero`, a 40 GB dump given as a scene) ends in one line instead of filling
+//! the memory. The limits are far above any real file of each kind; `docs/reliability.md` lists
+//! them.
+
+use std::io::Read;
+use std::path::Path;
+
+/// Most bytes a TOML or JSON file (scene, test, study, job, summary) may have.
+pub const MAX_TEXT_BYTES: u64 = 16 << 20;
+/// Most bytes a CSV table (lab curves, designs with responses, sphere lists) may have.
+pub const MAX_TABLE_BYTES: u64 = 256 << 20;
+/// Most bytes an STL mesh may have (20 million triangles in binary).
+pub const MAX_MESH_BYTES: u64 = 1 << 30;
+
+/// `n` bytes as people read sizes.
+fn size(n: u64) -> String {
+    if n >= 1 << 30 {
+        format!("{} GiB", n >> 30)
+    } else {
+        format!("{} MiB", n >> 20)
+    }
+}
+
+/// The text of `path`, refused past `limit` bytes (read no further than one byte past it).
+/// The error is the reason alone; callers put the file's name in front.
+pub fn read_text(path: &Path, limit: u64) -> Result<String, String> {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let mut bytes = Vec::new();
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > limit {
+        return Err(format!(
+            "larger than {}, the most such a file may be",
+            size(limit)
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        format!(
+            "not text: invalid UTF-8 at byte {}",
+            e.utf8_error().valid_up_to()
+        )
+    })
+}
+
+/// Opens `path` for a reader that streams it (CSV, STL), after checking that it is a plain file
+/// of at most `limit` bytes: a device or a pipe has no size to check, so it is refused.
+pub fn open_checked(path: &Path, limit: u64) -> Result<std::fs::File, String> {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let meta = file.metadata().map_err(|e| e.to_string())?;
+    if !meta.is_file() {
+        return Err("not a plain file".to_string());
+    }
+    if meta.len() > limit {
+        return Err(format!(
+            "{} bytes, larger than {}, the most such a file may be",
+            meta.len(),
+            size(limit)
+        ));
+    }
+    Ok(file)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn endless_and_oversized_files_are_refused_without_reading_them_whole() {
+        let e = read_text(Path::new("/dev/zero"), MAX_TEXT_BYTES).unwrap_err();
+        assert_eq!(e, "larger than 16 MiB, the most such a file may be");
+        assert_eq!(
+            open_checked(Path::new("/dev/zero"), MAX_TABLE_BYTES).unwrap_err(),
+            "not a plain file"
+        );
+        let dir = std::env::temp_dir().join(format!("demcal-files-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("big.toml");
+        std::fs::write(&p, vec![b'#'; 2048]).unwrap();
+        assert_eq!(read_text(&p, 2048).unwrap().len(), 2048);
+        assert!(read_text(&p, 2047).unwrap_err().starts_with("larger than"));
+        assert!(open_checked(&p, 2047)
+            .unwrap_err()
+            .starts_with("2048 bytes, larger than"));
+        std::fs::write(&p, [b'a', 0xff, b'b']).unwrap();
+        assert_eq!(
+            read_text(&p, 100).unwrap_err(),
+            "not text: invalid UTF-8 at byte 1"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

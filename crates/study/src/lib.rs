@@ -111,11 +111,18 @@ pub fn run(
     if opts.restart && db.exists() {
         // Work of the old results still out (Slurm tasks) would go on writing into the run
         // folders.
-        for (name, cancelled) in executor::withdraw_all(&Store::open(&db, false)?)? {
-            eprintln!(
-                "cancelled {cancelled} {} task(s) of the old results",
-                text::capitalised(name)
-            );
+        // A store that cannot be read (empty, damaged) has no tasks to find: it is moved aside
+        // all the same, which is what --restart is for.
+        match Store::open(&db, false) {
+            Ok(old) => {
+                for (name, cancelled) in executor::withdraw_all(&old)? {
+                    eprintln!(
+                        "cancelled {cancelled} {} task(s) of the old results",
+                        text::capitalised(name)
+                    );
+                }
+            }
+            Err(e) => eprintln!("warning: the old results cannot be read ({e}); moving them aside"),
         }
         let aside = db.with_extension(format!(
             "db.old-{}",

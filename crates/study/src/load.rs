@@ -122,6 +122,21 @@ impl Study {
                 ));
             }
             let paths = read_paths(p.path.as_ref(), p.paths.as_deref(), &key, &tests, &err)?;
+            // Two parameters writing the same value: the later one wins, and the first would be
+            // reported calibrated with no effect on anything.
+            for (j, q) in parameters.iter().enumerate() {
+                for (pp, _) in &paths {
+                    if q.paths.iter().any(|(qp, _)| qp.same_place(pp)) {
+                        return Err(err(
+                            &format!("{key}.path"),
+                            format!(
+                                "\"{pp}\" is also where parameter[{j}] (\"{}\") goes: two parameters cannot set the same value",
+                                q.name
+                            ),
+                        ));
+                    }
+                }
+            }
             let (min, min_unit) = (p.min.value, p.min.dimension);
             let (max, max_unit) = (p.max.value, p.max.dimension);
             if min_unit != max_unit {

@@ -24,6 +24,13 @@ pub struct ParamPath {
     segments: Vec<Segment>,
 }
 
+impl ParamPath {
+    /// Whether `other` reaches the same value (however either is spaced or written).
+    pub fn same_place(&self, other: &ParamPath) -> bool {
+        self.segments == other.segments
+    }
+}
+
 impl std::fmt::Display for ParamPath {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.text)

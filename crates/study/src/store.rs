@@ -154,6 +154,14 @@ impl Store {
                 path.display()
             ));
         }
+        // A store of no bytes is one cut short (a full disk, a copy that failed): SQLite would
+        // take it as new and every run would be made again without a word.
+        if std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == 0) {
+            return Err(format!(
+                "{}: the results store is empty (0 bytes), not a store: its runs are lost; run with --restart to move it aside and start over",
+                path.display()
+            ));
+        }
         let conn = Connection::open(path).map_err(db_err(path))?;
         // FULL: a finished transaction survives a power cut, not just a killed process.
         conn.execute_batch("PRAGMA journal_mode = DELETE; PRAGMA synchronous = FULL;")
@@ -352,8 +360,10 @@ impl StoreLock {
                 Ok(mut f) => {
                     use std::io::Write;
                     // The host too: on a shared file system the lock may be seen from another
-                    // login node, where this process id means nothing.
-                    f.write_all(format!("{me}\n{}\n", machine_name()).as_bytes())
+                    // login node, where this process id means nothing. The process's start
+                    // time tells a reused process id from this process.
+                    let start = process_start(me).map(|t| t.to_string()).unwrap_or_default();
+                    f.write_all(format!("{me}\n{}\n{start}\n", machine_name()).as_bytes())
                         .and_then(|_| f.sync_all())
                         .map_err(|e| {
                             LockError::Io(format!("{}: cannot write: {e}", path.display()))
@@ -361,32 +371,36 @@ impl StoreLock {
                     return Ok(StoreLock { path });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let text = std::fs::read_to_string(&path).unwrap_or_default();
-                    let host = text.lines().nth(1).map(str::trim).unwrap_or("");
-                    if !host.is_empty() && !same_machine(host, &machine_name()) {
-                        let pid = text.lines().next().unwrap_or("?").trim();
-                        return Err(LockError::Held(format!(
-                            "{}: the study is being run by process {pid} on {host} (lock file {}); stop it there, or if it no longer runs, remove that file",
-                            store.display(),
-                            path.display()
-                        )));
-                    }
-                    match text.lines().next().and_then(|l| l.trim().parse::<u32>().ok()) {
-                        Some(pid) if pid != me && !process_exists(pid) => {
-                            // Stale: its process is gone.
+                    match held_by(&path, me) {
+                        Holder::Stale => {
                             let _ = std::fs::remove_file(&path);
                         }
-                        Some(pid) => {
+                        Holder::EmptyFolder => {
+                            let _ = std::fs::remove_dir(&path);
+                        }
+                        Holder::Folder => {
+                            return Err(LockError::Io(format!(
+                                "{}: is a folder with files in it, where the study's lock file belongs: move it away",
+                                path.display()
+                            )))
+                        }
+                        Holder::Elsewhere { pid, host } => {
+                            return Err(LockError::Held(format!(
+                                "{}: the study is being run by process {pid} on {host} (lock file {}); stop it there, or if it no longer runs, remove that file",
+                                store.display(),
+                                path.display()
+                            )))
+                        }
+                        Holder::Process(pid) => {
                             return Err(LockError::Held(format!(
                                 "{}: the study is being run by process {pid} (lock file {}); wait for it to end, or stop it",
                                 store.display(),
                                 path.display()
                             )))
                         }
-                        // Being written this instant, or not ours to read.
-                        None => {
+                        Holder::BeingWritten => {
                             return Err(LockError::Held(format!(
-                                "{}: the study is being run by another process (lock file {}); if no demcal run is going, remove that file",
+                                "{}: another process is taking the study's lock this moment (lock file {}); try again",
                                 store.display(),
                                 path.display()
                             )))
@@ -422,6 +436,97 @@ impl Drop for StoreLock {
         if ours {
             let _ = std::fs::remove_file(&self.path);
         }
+    }
+}
+
+/// Who holds an existing lock file, as far as this machine can tell.
+enum Holder {
+    /// A process that still runs: this one, or another `demcal run`.
+    Process(u32),
+    /// A process on another machine (a login node sharing the file system): never taken over.
+    Elsewhere { pid: String, host: String },
+    /// Empty or unreadable and only just made: another process is writing it.
+    BeingWritten,
+    /// Safe to replace: its process is gone, its process id now belongs to another program
+    /// (its start time differs), or it is empty or garbage and older than a few seconds.
+    Stale,
+    /// An empty folder where the lock file belongs (removed, then the lock taken).
+    EmptyFolder,
+    /// A folder with files in it: not ours to remove.
+    Folder,
+}
+
+/// How long a lock file may stay empty or unreadable while its maker writes it.
+const LOCK_WRITE_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
+
+fn held_by(path: &Path, me: u32) -> Holder {
+    if path.is_dir() {
+        let empty = std::fs::read_dir(path).is_ok_and(|mut d| d.next().is_none());
+        return if empty {
+            Holder::EmptyFolder
+        } else {
+            Holder::Folder
+        };
+    }
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let mut lines = text.lines().map(str::trim);
+    let (first, host, start) = (
+        lines.next().unwrap_or(""),
+        lines.next().unwrap_or(""),
+        lines.next().unwrap_or(""),
+    );
+    let Ok(pid) = first.parse::<u32>() else {
+        let age = std::fs::metadata(path)
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| t.elapsed().ok());
+        return match age {
+            Some(a) if a < LOCK_WRITE_GRACE => Holder::BeingWritten,
+            _ => Holder::Stale,
+        };
+    };
+    if !host.is_empty() && !same_machine(host, &machine_name()) {
+        return Holder::Elsewhere {
+            pid: first.to_string(),
+            host: host.to_string(),
+        };
+    }
+    if pid == me {
+        return Holder::Process(pid);
+    }
+    if !process_exists(pid) {
+        return Holder::Stale;
+    }
+    // The id is in use: by the process that wrote the lock only if it started when the lock
+    // says (an older lock without a start time: only if that process is a demcal).
+    let same = match (start.parse::<u64>().ok(), process_start(pid)) {
+        (Some(written), Some(now)) => written == now,
+        (None, _) => runs_demcal(pid),
+        (Some(_), None) => true,
+    };
+    if same {
+        Holder::Process(pid)
+    } else {
+        Holder::Stale
+    }
+}
+
+/// When process `pid` started, in clock ticks since boot (field 22 of /proc/PID/stat); None
+/// where there is no /proc.
+fn process_start(pid: u32) -> Option<u64> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let (_, rest) = stat.rsplit_once(')')?;
+    rest.split_whitespace().nth(19)?.parse().ok()
+}
+
+/// Whether process `pid` is a demcal (its program's name); true where it cannot be told.
+fn runs_demcal(pid: u32) -> bool {
+    match std::fs::read(format!("/proc/{pid}/cmdline")) {
+        Ok(cmd) => {
+            let argv0 = cmd.split(|b| *b == 0).next().unwrap_or(&[]);
+            String::from_utf8_lossy(argv0).contains("demcal")
+        }
+        Err(_) => !Path::new("/proc/self").exists(),
     }
 }
 

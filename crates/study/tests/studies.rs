@@ -265,6 +265,13 @@ fn invalid_study_files_name_the_key() {
         ),
         // Read through serde (`study::file`): its messages in the same words.
         (
+            BOWL.replace(
+                "path = \"function.variables.b\"",
+                "path = \"function.variables.a\"",
+            ),
+            "parameter[1].path: \"function.variables.a\" is also where parameter[0] (\"a\") goes",
+        ),
+        (
             BOWL.replace("seed = 3", "seed = -3"),
             "seed: expected a whole number >= 0, got -3",
         ),
@@ -688,6 +695,114 @@ fn the_store_is_locked_while_a_study_runs() {
             db.display(),
             lock_file.display()
         ))
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A store cut to no bytes is refused with what happened and how to go on, not taken as new
+/// (every run silently redone); --restart moves it aside.
+#[test]
+fn an_empty_store_is_refused_and_restart_moves_it_aside() {
+    let dir = fresh_dir("empty-store");
+    let path = write_study(
+        &dir,
+        &BOWL.replace(
+            "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+            "plan = [{ stage = \"validate\", replicates = 2 }]",
+        ),
+    );
+    std::fs::write(dir.join("study.db"), "").unwrap();
+    let e = run(&path, 1).unwrap_err();
+    assert!(
+        e.contains("study.db: the results store is empty (0 bytes)") && e.contains("--restart"),
+        "{e}"
+    );
+    let out = study::run(
+        &path,
+        &RunOptions {
+            jobs: 1,
+            restart: true,
+            ..Default::default()
+        },
+        Arc::new(AtomicBool::new(false)),
+    )
+    .unwrap();
+    assert!(out.contains("state: complete"), "{out}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A lock file that is empty, garbage, a folder, or names a process id now used by another
+/// program is recognised and replaced; one being written this moment, or a folder with files,
+/// is not (issue 40: each of these blocked until removed by hand).
+#[cfg(unix)]
+#[test]
+fn malformed_and_stale_locks_are_replaced_safely() {
+    let dir = fresh_dir("lock-kinds");
+    let db = dir.join("study.db");
+    let lock_file = dir.join("study.db.lock");
+    let age = |secs: u64| {
+        let f = std::fs::File::options()
+            .write(true)
+            .open(&lock_file)
+            .unwrap();
+        f.set_modified(std::time::SystemTime::now() - std::time::Duration::from_secs(secs))
+            .unwrap();
+    };
+    let take = || {
+        let lock = study::store::StoreLock::acquire(&db).unwrap();
+        let text = std::fs::read_to_string(&lock_file).unwrap();
+        assert_eq!(
+            text.lines().next(),
+            Some(std::process::id().to_string().as_str())
+        );
+        // The start time is written with the id.
+        assert!(
+            text.lines().nth(2).unwrap().parse::<u64>().is_ok(),
+            "{text}"
+        );
+        drop(lock);
+        assert!(!lock_file.exists());
+    };
+    // Empty or garbage, and older than the few seconds a writer takes: replaced.
+    for text in ["", "garbage\n", "\u{0}\u{0}"] {
+        std::fs::write(&lock_file, text).unwrap();
+        age(60);
+        take();
+    }
+    // Empty this moment: its maker is writing it.
+    std::fs::write(&lock_file, "").unwrap();
+    let e = study::store::StoreLock::acquire(&db).unwrap_err();
+    assert!(
+        matches!(&e, study::LockError::Held(m) if m.contains("taking the study's lock this moment")),
+        "{e:?}"
+    );
+    std::fs::remove_file(&lock_file).unwrap();
+    // A live process that is not a demcal (an old lock without a start time), and one whose
+    // start time differs from the lock's (its id reused): replaced.
+    let mut sleeper = std::process::Command::new("sleep")
+        .arg("30")
+        .spawn()
+        .unwrap();
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap();
+    std::fs::write(&lock_file, format!("{}\n{}\n", sleeper.id(), host.trim())).unwrap();
+    take();
+    std::fs::write(
+        &lock_file,
+        format!("{}\n{}\n1\n", sleeper.id(), host.trim()),
+    )
+    .unwrap();
+    take();
+    sleeper.kill().unwrap();
+    sleeper.wait().unwrap();
+    // An empty folder where the lock belongs is removed; one with files is not ours.
+    std::fs::create_dir(&lock_file).unwrap();
+    take();
+    std::fs::create_dir(&lock_file).unwrap();
+    std::fs::write(lock_file.join("keep"), "x").unwrap();
+    let e = study::store::StoreLock::acquire(&db).unwrap_err();
+    assert!(
+        matches!(&e, study::LockError::Io(m) if m.contains("is a folder with files in it")),
+        "{e:?}"
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -636,3 +636,69 @@ fn polyhedron_shapes() {
         );
     }
 }
+
+/// Nonsense a scene used to accept (issue 40): a second table for the same pair of materials,
+/// a density that ends in NaN energies, a skin that puts every pair in the lists, and motions
+/// that are not finite.
+#[test]
+fn nonsense_that_used_to_run_is_refused() {
+    // The same pair again (either order), after the two the scene has.
+    let e = error_after(
+        "[[geometry]]",
+        "[[interaction]]\nmaterials = [\"steel\", \"kernel\"]\nrestitution = 0.9\nstatic_friction = 0.5\nrolling_friction = 0.1\n\n[[geometry]]",
+    );
+    assert_has(
+        &e,
+        &[
+            "interaction[2].materials",
+            "[steel, kernel] is already given by interaction[1]",
+        ],
+    );
+    let e = error_after("density = 1200", "density = 1e-300");
+    assert_has(
+        &e,
+        &[
+            "material[1].density",
+            "expected 1e-3 to 1e9 kg/m³, got 1e-300",
+        ],
+    );
+    let e = error_after(
+        "time_step_percent = 20",
+        "time_step_percent = 20\nneighbour_skin = 1e300",
+    );
+    assert_has(
+        &e,
+        &[
+            "simulation.neighbour_skin",
+            "expected at most 4 times the largest sphere radius",
+        ],
+    );
+    for (motion, key, got) in [
+        (
+            "{ type = \"translation\", velocity = [0.0, nan, 0.0] }",
+            "geometry[0].motion[0].velocity",
+            "expected finite numbers, got [0, NaN, 0]",
+        ),
+        (
+            "{ type = \"rotation\", axis = [0.0, 0.0, 1.0], rpm = inf }",
+            "geometry[0].motion[0].angular_velocity",
+            "expected a finite number, got inf",
+        ),
+        (
+            "{ type = \"rotation\", axis = [0.0, 0.0, 1.0], axis_point = [inf, 0.0, 0.0], rpm = 1.0 }",
+            "geometry[0].motion[0].axis_point",
+            "expected finite numbers",
+        ),
+    ] {
+        let e = error_after(
+            "normal = [0.0, 0.0, 1.0]",
+            &format!("normal = [0.0, 0.0, 1.0]\nmotion = [{motion}]"),
+        );
+        assert_has(&e, &[key, got]);
+    }
+    let e = error_after(
+        "normal = [0.0, 0.0, 1.0]",
+        "normal = [0.0, 0.0, 1.0]\ntorque_point = [0.0, -inf, 0.0]",
+    );
+    assert_has(&e, &["geometry[0].torque_point", "expected finite numbers"]);
+}

@@ -157,10 +157,13 @@ impl Job {
         let text = dem::files::read_text(path, dem::files::MAX_TEXT_BYTES)
             .map_err(|e| format!("{}: cannot read the job file: {e}", path.display()))?;
         let de = &mut serde_json::Deserializer::from_str(&text);
-        let job: Job = serde_path_to_error::deserialize(de).map_err(|e| {
+        let job: Job = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let key = e.path().to_string();
             format!("{}: {key}: {}", path.display(), e.into_inner())
         })?;
+        // One job per file: anything after it is a damaged or concatenated file.
+        de.end()
+            .map_err(|e| format!("{}: after the job: {e}", path.display()))?;
         job.check()
             .map_err(|e| format!("{}: {e}", path.display()))?;
         if !is_run_dir(&job.out_dir) {
@@ -215,6 +218,19 @@ impl Job {
                 t.test,
                 self.tests.len()
             ));
+        }
+        if let Some(t) = self.run_time_limit_s {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(format!("run_time_limit_s: expected seconds > 0, got {t}"));
+            }
+        }
+        if let Some(b) = &self.backend {
+            if !dem::sim::BACKEND_NAMES.contains(&b.as_str()) {
+                return Err(format!(
+                    "backend: expected {}, got \"{b}\"",
+                    dem::sim::backend_choices()
+                ));
+            }
         }
         Ok(())
     }

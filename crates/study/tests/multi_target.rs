@@ -409,6 +409,18 @@ fn a_job_file_of_several_tests_is_checked_when_read() {
         "terms[1].test: 5 is not a test of the job",
     );
     bad(&|j| j.tests.clear(), "tests: expected at least one test");
+    // Issue 40: these were accepted.
+    bad(
+        &|j| j.backend = Some("quantum".into()),
+        "backend: expected \"cpu\" or \"gpu\", got \"quantum\"",
+    );
+    bad(
+        &|j| j.run_time_limit_s = Some(-5.0),
+        "run_time_limit_s: expected seconds > 0, got -5",
+    );
+    std::fs::write(&file, job.to_json() + "\n{\"more\": 1}").unwrap();
+    let e = study::Job::load(&file).unwrap_err();
+    assert!(e.contains("after the job: trailing characters"), "{e}");
     // The job as written reads back the same.
     std::fs::write(&file, job.to_json()).unwrap();
     let mut back = study::Job::load(&file).unwrap();

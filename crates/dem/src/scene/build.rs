@@ -302,7 +302,23 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
         .map(|g| g.mixture.min_sphere_radius())
         .fold(f64::INFINITY, f64::min);
     let skin = match s.neighbour_skin {
-        Some(v) => ctx.positive(v, "simulation.neighbour_skin".into())?,
+        Some(v) => {
+            let v = ctx.positive(v, "simulation.neighbour_skin".into())?;
+            // A skin of many diameters puts every pair in the neighbour lists (1e300 was
+            // taken): more than a few of the largest spheres' diameters only costs memory.
+            let max_r = groups
+                .iter()
+                .map(|g| g.mixture.max_sphere_radius())
+                .fold(0.0, f64::max);
+            let most = MAX_SKIN_RADII * max_r;
+            if max_r > 0.0 && v > most {
+                return Err(ctx.err(
+                    "simulation.neighbour_skin",
+                    format!("expected at most {MAX_SKIN_RADII} times the largest sphere radius ({most:.4e} m), got {v:e} m"),
+                ));
+            }
+            v
+        }
         None => SimulationParams::default().skin_fraction * min_r,
     };
     let domain = match s.domain {
@@ -599,6 +615,12 @@ fn polyhedra_supported(
     Ok(())
 }
 
+/// The densities a material may have (kg/m³): far past any real one either way.
+pub const MIN_DENSITY: f64 = 1e-3;
+pub const MAX_DENSITY: f64 = 1e9;
+/// The largest neighbour skin, in radii of the largest sphere.
+pub const MAX_SKIN_RADII: f64 = 4.0;
+
 /// The material table: every material, then every interaction.
 pub(super) fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable, SceneError> {
     let mut table = MaterialTable::new();
@@ -614,6 +636,16 @@ pub(super) fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable
             ));
         }
         ctx.positive(m.density, key("density"))?;
+        // Beyond these the masses and time steps leave f64 (1e-300 ended in NaN energies).
+        if !(MIN_DENSITY..=MAX_DENSITY).contains(&m.density) {
+            return Err(ctx.err(
+                key("density"),
+                format!(
+                    "expected {MIN_DENSITY:e} to {MAX_DENSITY:e} kg/m³, got {:e}",
+                    m.density
+                ),
+            ));
+        }
         if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
             return Err(ctx.err(
                 key("poisson_ratio"),
@@ -633,11 +665,25 @@ pub(super) fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable
             shear_modulus: shear,
         });
     }
-    let mut interactions = Vec::new();
+    let mut interactions: Vec<(usize, usize, Interaction)> = Vec::new();
     for (k, i) in d.interactions.iter().enumerate() {
         let key = |s: &str| format!("interaction[{k}].{s}");
         let a = material_lookup(ctx, &table, &i.materials[0], key("materials"))?;
         let b = material_lookup(ctx, &table, &i.materials[1], key("materials"))?;
+        // A second table for the same pair silently replaced the first, so the result hung on
+        // their order.
+        if let Some(j) = interactions
+            .iter()
+            .position(|(x, y, _)| (*x, *y) == (a, b) || (*x, *y) == (b, a))
+        {
+            return Err(ctx.err(
+                key("materials"),
+                format!(
+                    "[{}, {}] is already given by interaction[{j}]: one [[interaction]] per pair of materials",
+                    i.materials[0], i.materials[1]
+                ),
+            ));
+        }
         if !(i.restitution > 0.0 && i.restitution <= 1.0) {
             return Err(ctx.err(
                 key("restitution"),

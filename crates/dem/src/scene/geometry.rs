@@ -77,8 +77,9 @@ pub(super) fn build(
             ));
         }
         motion.push(match *e {
+            // A NaN or infinite motion would run with walls at NaN.
             Motion::Translation { velocity, .. } => Motion::Translation {
-                velocity,
+                velocity: ctx.finite3(velocity, mk("velocity"))?,
                 start,
                 end,
             },
@@ -88,13 +89,16 @@ pub(super) fn build(
                 angular_velocity,
                 ..
             } => Motion::Rotation {
-                axis_point,
+                axis_point: ctx.finite3(axis_point, mk("axis_point"))?,
                 axis: ctx.direction(axis, mk("axis"))?,
-                angular_velocity,
+                angular_velocity: ctx.finite(angular_velocity, mk("angular_velocity"))?,
                 start,
                 end,
             },
         });
+    }
+    if let Some(p) = g.torque_point {
+        ctx.finite3(p, format!("geometry[{k}].torque_point"))?;
     }
     let mut geo = Geometry::new(&g.name, material, elements).with_motion(motion);
     geo.torque_point = g.torque_point.unwrap_or_else(|| {

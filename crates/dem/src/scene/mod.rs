@@ -170,6 +170,27 @@ impl Ctx<'_> {
         }
     }
 
+    /// A finite number (any sign).
+    pub fn finite(&self, v: f64, key: String) -> Result<f64, SceneError> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(key, format!("expected a finite number, got {v}")))
+        }
+    }
+
+    /// A point or vector of finite numbers.
+    pub fn finite3(&self, v: DVec3, key: String) -> Result<DVec3, SceneError> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(
+                key,
+                format!("expected finite numbers, got [{}, {}, {}]", v.x, v.y, v.z),
+            ))
+        }
+    }
+
     pub fn direction(&self, d: DVec3, key: String) -> Result<DVec3, SceneError> {
         if d.length() > 0.0 && d.is_finite() {
             Ok(d.normalize())

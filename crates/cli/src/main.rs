@@ -294,6 +294,10 @@ fn run_test(
         }
         Ok(())
     };
+    // Before the run: a folder that cannot be written would fail only after it.
+    if let Some(dir) = out {
+        dem::files::check_writable(dir)?;
+    }
     let result = virtual_tests::run_file(&file, seed, out, &mut progress);
     bar.finish_and_clear();
     let done = result?;

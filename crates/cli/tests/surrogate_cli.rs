@@ -166,3 +166,30 @@ fn bad_input_is_one_line_naming_what_was_expected() {
     ]);
     assert!(!ok && err.contains("expected target=VALUE"), "{err}");
 }
+
+/// A constant response is refused as `doe analyze` refuses it, rather than fitted (issue 40).
+#[test]
+fn a_constant_response_is_refused() {
+    let p = ccd_file("const.csv");
+    let mut text = String::from("a,b,y\n");
+    for i in 0..10 {
+        text += &format!("{},{},5.0\n", i % 3, i % 4);
+    }
+    std::fs::write(&p, text).unwrap();
+    for model in ["gp", "bp"] {
+        let (ok, _, err) = demcal(&[
+            "surrogate",
+            "fit",
+            p.to_str().unwrap(),
+            "--response",
+            "y",
+            "--model",
+            model,
+        ]);
+        assert!(!ok, "{model}");
+        assert!(
+            err.contains("the response is 5 in all 10 rows; there is nothing to model"),
+            "{model}: {err}"
+        );
+    }
+}

@@ -62,6 +62,18 @@ pub fn open_checked(path: &Path, limit: u64) -> Result<std::fs::File, String> {
     Ok(file)
 }
 
+/// Makes the output folder `dir` if need be and checks that a file can be written in it, so
+/// that a read-only folder fails before a simulation of hours rather than after it.
+pub fn check_writable(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot make the folder: {e}", dir.display()))?;
+    let probe = dir.join(format!(".demcal-write-check-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .map_err(|e| format!("{}: cannot write in this folder: {e}", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -88,6 +100,25 @@ mod tests {
             read_text(&p, 100).unwrap_err(),
             "not text: invalid UTF-8 at byte 1"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_folder_that_cannot_be_written_is_found_before_anything_runs() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("demcal-ro-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        check_writable(&dir.join("out")).unwrap();
+        assert!(dir.join("out").is_dir());
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o555)).unwrap();
+        // root writes anywhere: then there is nothing to check.
+        let root = std::fs::write(dir.join("x"), b"").is_ok();
+        if !root {
+            let e = check_writable(&dir.join("new")).unwrap_err();
+            assert!(e.contains("cannot make the folder"), "{e}");
+        }
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -40,6 +40,13 @@ pub fn parse_factor_list(spec: &str) -> Result<Vec<Factor>, String> {
         if factors.iter().any(|g| g.name == f.name) {
             return Err(format!("--factors: '{}' is named twice", f.name));
         }
+        // The name heads a CSV column, written as it is.
+        if f.name.contains(['"', '\n', '\r']) {
+            return Err(format!(
+                "--factors: '{}': a factor name cannot hold a quote or a line break (it heads a CSV column)",
+                f.name.escape_debug()
+            ));
+        }
         factors.push(f);
     }
     Ok(factors)

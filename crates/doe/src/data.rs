@@ -60,6 +60,16 @@ impl DataTable {
         if headers.is_empty() || headers.iter().all(|h| h.is_empty()) {
             return Err(format!("{source}: no header row"));
         }
+        // Columns are found by name: a second of the same name would never be read.
+        for (j, h) in headers.iter().enumerate() {
+            if let Some(i) = headers[..j].iter().position(|g| g == h && !h.is_empty()) {
+                return Err(format!(
+                    "{source}: columns {} and {} are both named '{h}'",
+                    i + 1,
+                    j + 1
+                ));
+            }
+        }
         let mut rows = Vec::new();
         for (i, rec) in reader.records().enumerate() {
             let rec = rec.map_err(|e| format!("{source}: row {}: {e}", i + 2))?;

@@ -134,10 +134,20 @@ fn word_length_pattern(words: &[Word], k: usize) -> Vec<usize> {
         .collect()
 }
 
+/// The largest custom axial distance of a central composite design (coded units). The
+/// rotatable alpha of 24 factors is 16.
+pub const MAX_ALPHA: f64 = 100.0;
+
 /// Regular two-level fractional factorial 2^(k-p), with minimum-aberration generators found by
 /// search over the interactions of the k - p base factors (exhaustive while that stays small).
 /// Returns an error when no fraction reaches `min_resolution`.
 pub fn fractional_factorial(k: usize, p: usize, min_resolution: usize) -> Result<Design, String> {
+    // Resolution III is the least a design that estimates main effects can have.
+    if min_resolution < 3 {
+        return Err(format!(
+            "fractional factorial: resolution {min_resolution} asked; expected 3 (III) or more"
+        ));
+    }
     if p == 0 {
         return full_factorial(k);
     }
@@ -503,10 +513,11 @@ pub fn central_composite(
             "orthogonal",
         ),
         CcdAlpha::Inscribed => (f.powf(0.25), "inscribed"),
-        CcdAlpha::Custom(a) if a > 0.0 => (a, "custom alpha"),
+        // Past MAX_ALPHA the axial points leave any real range (1e308 wrote inf).
+        CcdAlpha::Custom(a) if a > 0.0 && a <= MAX_ALPHA => (a, "custom alpha"),
         CcdAlpha::Custom(a) => {
             return Err(format!(
-                "central composite: alpha must be positive, got {a}"
+                "central composite: alpha must be a positive number up to {MAX_ALPHA}, got {a}"
             ))
         }
     };

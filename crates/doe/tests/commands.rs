@@ -459,3 +459,44 @@ fn overflowing_data_is_refused_with_file_row_and_column() {
     let e = Fit::new(&exp, &ModelOrder::Linear.terms(1), doe::Curvature::Off).unwrap_err();
     assert_eq!(e, "response 'y': run 3 is NaN, not a finite number");
 }
+
+/// Nonsense the design and data commands used to accept (issue 40): an axial distance that
+/// writes inf, resolution 0, a factor name that breaks the CSV, and a table with two columns of
+/// one name (the second silently never read).
+#[test]
+fn nonsense_designs_and_tables_are_refused() {
+    let ccd = DesignRequest {
+        kind: "ccd".into(),
+        factors: "3".into(),
+        alpha: Some("1e308".into()),
+        ..Default::default()
+    };
+    assert_eq!(
+        design_error(ccd),
+        format!(
+            "central composite: alpha must be a positive number up to 100, got {}",
+            1e308f64
+        )
+    );
+    let frac = DesignRequest {
+        kind: "fractional".into(),
+        factors: "5".into(),
+        resolution: Some(0),
+        ..Default::default()
+    };
+    assert_eq!(
+        design_error(frac),
+        "fractional factorial: resolution 0 asked; expected 3 (III) or more"
+    );
+    let named = DesignRequest {
+        kind: "factorial".into(),
+        factors: "a\"b:0:1,c:0:1".into(),
+        ..Default::default()
+    };
+    assert_eq!(
+        design_error(named),
+        "--factors: 'a\\\"b': a factor name cannot hold a quote or a line break (it heads a CSV column)"
+    );
+    let e = DataTable::parse("d.csv", "A,B,A,y\n1,2,3,4\n").unwrap_err();
+    assert_eq!(e, "d.csv: columns 1 and 3 are both named 'A'");
+}

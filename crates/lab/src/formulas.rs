@@ -128,6 +128,12 @@ pub fn relative_error(simulated: f64, lab: f64) -> Result<Vec<Worked>, String> {
         return Err(format!("--lab: expected a number other than 0, got {lab}"));
     }
     let e = 100.0 * (simulated - lab).abs() / lab.abs();
+    // Values near f64's ends overflow the difference or the quotient.
+    if !e.is_finite() {
+        return Err(format!(
+            "--simulated {simulated}, --lab {lab}: the relative error is not a finite number"
+        ));
+    }
     Ok(vec![Worked {
         name: "relative_error",
         value: e,
@@ -173,5 +179,9 @@ mod tests {
             .unwrap_err()
             .starts_with("--empty"));
         assert!(relative_error(1.0, 0.0).unwrap_err().starts_with("--lab"));
+        // The difference overflows: refused, not printed as "inf %" (issue 40).
+        assert!(relative_error(1e308, -1e308)
+            .unwrap_err()
+            .ends_with("the relative error is not a finite number"));
     }
 }

@@ -9,3 +9,6 @@ pub const MAX_SOLUTIONS: usize = 1000;
 /// Largest sizes a surrogate stage may ask for.
 pub const MAX_SURROGATE_RUNS: usize = 100_000;
 pub const MAX_GA: usize = 100_000;
+/// Most evaluations of a genetic algorithm (generations × population): the published GA-BP
+/// settings are a few thousand; a million takes minutes.
+pub const MAX_GA_EVALUATIONS: usize = 1_000_000;

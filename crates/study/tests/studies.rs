@@ -271,6 +271,14 @@ fn invalid_study_files_name_the_key() {
             ),
             "parameter[1].path: \"function.variables.a\" is also where parameter[0] (\"a\") goes",
         ),
+        // Each at its maximum, both together ran silent for minutes (issue 40).
+        (
+            BOWL.replace(
+                "plan = [\"screening\", \"steepest\", \"rsm\", \"optimize\", \"validate\"]",
+                "plan = [\"rsm\", { stage = \"ga_bp\", generations = 100000, population = 100000 }]",
+            ),
+            "plan[1].population: generations × population = 100000 × 100000 evaluations, at most 1000000",
+        ),
         (
             BOWL.replace("seed = 3", "seed = -3"),
             "seed: expected a whole number >= 0, got -3",

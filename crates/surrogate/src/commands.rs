@@ -170,6 +170,14 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
     }
     let n = y.len();
     let k = factors.len();
+    // As `doe analyze` refuses it: a constant has nothing to learn.
+    if let Some(&first) = y.first() {
+        if y.iter().all(|&v| v == first) {
+            return Err(format!(
+                "{source}: the response is {first} in all {n} rows; there is nothing to model"
+            ));
+        }
+    }
     if n < k + 3 {
         return Err(format!(
             "{source}: {n} rows for {k} factors; a surrogate needs at least {} to train and test on",

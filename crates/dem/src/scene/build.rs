@@ -615,9 +615,10 @@ fn polyhedra_supported(
     Ok(())
 }
 
-/// The densities a material may have (kg/m³): far past any real one either way.
+/// The densities a material may have (kg/m³): far past any real one either way, and past the
+/// mass-scaled ones (density_scaling multiplies by up to 1e8).
 pub const MIN_DENSITY: f64 = 1e-3;
-pub const MAX_DENSITY: f64 = 1e9;
+pub const MAX_DENSITY: f64 = 1e15;
 /// The largest neighbour skin, in radii of the largest sphere.
 pub const MAX_SKIN_RADII: f64 = 4.0;
 

@@ -13,7 +13,7 @@ use surrogate::network::{self, BpOptions};
 
 use crate::spec::{Section, Stage};
 use crate::stage::table::{StageDef, StageTable};
-use crate::limits::{MAX_GA, MAX_SURROGATE_RUNS};
+use crate::limits::{MAX_GA, MAX_GA_EVALUATIONS, MAX_SURROGATE_RUNS};
 use crate::spec::Study;
 use crate::record::{Context, run_seed, StageResult};
 use crate::text::{sig, tidy};
@@ -69,7 +69,7 @@ impl StageDef for GaBp {
                 return Err(t.fail("train_on", "a ga_bp stage with runs = N trains on its own hypercube; leave out runs or train_on"));
             }
         }
-        Ok(GaBp {
+        let stage = GaBp {
             train_on,
             runs: t.count_opt("runs", 5, Some(MAX_SURROGATE_RUNS))?,
             hidden: t.count_opt("hidden", 1, Some(1000))?,
@@ -80,7 +80,25 @@ impl StageDef for GaBp {
             search_population: t.count("search_population", 100, 4, Some(MAX_GA))?,
             train_fraction: t.fraction("train_fraction", 0.8)?,
             max_epochs: t.count("max_epochs", 1000, 1, Some(MAX_GA))?,
-        })
+        };
+        // Each key alone may be large, not both: generations = population = 100 000 is 1e10
+        // evaluations, which ran silent for longer than anyone would wait.
+        for (g, p) in [
+            ("generations", "population"),
+            ("search_generations", "search_population"),
+        ] {
+            let (ng, np) = match g {
+                "generations" => (stage.generations, stage.population),
+                _ => (stage.search_generations, stage.search_population),
+            };
+            if ng.saturating_mul(np) > MAX_GA_EVALUATIONS {
+                return Err(t.fail(
+                    p,
+                    format!("{g} × {p} = {ng} × {np} evaluations, at most {MAX_GA_EVALUATIONS}"),
+                ));
+            }
+        }
+        Ok(stage)
     }
 }
 

@@ -280,6 +280,10 @@ fn invalid_study_files_name_the_key() {
             "plan[1].population: generations × population = 100000 × 100000 evaluations, at most 1000000",
         ),
         (
+            BOWL.replace("name = \"d\"", &format!("name = \"{}\"", "d".repeat(1_000_000))),
+            "parameter[3].name: expected 1 to 100 characters, got 1000000",
+        ),
+        (
             BOWL.replace("seed = 3", "seed = -3"),
             "seed: expected a whole number >= 0, got -3",
         ),

@@ -391,8 +391,15 @@ const NONE: u32 = u32::MAX;
 
 impl InsertGrid {
     fn new(lo: DVec3, hi: DVec3, reach: f64, n: usize) -> InsertGrid {
-        let cell = reach.max(((hi - lo).element_product() / (4.0 * n as f64 + 64.0)).cbrt());
-        let d = ((hi - lo) / cell).ceil().max(DVec3::ONE);
+        let mut cell = reach.max(((hi - lo).element_product() / (4.0 * n as f64 + 64.0)).cbrt());
+        // A region absurdly large or thin would ask more cells than memory holds (a box to 1e308
+        // overflowed the allocation): no side more than 2^20 cells, the grid at most 2^24.
+        cell = cell.max((hi - lo).max_element() / (1u64 << 20) as f64);
+        let mut d = ((hi - lo) / cell).ceil().max(DVec3::ONE);
+        while d.element_product() > (1u64 << 24) as f64 {
+            cell *= 2.0;
+            d = ((hi - lo) / cell).ceil().max(DVec3::ONE);
+        }
         let dims = [d.x as usize, d.y as usize, d.z as usize];
         InsertGrid {
             lo,

@@ -21,6 +21,16 @@ pub struct DataTable {
 /// depend on the engine): a wrong path such as /dev/zero is refused, not read into memory.
 pub const MAX_TABLE_BYTES: u64 = 256 << 20;
 
+/// A cell or a name as an error shows it: on one line (a quoted CSV cell may hold line breaks)
+/// and at most 40 characters.
+fn shown(s: &str) -> String {
+    let one: String = s.escape_debug().collect();
+    match one.char_indices().nth(40) {
+        Some((i, _)) => format!("{}…", &one[..i]),
+        None => one,
+    }
+}
+
 /// The file's text, refused past [`MAX_TABLE_BYTES`].
 fn read_limited(path: &Path) -> Result<String, String> {
     use std::io::Read;
@@ -64,9 +74,10 @@ impl DataTable {
         for (j, h) in headers.iter().enumerate() {
             if let Some(i) = headers[..j].iter().position(|g| g == h && !h.is_empty()) {
                 return Err(format!(
-                    "{source}: columns {} and {} are both named '{h}'",
+                    "{source}: columns {} and {} are both named '{}'",
                     i + 1,
-                    j + 1
+                    j + 1,
+                    shown(h)
                 ));
             }
         }
@@ -96,9 +107,14 @@ impl DataTable {
     pub fn column(&self, name: &str) -> Result<Vec<f64>, String> {
         let j = self.headers.iter().position(|h| h == name).ok_or_else(|| {
             format!(
-                "{}: column '{name}' not found (columns: {})",
+                "{}: column '{}' not found (columns: {})",
                 self.source,
-                self.headers.join(", ")
+                shown(name),
+                self.headers
+                    .iter()
+                    .map(|h| shown(h))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )
         })?;
         self.rows
@@ -106,12 +122,12 @@ impl DataTable {
             .enumerate()
             .map(|(i, r)| {
                 let cell = r.get(j).map(String::as_str).unwrap_or("");
-                let at = || format!("{}: row {}, column '{name}'", self.source, i + 2);
+                let at = || format!("{}: row {}, column '{}'", self.source, i + 2, shown(name));
                 let v = cell
                     .parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())
-                    .ok_or_else(|| format!("{}: '{cell}' is not a number", at()))?;
+                    .ok_or_else(|| format!("{}: '{}' is not a number", at(), shown(cell)))?;
                 if v.abs() > MAX_MAGNITUDE {
                     return Err(format!(
                         "{}: {cell} is too large (values beyond ±1e150 overflow the sums of squares)",

@@ -258,3 +258,140 @@ rolling_friction = 0.1
         assert!(text.contains("density = 7850\n"), "{text}");
     }
 }
+
+/// Hostile inputs for property tests: a good file's text with random edits, the way a typo, a
+/// bad paste or a damaged copy changes it. Every parser must answer these with a result or a
+/// one-line error, never a panic.
+pub mod hostile {
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngSeed};
+
+    /// The property tests' settings: `cases` cases from a fixed seed, so that `cargo test`
+    /// gives the same verdict every time; `DEMCAL_FUZZ_CASES` and `DEMCAL_FUZZ_SEED` run more,
+    /// from another seed (docs/reliability.md).
+    pub fn config(cases: u32) -> Config {
+        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<u64>().ok());
+        Config {
+            cases: env("DEMCAL_FUZZ_CASES").map_or(cases, |c| c as u32),
+            rng_seed: RngSeed::Fixed(env("DEMCAL_FUZZ_SEED").unwrap_or(40)),
+            failure_persistence: None,
+            ..Config::default()
+        }
+    }
+
+    /// Pieces an edit inserts: the file formats' punctuation, numbers at f64's and u64's ends,
+    /// non-ASCII and control characters.
+    const PIECES: &[&str] = &[
+        "",
+        "\"",
+        "'",
+        "[",
+        "]",
+        "{",
+        "}",
+        "=",
+        ",",
+        ".",
+        ":",
+        "\n",
+        "#",
+        "[[",
+        "]]",
+        "nan",
+        "inf",
+        "-inf",
+        "1e308",
+        "-1e308",
+        "1e-320",
+        "-1",
+        "0",
+        "-0",
+        "18446744073709551616",
+        "9223372036854775807",
+        "true",
+        "\"\"",
+        "é",
+        "\u{0}",
+        "\t",
+        "1e400",
+        "0x10",
+        "_",
+    ];
+
+    /// `text` with one to three edits, each deleting up to 12 characters at a point and putting
+    /// one of [`PIECES`] there.
+    pub fn mutated(text: &'static str) -> impl Strategy<Value = String> {
+        let edit = (
+            any::<prop::sample::Index>(),
+            0usize..12,
+            prop::sample::select(PIECES),
+        );
+        prop::collection::vec(edit, 1..4).prop_map(move |edits| {
+            let mut chars: Vec<char> = text.chars().collect();
+            for (at, cut, piece) in edits {
+                let i = at.index(chars.len() + 1);
+                let end = (i + cut).min(chars.len());
+                chars.splice(i..end, piece.chars());
+            }
+            chars.into_iter().collect()
+        })
+    }
+
+    /// Numbers an edit puts in place of one of the file's: the ends of f64 and i64, zero, signs,
+    /// and not-a-number.
+    const NUMBERS: &[&str] = &[
+        "0",
+        "-0",
+        "-1",
+        "1e308",
+        "-1e308",
+        "1e-320",
+        "nan",
+        "inf",
+        "-inf",
+        "1e9",
+        "1e12",
+        "9223372036854775807",
+        "-9223372036854775808",
+        "1e-9",
+        "0.5",
+        "3",
+    ];
+
+    /// `text` with one of its numbers (a run of digits, with its sign, point and exponent)
+    /// replaced by one of [`NUMBERS`]: a file that still parses, with a value at an extreme.
+    pub fn number_swapped(text: &'static str) -> impl Strategy<Value = String> {
+        let bytes = text.as_bytes();
+        let mut spans = Vec::new();
+        let mut i = 0;
+        while i < bytes.len() {
+            let starts = bytes[i].is_ascii_digit()
+                && (i == 0 || matches!(bytes[i - 1], b' ' | b'=' | b'[' | b',' | b'-' | b'\n'));
+            if starts {
+                let begin = if i > 0 && bytes[i - 1] == b'-' {
+                    i - 1
+                } else {
+                    i
+                };
+                let mut j = i;
+                while j < bytes.len()
+                    && (bytes[j].is_ascii_digit() || matches!(bytes[j], b'.' | b'e' | b'E' | b'_'))
+                {
+                    j += 1;
+                }
+                spans.push((begin, j));
+                i = j;
+            } else {
+                i += 1;
+            }
+        }
+        assert!(!spans.is_empty(), "a text without numbers");
+        (prop::sample::select(spans), prop::sample::select(NUMBERS))
+            .prop_map(move |((a, b), n)| format!("{}{n}{}", &text[..a], &text[b..]))
+    }
+
+    /// Either kind of edit.
+    pub fn hostile(text: &'static str) -> impl Strategy<Value = String> {
+        prop_oneof![mutated(text), number_swapped(text)]
+    }
+}

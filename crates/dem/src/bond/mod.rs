@@ -362,7 +362,14 @@ impl Bonds {
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
-                        let Some(list) = grid.get(&(cx + dx, cy + dy, cz + dz)) else {
+                        // Saturating: a reach far below the positions' scale puts cells at
+                        // i64's ends (a contact radius of 1e-320 overflowed here).
+                        let key = (
+                            cx.saturating_add(dx),
+                            cy.saturating_add(dy),
+                            cz.saturating_add(dz),
+                        );
+                        let Some(list) = grid.get(&key) else {
                             continue;
                         };
                         for &j in list {

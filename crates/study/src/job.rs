@@ -159,7 +159,8 @@ impl Job {
         let de = &mut serde_json::Deserializer::from_str(&text);
         let job: Job = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let key = e.path().to_string();
-            format!("{}: {key}: {}", path.display(), e.into_inner())
+            // A key or a value from the file may hold line breaks.
+            virtual_tests::file::one_line(&format!("{}: {key}: {}", path.display(), e.into_inner()))
         })?;
         // One job per file: anything after it is a damaged or concatenated file.
         de.end()

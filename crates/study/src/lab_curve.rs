@@ -252,7 +252,7 @@ fn read_table(path: &Path) -> Result<Table, String> {
         other => {
             return Err(format!(
                 "{name}: line 1: the first column is headed \"{}\": expected displacement_m or displacement_mm",
-                other.unwrap_or_default()
+                crate::text::shown(&other.unwrap_or_default())
             ))
         }
     };
@@ -269,7 +269,8 @@ fn read_table(path: &Path) -> Result<Table, String> {
     }
     if let Some(h) = heads.iter().skip(1).find(|h| h.is_empty()) {
         return Err(format!(
-            "{name}: line 1: a force column has no name (\"{h}\")"
+            "{name}: line 1: a force column has no name (\"{}\")",
+            crate::text::shown(h)
         ));
     }
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); heads.len()];
@@ -280,7 +281,8 @@ fn read_table(path: &Path) -> Result<Table, String> {
                 "{name}: more than {MAX_ROWS} data rows: refused (resample the curve)"
             ));
         }
-        let rec = rec.map_err(|e| format!("{name}: line {line}: {e}"))?;
+        let rec =
+            rec.map_err(|e| virtual_tests::file::one_line(&format!("{name}: line {line}: {e}")))?;
         if rec.len() != heads.len() {
             return Err(format!(
                 "{name}: line {line}: {} cells, expected {} (as the header)",
@@ -295,8 +297,9 @@ fn read_table(path: &Path) -> Result<Table, String> {
                 .filter(|v: &f64| v.is_finite())
                 .ok_or_else(|| {
                     format!(
-                        "{name}: line {line}, column {}: expected a number, got \"{cell}\"",
-                        heads[j]
+                        "{name}: line {line}, column {}: expected a number, got \"{}\"",
+                        crate::text::shown(&heads[j]),
+                        crate::text::shown(cell)
                     )
                 })?;
             cols[j].push(if j == 0 { v * scale } else { v });
@@ -433,6 +436,8 @@ mod tests {
             ("displacement_m,force\n0,1\n", "1 data row(s): a curve needs at least 2"),
             ("displacement_mm,force\n0,1\n2,2\n2,3\n", "line 4, column displacement_mm: the displacement does not increase (2 after 2)"),
             ("displacement_m,force\n0,1\n0.1,inf\n", "expected a number, got \"inf\""),
+            // A quoted cell may hold a line break: the message stays on one line.
+            ("displacement_m,force\n0,1\n0.1,\"9\n8\"\n", "expected a number, got \"9\\n8\""),
         ];
         for (i, (text, want)) in cases.iter().enumerate() {
             let p = d.join(format!("c{i}.csv"));

@@ -40,6 +40,26 @@ pub fn capitalised(name: &str) -> String {
         .unwrap_or_default()
 }
 
+/// A cell, a header or a key from a user's file as a one-line message shows it: line breaks
+/// and control characters escaped (a quoted CSV cell or a JSON key may hold them) and at most 40
+/// characters.
+pub fn shown(s: &str) -> String {
+    let one: String = s
+        .chars()
+        .flat_map(|c| {
+            if c.is_control() {
+                c.escape_debug().collect::<Vec<_>>()
+            } else {
+                vec![c]
+            }
+        })
+        .collect();
+    match one.char_indices().nth(40) {
+        Some((i, _)) => format!("{}…", &one[..i]),
+        None => one,
+    }
+}
+
 /// Job ids in numeric order, each once, joined by commas.
 pub fn job_list<'s>(ids: impl Iterator<Item = &'s str>) -> String {
     let set: BTreeSet<(usize, &str)> = ids.map(|i| (i.len(), i)).collect();

@@ -421,6 +421,10 @@ fn a_job_file_of_several_tests_is_checked_when_read() {
     std::fs::write(&file, job.to_json() + "\n{\"more\": 1}").unwrap();
     let e = study::Job::load(&file).unwrap_err();
     assert!(e.contains("after the job: trailing characters"), "{e}");
+    // A key holding line breaks (found by tests/hostile_files.rs): still one line.
+    std::fs::write(&file, job.to_json().replacen("\"seed\"", "\"se\\ned\"", 1)).unwrap();
+    let e = study::Job::load(&file).unwrap_err();
+    assert!(e.contains("unknown field") && !e.contains('\n'), "{e}");
     // The job as written reads back the same.
     std::fs::write(&file, job.to_json()).unwrap();
     let mut back = study::Job::load(&file).unwrap();

@@ -166,8 +166,7 @@ fn photo_angle(
         crop,
         ..PhotoSettings::default()
     };
-    let img =
-        image::open(path).map_err(|e| format!("{}: cannot read the image: {e}", path.display()))?;
+    let img = photo::open(path)?;
     let a = photo::measure(&img, &settings).map_err(|e| format!("{}: {e}", path.display()))?;
     if let Some(out) = &debug {
         photo::debug_picture(&img, &settings, &a)

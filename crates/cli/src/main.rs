@@ -349,26 +349,6 @@ fn heap_angle(
         return Err(format!("--base {base}: expected a finite height (m)"));
     }
     let (positions, radii) = read_spheres(path)?;
-    // A heap from another engine may hold anything; the measurement needs real spheres.
-    for (k, (p, r)) in positions.iter().zip(&radii).enumerate() {
-        if !(r.is_finite() && *r > 0.0) {
-            return Err(format!(
-                "{}: sphere {}: radius {r}: expected a positive number (m)",
-                path.display(),
-                k + 1
-            ));
-        }
-        if !p.is_finite() {
-            return Err(format!(
-                "{}: sphere {}: position ({}, {}, {}): expected finite numbers (m)",
-                path.display(),
-                k + 1,
-                p.x,
-                p.y,
-                p.z
-            ));
-        }
-    }
     let m = ReposeMeasurement {
         axis: (axis[0], axis[1]),
         base_z: base,

@@ -637,7 +637,16 @@ pub mod shapes {
 pub fn read_stl(path: &Path, scale: f64, offset: DVec3) -> Result<Vec<Element>, String> {
     let mut file = crate::files::open_checked(path, crate::files::MAX_MESH_BYTES)
         .map_err(|e| format!("cannot open: {e}"))?;
-    let mesh = stl_io::read_stl(&mut file).map_err(|e| format!("not a valid STL file: {e}"))?;
+    stl_triangles(&mut file, scale, offset)
+}
+
+/// The triangles of a binary or ASCII STL read from `stl` (see `read_stl`).
+pub fn stl_triangles<R: std::io::Read + std::io::Seek>(
+    stl: &mut R,
+    scale: f64,
+    offset: DVec3,
+) -> Result<Vec<Element>, String> {
+    let mesh = stl_io::read_stl(stl).map_err(|e| format!("not a valid STL file: {e}"))?;
     let v = |i: usize| {
         let p = mesh.vertices[i];
         DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) * scale + offset

@@ -79,6 +79,64 @@ pub struct PhotoAngle {
     pub outline: Vec<Option<u32>>,
 }
 
+/// The largest photo measured, in pixels (64 megapixels: 8 000 x 8 000). Measuring takes about
+/// 15 bytes a pixel (the colour image, its grey copy, the region labels), so this bounds it near
+/// 1 GB; a larger photo is refused before it is decoded.
+pub const MAX_PIXELS: u64 = 64_000_000;
+
+/// The largest photo file read (256 MiB).
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
+/// Decodes a photo (PNG or JPEG, told from its first bytes). Its size is read from its header
+/// and refused above `MAX_PIXELS` before any pixel is decoded.
+pub fn decode(bytes: &[u8]) -> Result<image::DynamicImage, String> {
+    use image::ImageDecoder;
+    // The decoders' messages may span lines (a JPEG's I/O error does).
+    let unreadable = |e: &dyn std::fmt::Display| {
+        let words: Vec<String> = e
+            .to_string()
+            .split_whitespace()
+            .map(str::to_string)
+            .collect();
+        format!("cannot read the image: {}", words.join(" "))
+    };
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| unreadable(&e))?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(MAX_PIXELS * 8);
+    reader.limits(limits);
+    let decoder = reader.into_decoder().map_err(|e| unreadable(&e))?;
+    let (w, h) = decoder.dimensions();
+    if u64::from(w) * u64::from(h) > MAX_PIXELS {
+        return Err(format!(
+            "the image is {w} x {h} pixels; at most {MAX_PIXELS} pixels are measured: scale it down or crop it"
+        ));
+    }
+    if w == 0 || h == 0 {
+        return Err(format!("the image is {w} x {h} pixels: it is empty"));
+    }
+    image::DynamicImage::from_decoder(decoder).map_err(|e| unreadable(&e))
+}
+
+/// Reads and decodes the photo at `path` (see `decode`); a file over `MAX_FILE_BYTES` is
+/// refused before it is read.
+pub fn open(path: &std::path::Path) -> Result<image::DynamicImage, String> {
+    let name = path.display();
+    let meta = std::fs::metadata(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    if !meta.is_file() {
+        return Err(format!("{name}: not a plain file"));
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(format!(
+            "{name}: the file is {} bytes; photos up to {MAX_FILE_BYTES} bytes are read",
+            meta.len()
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    decode(&bytes).map_err(|e| format!("{name}: {e}"))
+}
+
 /// Measures the heap in `image` (any colour type; it is made grey).
 pub fn measure(image: &image::DynamicImage, s: &PhotoSettings) -> Result<PhotoAngle, String> {
     let mut grey = image.to_luma8();
@@ -303,5 +361,66 @@ mod tests {
         let f = fit(&[(0.0, 1.0), (1.0, 3.0), (2.0, 5.0)], "left").unwrap();
         assert!((f.slope - 2.0).abs() < 1e-12 && f.rms_px < 1e-12);
         assert!(fit(&[(0.0, 1.0)], "left").unwrap_err().contains("too few"));
+    }
+
+    /// A PNG whose header declares `w` x `h` pixels, with one byte of image data.
+    fn png_declaring(w: u32, h: u32) -> Vec<u8> {
+        fn crc32(bytes: &[u8]) -> u32 {
+            let mut c = !0u32;
+            for &b in bytes {
+                c ^= u32::from(b);
+                for _ in 0..8 {
+                    c = if c & 1 != 0 {
+                        0xEDB8_8320 ^ (c >> 1)
+                    } else {
+                        c >> 1
+                    };
+                }
+            }
+            !c
+        }
+        let chunk = |kind: &[u8], data: &[u8]| {
+            let mut out = (data.len() as u32).to_be_bytes().to_vec();
+            let body = [kind, data].concat();
+            out.extend_from_slice(&body);
+            out.extend_from_slice(&crc32(&body).to_be_bytes());
+            out
+        };
+        let mut ihdr = w.to_be_bytes().to_vec();
+        ihdr.extend_from_slice(&h.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+        [
+            b"\x89PNG\r\n\x1a\n".to_vec(),
+            chunk(b"IHDR", &ihdr),
+            chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]),
+            chunk(b"IEND", &[]),
+        ]
+        .concat()
+    }
+
+    #[test]
+    fn a_photo_past_the_pixel_limit_is_refused_from_its_header() {
+        // 100 000 x 100 000 RGB would be 30 GB decoded.
+        let e = decode(&png_declaring(100_000, 100_000)).unwrap_err();
+        assert!(
+            e.contains("100000 x 100000") && e.contains("64000000"),
+            "{e}"
+        );
+        // Just under the limit the header is accepted and the missing data is the error.
+        let e = decode(&png_declaring(8_000, 8_000)).unwrap_err();
+        assert!(e.contains("cannot read the image"), "{e}");
+        assert!(decode(b"not an image")
+            .unwrap_err()
+            .contains("cannot read the image"));
+    }
+
+    #[test]
+    fn a_damaged_jpeg_is_refused_in_one_line() {
+        // Found by the `image` fuzz target: the JPEG decoder's message had a line break.
+        let e = decode(include_bytes!("../tests/data/fuzz-jpeg-two-line-error.jpg")).unwrap_err();
+        assert!(
+            e.starts_with("cannot read the image: ") && !e.contains('\n'),
+            "{e:?}"
+        );
     }
 }

@@ -120,8 +120,13 @@ pub(crate) fn enough(st: &StageResult, needed: usize, what: &str) -> Result<(), 
     if ok < needed {
         // Runs stored as done without a response (a store from elsewhere) do not count.
         let without = st.done() - ok;
+        let advice = if st.failed_transiently() > 0 {
+            "The machine failed them, not their parameters: fix what the failure names (a folder that cannot be written, a full disk, the cluster's limits), then run again; those runs are made again"
+        } else {
+            "Look at the failures, narrow the ranges or make the test more robust, then run again with --retry-failed"
+        };
         return Err(format!(
-            "{ok} of {} runs finished{} ({} failed{}); {what} needs at least {needed}. Look at the failures, narrow the ranges or make the test more robust, then run again with --retry-failed",
+            "{ok} of {} runs finished{} ({} failed{}); {what} needs at least {needed}. {advice}",
             st.runs.len(),
             if without > 0 {
                 format!(" with a response, {without} without")

@@ -156,21 +156,24 @@ impl Job {
     pub fn load(path: &Path) -> Result<Job, String> {
         let text = dem::files::read_text(path, dem::files::MAX_TEXT_BYTES)
             .map_err(|e| format!("{}: cannot read the job file: {e}", path.display()))?;
-        let de = &mut serde_json::Deserializer::from_str(&text);
+        Job::parse(&path.display().to_string(), &text)
+    }
+
+    /// Reads a job file's text; `name` heads the errors.
+    pub fn parse(name: &str, text: &str) -> Result<Job, String> {
+        let de = &mut serde_json::Deserializer::from_str(text);
         let job: Job = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let key = e.path().to_string();
             // A key or a value from the file may hold line breaks.
-            virtual_tests::file::one_line(&format!("{}: {key}: {}", path.display(), e.into_inner()))
+            virtual_tests::file::one_line(&format!("{name}: {key}: {}", e.into_inner()))
         })?;
         // One job per file: anything after it is a damaged or concatenated file.
         de.end()
-            .map_err(|e| format!("{}: after the job: {e}", path.display()))?;
-        job.check()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+            .map_err(|e| format!("{name}: after the job: {e}"))?;
+        job.check().map_err(|e| format!("{name}: {e}"))?;
         if !is_run_dir(&job.out_dir) {
             return Err(format!(
-                "{}: out_dir: expected a run folder named run<digits> (it is cleared before the run), got \"{}\"",
-                path.display(),
+                "{name}: out_dir: expected a run folder named run<digits> (it is cleared before the run), got \"{}\"",
                 job.out_dir.display()
             ));
         }

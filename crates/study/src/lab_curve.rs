@@ -235,11 +235,16 @@ fn read_table(path: &Path) -> Result<Table, String> {
     let name = path.display().to_string();
     let file = dem::files::open_checked(path, dem::files::MAX_TABLE_BYTES)
         .map_err(|e| format!("{name}: cannot read: {e}"))?;
+    table_from(name, std::io::BufReader::new(file))
+}
+
+/// The table in `csv`; `name` heads the errors.
+fn table_from(name: String, csv: impl std::io::Read) -> Result<Table, String> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
         .trim(csv::Trim::All)
-        .from_reader(std::io::BufReader::new(file));
+        .from_reader(csv);
     let mut records = rdr.records();
     let header = match records.next() {
         None => return Err(format!("{name}: empty: expected a header row (displacement_m or displacement_mm, then one force column in N per replicate)")),
@@ -331,12 +336,21 @@ pub fn read_simulated_csv(path: &Path) -> Result<Curve, String> {
 /// Reads one lab CSV: a replicate per force column. Errors name the file, the line and the
 /// column.
 pub fn read_csv(path: &Path) -> Result<Vec<Replicate>, String> {
+    replicates(read_table(path)?)
+}
+
+/// The replicates of a lab CSV's bytes (see `read_csv`); `name` heads the errors.
+pub fn parse_csv(name: &str, csv: &[u8]) -> Result<Vec<Replicate>, String> {
+    replicates(table_from(name.to_string(), csv)?)
+}
+
+fn replicates(table: Table) -> Result<Vec<Replicate>, String> {
     let Table {
         name,
         heads,
         cols,
         scale,
-    } = read_table(path)?;
+    } = table;
     let x = &cols[0];
     if x.len() < 2 {
         return Err(format!(

@@ -143,6 +143,15 @@ pub fn run(
         if n > 0 {
             eprintln!("{n} failed run(s) will run again");
         }
+    } else {
+        // A run that failed for the machine (its files not written, its task ended by the
+        // cluster) says nothing about its parameters: it is made again without being asked.
+        let n = store.delete_transient()?;
+        if n > 0 {
+            eprintln!(
+                "{n} run(s) that failed for the machine, not their parameters (files not written, tasks ended by the cluster), will run again"
+            );
+        }
     }
     let stored = store.runs()?;
     let started = std::time::Instant::now();
@@ -279,10 +288,14 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
     for (i, stage) in study.plan.iter().enumerate() {
         let line = match r.stages.get(i) {
             Some(st) if stage.runs_simulations() => format!(
-                "{} runs: {} done, {} failed, {} pending{}",
+                "{} runs: {} done, {} failed{}, {} pending{}",
                 st.runs.len(),
                 st.done(),
                 st.failed(),
+                match st.failed_transiently() {
+                    0 => String::new(),
+                    n => format!(" ({n} for the machine, made again by the next run)"),
+                },
                 st.pending(),
                 if st.complete { "" } else { " (in progress)" }
             ),

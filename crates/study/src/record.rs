@@ -145,6 +145,18 @@ impl StageResult {
             .count()
     }
 
+    /// The failed runs that failed for the machine, not their parameters
+    /// (`RunErrorKind::is_transient`).
+    pub fn failed_transiently(&self) -> usize {
+        self.records
+            .iter()
+            .flatten()
+            .filter(|r| {
+                r.status == Status::Failed && r.error_kind.is_some_and(|k| k.is_transient())
+            })
+            .count()
+    }
+
     pub fn pending(&self) -> usize {
         self.records.iter().filter(|r| r.is_none()).count()
     }

@@ -28,6 +28,9 @@ pub enum RunErrorKind {
     /// node failure or pre-emption after its retries, an error starting it. (Its time limit is
     /// `TimeLimit`.)
     Cluster,
+    /// The run's files could not be written (permission denied, disk full, ...): a fault of the
+    /// machine, not a verdict on the parameters. Made again by the next `demcal run`.
+    OutputFailed,
     /// Stored by a demcal version that did not record kinds.
     Unknown,
 }
@@ -44,12 +47,27 @@ impl RunErrorKind {
             RunErrorKind::NotQuasiStatic => "not_quasi_static",
             RunErrorKind::Panic => "panic",
             RunErrorKind::Cluster => "cluster",
+            RunErrorKind::OutputFailed => "output_failed",
             RunErrorKind::Unknown => "unknown",
         }
     }
 
-    /// The kind stored as `s` (`unknown` for anything else).
-    pub fn from_stored(s: &str) -> RunErrorKind {
+    /// A failure of the machine, not of the parameters: its files could not be written, or
+    /// the cluster ended it (out of memory, cancelled, its node lost after every retry). Such
+    /// runs are stored, so the report shows them, and made again by the next `demcal run`.
+    pub fn is_transient(self) -> bool {
+        matches!(self, RunErrorKind::OutputFailed | RunErrorKind::Cluster)
+    }
+
+    /// The kinds `is_transient` names, as stored.
+    pub fn transient() -> Vec<RunErrorKind> {
+        Self::all()
+            .into_iter()
+            .filter(|k| k.is_transient())
+            .collect()
+    }
+
+    fn all() -> [RunErrorKind; 10] {
         [
             RunErrorKind::Interrupted,
             RunErrorKind::TimeLimit,
@@ -60,10 +78,16 @@ impl RunErrorKind {
             RunErrorKind::NotQuasiStatic,
             RunErrorKind::Panic,
             RunErrorKind::Cluster,
+            RunErrorKind::OutputFailed,
         ]
-        .into_iter()
-        .find(|k| k.as_str() == s)
-        .unwrap_or(RunErrorKind::Unknown)
+    }
+
+    /// The kind stored as `s` (`unknown` for anything else).
+    pub fn from_stored(s: &str) -> RunErrorKind {
+        Self::all()
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .unwrap_or(RunErrorKind::Unknown)
     }
 }
 
@@ -99,6 +123,7 @@ impl From<virtual_tests::TestError> for RunError {
             T::Diverged(_) => RunErrorKind::Diverged,
             T::Escaped(_) => RunErrorKind::Escaped,
             T::Measurement(_) => RunErrorKind::MeasurementFailed,
+            T::Output(_) => RunErrorKind::OutputFailed,
             // The study's progress callback records why it stopped a run; this is the fallback.
             T::Stopped(_) => RunErrorKind::Interrupted,
         };

@@ -218,21 +218,49 @@ impl Store {
 
     /// Forgets failed runs so that they run again.
     pub fn delete_failed(&mut self) -> Result<usize, String> {
+        self.delete_failed_where("1", "its run was run again (--retry-failed)")
+    }
+
+    /// Deletes the failed runs whose failure was the machine's, not the parameters'
+    /// (`RunErrorKind::is_transient`: files that could not be written, a task the cluster
+    /// ended), so that they are made again; how many.
+    pub fn delete_transient(&mut self) -> Result<usize, String> {
+        if !self.columns.error_kind {
+            return Ok(0);
+        }
+        let kinds: Vec<String> = RunErrorKind::transient()
+            .into_iter()
+            .map(|k| format!("'{}'", k.as_str()))
+            .collect();
+        self.delete_failed_where(
+            &format!("error_kind IN ({})", kinds.join(", ")),
+            "its run failed for the machine, not its parameters, and was run again",
+        )
+    }
+
+    /// Deletes the failed runs that also meet `condition` (SQL on `runs`' columns); a cluster
+    /// task retried for such a run is closed as dropped, with `note`.
+    fn delete_failed_where(&mut self, condition: &str, note: &str) -> Result<usize, String> {
         let path = self.path.clone();
         let tx = self.conn.transaction().map_err(db_err(&path))?;
         if self.columns.ledger {
             // Their runs start afresh, with their retries after a node failure unused again.
             tx.execute(
-                "UPDATE cluster_tasks SET state = 'dropped', note = 'its run was run again (--retry-failed)'
-                 WHERE state = 'retried' AND EXISTS (SELECT 1 FROM runs
-                     WHERE runs.stage = cluster_tasks.stage AND runs.idx = cluster_tasks.idx
-                       AND runs.status = 'failed')",
-                [],
+                &format!(
+                    "UPDATE cluster_tasks SET state = 'dropped', note = ?1
+                     WHERE state = 'retried' AND EXISTS (SELECT 1 FROM runs
+                         WHERE runs.stage = cluster_tasks.stage AND runs.idx = cluster_tasks.idx
+                           AND runs.status = 'failed' AND ({condition}))"
+                ),
+                [note],
             )
             .map_err(db_err(&path))?;
         }
         let n = tx
-            .execute("DELETE FROM runs WHERE status = 'failed'", [])
+            .execute(
+                &format!("DELETE FROM runs WHERE status = 'failed' AND ({condition})"),
+                [],
+            )
             .map_err(db_err(&path))?;
         tx.commit().map_err(db_err(&path))?;
         Ok(n)

@@ -58,7 +58,7 @@ pub fn run_file(
                 let json = serde_json::to_string_pretty(&done.json).map_err(|e| e.to_string())?;
                 write("result.json", json.as_bytes())
             });
-        written.map_err(TestError::Measurement)?;
+        written.map_err(TestError::Output)?;
     }
     Ok(done)
 }

@@ -284,6 +284,12 @@ pub fn read_spheres(path: &std::path::Path) -> Result<(Vec<glam::DVec3>, Vec<f64
     let name = path.display().to_string();
     let text = dem::files::read_text(path, dem::files::MAX_TABLE_BYTES)
         .map_err(|e| format!("{name}: cannot read: {e}"))?;
+    parse_spheres(&name, &text)
+}
+
+/// The spheres of a CSV table or a LAMMPS/LIGGGHTS dump's text (see `read_spheres`); `name`
+/// heads the errors.
+pub fn parse_spheres(name: &str, text: &str) -> Result<(Vec<glam::DVec3>, Vec<f64>), String> {
     let columns = |header: &[&str]| -> Result<[usize; 4], String> {
         let mut idx = [usize::MAX; 4];
         for (k, want) in ["x", "y", "z", "radius"].iter().enumerate() {
@@ -347,6 +353,24 @@ pub fn read_spheres(path: &std::path::Path) -> Result<(Vec<glam::DVec3>, Vec<f64
     };
     if out.0.is_empty() {
         return Err(format!("{name}: no spheres in the file"));
+    }
+    // A heap from another engine may hold anything; the measurement needs real spheres.
+    for (k, (p, r)) in out.0.iter().zip(&out.1).enumerate() {
+        if !(r.is_finite() && *r > 0.0) {
+            return Err(format!(
+                "{name}: sphere {}: radius {r}: expected a positive number (m)",
+                k + 1
+            ));
+        }
+        if !p.is_finite() {
+            return Err(format!(
+                "{name}: sphere {}: position ({}, {}, {}): expected finite numbers (m)",
+                k + 1,
+                p.x,
+                p.y,
+                p.z
+            ));
+        }
     }
     Ok(out)
 }

@@ -47,6 +47,10 @@ pub enum TestError {
     /// The progress callback stopped the run (an interrupt, a time limit): its message.
     #[error("{0}")]
     Stopped(String),
+    /// The run's files could not be written (permission denied, disk full, ...): a fault of the
+    /// machine, not of the parameters, so a study makes the run again once it is fixed.
+    #[error("{0}")]
+    Output(String),
 }
 
 impl TestError {
@@ -57,7 +61,8 @@ impl TestError {
             | TestError::Diverged(m)
             | TestError::Escaped(m)
             | TestError::Measurement(m)
-            | TestError::Stopped(m) => m,
+            | TestError::Stopped(m)
+            | TestError::Output(m) => m,
         }
     }
 }

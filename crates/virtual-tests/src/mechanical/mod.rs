@@ -476,10 +476,10 @@ pub fn load(
     let mut snapshot = |sim: &mut Simulation| -> Result<(), TestError> {
         if let (Some(dir), Some(series)) = (&out, snapshots.as_mut()) {
             std::fs::create_dir_all(dir)
-                .map_err(|e| TestError::Measurement(format!("{}: {e}", dir.display())))?;
+                .map_err(|e| TestError::Output(format!("{}: {e}", dir.display())))?;
             series
                 .write(sim)
-                .map_err(|e| TestError::Measurement(format!("{}: {e}", dir.display())))?;
+                .map_err(|e| TestError::Output(format!("{}: {e}", dir.display())))?;
         }
         Ok(())
     };
@@ -610,7 +610,7 @@ fn write_logs(
     let absolute = |p: PathBuf| std::path::absolute(&p).unwrap_or(p);
     outcome.curve_csv = Some(absolute(dir.join(CURVE_FILE)));
     if let Some(b) = sim.bonds() {
-        let io = |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
+        let io = |e: std::io::Error| TestError::Output(format!("{}: {e}", dir.display()));
         std::fs::create_dir_all(dir).map_err(io)?;
         write_breakage_csv(&dir.join("bond_breakage.csv"), b).map_err(io)?;
         write_bond_counts_csv(&dir.join("bond_counts.csv"), b).map_err(io)?;

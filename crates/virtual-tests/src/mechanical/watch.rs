@@ -123,8 +123,7 @@ impl Watch {
             .sum();
         let progress = match out {
             Some(dir) => {
-                let io =
-                    |e: std::io::Error| TestError::Measurement(format!("{}: {e}", dir.display()));
+                let io = |e: std::io::Error| TestError::Output(format!("{}: {e}", dir.display()));
                 std::fs::create_dir_all(dir).map_err(io)?;
                 let mut f = File::create(dir.join(PROGRESS_FILE)).map_err(io)?;
                 writeln!(f, "travel_m,force_n,kinetic_energy_j,work_j,bonds_broken").map_err(io)?;

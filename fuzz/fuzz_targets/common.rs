@@ -1,3 +1,4 @@
+#![allow(dead_code)] // each target uses part of it
 //! What every target asserts about a refusal: one line that names the file.
 
 /// Panics (a crash to libFuzzer) unless `e` is one line starting with or naming `file`.

@@ -36,7 +36,7 @@ one() {
   local start=$SECONDS
   cargo +nightly fuzz run -O "$t" "corpus/$t" "seeds/$t" -- \
     -runs="$runs" -timeout=10 -malloc_limit_mb=1024 -rss_limit_mb=2048 \
-    -print_final_stats=1 -close_fd_mask=3 >"logs/$t.log" 2>&1
+    -print_final_stats=1 -close_fd_mask=1 >"logs/$t.log" 2>&1
   local rc=$?
   local execs crashes hangs
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "logs/$t.log" | grep -o '[0-9]*$' | tail -1)

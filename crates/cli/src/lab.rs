@@ -122,7 +122,8 @@ pub fn run(action: LabCommand) -> Result<(), String> {
             volume,
         } => formulas::bulk_density(filled, empty, volume),
         LabCommand::RelativeError { simulated, lab } => formulas::relative_error(simulated, lab),
-    }?;
+    }
+    .and_then(formulas::finite)?;
     for Worked { formula, .. } in worked {
         println!("{formula}");
     }
@@ -137,6 +138,26 @@ fn photo_angle(
     debug: Option<PathBuf>,
     json: bool,
 ) -> Result<(), String> {
+    // The picture's format follows its name; checked before the photo is measured.
+    if let Some(d) = &debug {
+        let ext = d
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        if !matches!(ext.as_str(), "png" | "jpg" | "jpeg") {
+            return Err(format!(
+                "--debug {}: expected a file name ending in .png or .jpg",
+                d.display()
+            ));
+        }
+        if std::fs::metadata(d).is_ok_and(|m| !m.is_file()) {
+            return Err(format!(
+                "--debug {}: exists and is not a plain file",
+                d.display()
+            ));
+        }
+    }
     let crop = crop
         .map(|c| {
             let parts: Vec<u32> = c

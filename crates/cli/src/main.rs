@@ -409,8 +409,69 @@ fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::scope(|_| f())
 }
 
+/// Every option that takes a value accepts a negative number (`--base -0.001`), and a list
+/// (`--axis -0.001,0.002`) may start with a minus; otherwise clap reads `-1` as a flag and says
+/// "unexpected argument '-1'" without naming the option it was for.
+fn with_negative_numbers(c: clap::Command) -> clap::Command {
+    c.mut_args(|a| {
+        if !a.get_action().takes_values() {
+            a
+        } else if a.get_value_delimiter().is_some() {
+            a.allow_hyphen_values(true)
+        } else {
+            a.allow_negative_numbers(true)
+        }
+    })
+    .mut_subcommands(with_negative_numbers)
+}
+
+/// The command line, or a usage error in one line (clap's own spans several: the error, a
+/// tip, the usage) with where to look; help and version print as they are.
+fn parse_command_line() -> Result<Cli, ExitCode> {
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = with_negative_numbers(Cli::command()).try_get_matches();
+    match matches.and_then(|m| Cli::from_arg_matches(&m)) {
+        Ok(cli) => Ok(cli),
+        Err(e) => {
+            use clap::error::ErrorKind as K;
+            if matches!(
+                e.kind(),
+                K::DisplayHelp | K::DisplayVersion | K::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                e.exit();
+            }
+            let text = e.render().to_string();
+            let first = text
+                .lines()
+                .find(|l| !l.trim().is_empty())
+                .unwrap_or("error: cannot read the command line");
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            // The (sub)command the error is about: the leading words that name one.
+            let mut words = Vec::new();
+            let mut cmd = Cli::command();
+            for a in std::env::args().skip(1) {
+                let Some(sub) = cmd.find_subcommand(&a).cloned() else {
+                    break;
+                };
+                words.push(a);
+                cmd = sub;
+            }
+            let at = if words.is_empty() {
+                String::new()
+            } else {
+                format!(" {}", words.join(" "))
+            };
+            eprintln!("error: {first} (see demcal{at} --help)");
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match parse_command_line() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     // The GPU back end, for scene, test and study files and `--backend gpu`.
     dem_gpu::register();
     let result = match cli.command {
@@ -571,6 +632,17 @@ fn run_job(path: &Path, record: Option<&Path>) -> Result<(), String> {
     let out = record
         .map(Path::to_path_buf)
         .unwrap_or_else(|| path.with_extension("record.json"));
+    // The record is written beside its place and renamed onto it: onto a device (/dev/full) or
+    // a folder that would replace it or fail only after the run, so they are refused first.
+    if std::fs::metadata(&out).is_ok_and(|m| !m.is_file()) {
+        return Err(format!(
+            "{}: --record: expected a file to write (it exists and is not a plain file)",
+            out.display()
+        ));
+    }
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        dem::files::check_writable(dir).map_err(|e| format!("--record: {e}"))?;
+    }
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
     ctrlc::set_handler(move || {

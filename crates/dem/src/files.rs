@@ -25,6 +25,7 @@ fn size(n: u64) -> String {
 /// The text of `path`, refused past `limit` bytes (read no further than one byte past it).
 /// The error is the reason alone; callers put the file's name in front.
 pub fn read_text(path: &Path, limit: u64) -> Result<String, String> {
+    check_plain(path)?;
     let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let mut bytes = Vec::new();
     file.take(limit + 1)
@@ -47,6 +48,7 @@ pub fn read_text(path: &Path, limit: u64) -> Result<String, String> {
 /// Opens `path` for a reader that streams it (CSV, STL), after checking that it is a plain file
 /// of at most `limit` bytes: a device or a pipe has no size to check, so it is refused.
 pub fn open_checked(path: &Path, limit: u64) -> Result<std::fs::File, String> {
+    check_plain(path)?;
     let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let meta = file.metadata().map_err(|e| e.to_string())?;
     if !meta.is_file() {
@@ -60,6 +62,27 @@ pub fn open_checked(path: &Path, limit: u64) -> Result<std::fs::File, String> {
         ));
     }
     Ok(file)
+}
+
+/// Refuses anything but a plain file (or a link to one) before it is opened: opening a named
+/// pipe waits for a writer, so the check must come first; a folder or a device has no text.
+pub fn check_plain(path: &Path) -> Result<(), String> {
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if meta.is_file() {
+        return Ok(());
+    }
+    use std::os::unix::fs::FileTypeExt;
+    let t = meta.file_type();
+    let what = if t.is_dir() {
+        "a folder"
+    } else if t.is_fifo() {
+        "a named pipe"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "a device"
+    };
+    Err(format!("not a plain file ({what})"))
 }
 
 /// Makes the output folder `dir` if need be and checks that a file can be written in it, so

@@ -267,6 +267,13 @@ impl KernelShape {
         if spheres == 0 {
             return Err("expected at least one sphere".into());
         }
+        // Refused before the fit: a count past any clump's (1e18) took seconds to refuse.
+        if spheres > crate::clump::MAX_CLUMP_SPHERES {
+            return Err(format!(
+                "count = {spheres}: a clump holds at most {} spheres",
+                crate::clump::MAX_CLUMP_SPHERES
+            ));
+        }
         let h = self.half_extents();
         // Sample grid: ~48 cells along the longest side.
         let step = 2.0 * h.max_element() / 48.0;
@@ -426,16 +433,19 @@ mod tests {
     #[test]
     fn a_count_past_what_adds_volume_is_refused_with_the_most_that_does() {
         let s = KernelShape::published("flat").unwrap();
-        let e = s.fit(100_000).unwrap_err();
+        let e = s.fit(5_000).unwrap_err();
         let most: usize = e
             .split("at most ")
             .nth(1)
             .and_then(|t| t.split(' ').next())
             .and_then(|n| n.parse().ok())
             .unwrap_or_else(|| panic!("{e}"));
-        assert!(e.starts_with("count = 100000: at most "), "{e}");
+        assert!(e.starts_with("count = 5000: at most "), "{e}");
         assert_eq!(s.fit(most).unwrap().template.spheres.len(), most);
         assert!(s.fit(most + 1).is_err());
+        // Past any clump's size it is refused before the fit.
+        let e = s.fit(usize::MAX).unwrap_err();
+        assert!(e.contains("a clump holds at most 10000 spheres"), "{e}");
     }
 
     #[test]

@@ -405,12 +405,23 @@ pub fn fit_response(req: &ModelRequest, table: &DataTable, response: &str) -> Re
     Ok(fit)
 }
 
+/// Each response named once (a second `--response D` repeated the whole analysis).
+fn once_each(responses: &[String]) -> Result<(), String> {
+    for (i, r) in responses.iter().enumerate() {
+        if responses[..i].contains(r) {
+            return Err(format!("--response {r}: named twice"));
+        }
+    }
+    Ok(())
+}
+
 /// `demcal doe analyze`: the report (or JSON) of every response; plots when asked.
 pub fn analyze(req: &ModelRequest, json: bool, plots: Option<&Path>) -> Result<String, String> {
     let table = DataTable::read(&req.data)?;
     if req.responses.is_empty() {
         return Err("--response: name the response column".into());
     }
+    once_each(&req.responses)?;
     let mut out = String::new();
     let mut docs = Vec::new();
     for r in &req.responses {
@@ -542,6 +553,9 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
     if opt.solutions == 0 {
         return Err("--solutions 0: expected at least 1".into());
     }
+    if opt.starts == 0 {
+        return Err("--starts 0: expected at least 1 random start".into());
+    }
     if opt.starts > crate::optimize::MAX_STARTS {
         return Err(format!(
             "--starts {}: at most {} random starts",
@@ -556,6 +570,7 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
     if opt.goals.is_empty() {
         return Err("--goal: give at least one goal, e.g. --goal angle_deg:target=38.65".into());
     }
+    once_each(&req.responses)?;
     let fits: Vec<Fit> = req
         .responses
         .iter()
@@ -566,8 +581,17 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
     let mut bounds = vec![(-1.0, 1.0); k];
     let sole = (req.responses.len() == 1).then(|| req.responses[0].as_str());
     let mut criteria = Vec::new();
+    let mut named: Vec<String> = Vec::new();
     for g in &opt.goals {
         let (name, mut c) = parse_goal(g, sole)?;
+        // Two goals for one column contradict or repeat each other (maximise and minimise
+        // averaged to 0.5 everywhere).
+        if named.contains(&name) {
+            return Err(format!(
+                "--goal '{g}': '{name}' has a goal already; give one goal per column"
+            ));
+        }
+        named.push(name.clone());
         if let Some(i) = req.responses.iter().position(|r| *r == name) {
             let y = &fits[i].experiment.response;
             let lo = y.iter().cloned().fold(f64::MAX, f64::min);
@@ -601,7 +625,24 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
                 Some(f) => f[j].to_coded(v),
                 None => v,
             };
-            bounds[j] = (to_coded(c.lower), to_coded(c.upper));
+            // The search stays within the design's cube and its runs (axial points included):
+            // a model is not to be read far past them.
+            let (lo, hi) = exp
+                .coded
+                .iter()
+                .map(|r| r[j])
+                .fold((-1.0f64, 1.0f64), |(a, b), v| (a.min(v), b.max(v)));
+            let (a, b) = (to_coded(c.lower).max(lo), to_coded(c.upper).min(hi));
+            if !(a <= b) {
+                return Err(format!(
+                    "--goal '{g}': {} .. {} lies outside the runs' range of {name} ({} .. {}): the model cannot be read there",
+                    c.lower,
+                    c.upper,
+                    to_unit(lo),
+                    to_unit(hi)
+                ));
+            }
+            bounds[j] = (a, b);
             if c.goal != Goal::InRange {
                 criteria.push((Subject::Factor(j), c));
             }

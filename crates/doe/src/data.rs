@@ -35,6 +35,11 @@ fn shown(s: &str) -> String {
 fn read_limited(path: &Path) -> Result<String, String> {
     use std::io::Read;
     let mut bytes = Vec::new();
+    // A named pipe would block the open: only a plain file is read.
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if !meta.is_file() {
+        return Err("not a plain file (a folder, a device or a pipe)".into());
+    }
     std::fs::File::open(path)
         .and_then(|f| f.take(MAX_TABLE_BYTES + 1).read_to_end(&mut bytes))
         .map_err(|e| e.to_string())?;

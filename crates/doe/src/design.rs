@@ -12,9 +12,10 @@ pub const MAX_RUNS: usize = 100_000;
 pub const MAX_PB_RUNS: usize = 1024;
 /// Most runs of a maximin Latin hypercube: its search compares every pair of runs.
 pub const MAX_MAXIMIN_RUNS: usize = 10_000;
-/// Pair-distance terms (pairs x factors) the maximin search may evaluate in full rescans, so that
-/// large hypercubes end in seconds; smaller ones never reach it.
-const MAXIMIN_WORK: usize = 2_000_000_000;
+/// Pair-distance terms (pairs x factors) the maximin search may evaluate in all (its first scan
+/// of every pair, its swaps and its rescans), so that large hypercubes end in seconds; the usual
+/// sizes never reach it. A hypercube whose first scan alone passes it is refused.
+pub const MAXIMIN_WORK: usize = 2_000_000_000;
 
 /// A generated design in coded units.
 #[derive(Clone, Debug, PartialEq)]
@@ -618,6 +619,12 @@ pub fn latin_hypercube(k: usize, n: usize, kind: LhsKind, seed: u64) -> Result<D
             "Latin hypercube (maximin): {n} runs asked, at most {MAX_MAXIMIN_RUNS} (the search compares every pair of runs)"
         ));
     }
+    let scan = (n * (n - 1) / 2 * k).max(1);
+    if kind == LhsKind::Maximin && scan > MAXIMIN_WORK {
+        return Err(format!(
+            "Latin hypercube (maximin): {n} runs of {k} factors make {scan} pair terms to compare, at most {MAXIMIN_WORK}: use fewer runs or factors, or a centred or random hypercube"
+        ));
+    }
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut perms: Vec<Vec<usize>> = (0..k)
         .map(|_| {
@@ -663,10 +670,15 @@ pub fn latin_hypercube(k: usize, n: usize, kind: LhsKind, seed: u64) -> Result<D
         // distances); and the minimum stays while some pair still has it, so a full rescan is
         // needed only when the last such pair goes. Same choices as rescanning every time, far
         // fewer distances. A work cap ends the search of very large hypercubes.
-        let scan = (n * (n - 1) / 2 * k).max(1);
-        let mut rescans_left = (MAXIMIN_WORK / scan).max(1);
+        let mut work_left = MAXIMIN_WORK - scan;
         let (mut current, mut at_min) = min_dist(&perms);
         for _ in 0..(200 * n * k).min(20_000) {
+            // Each swap looks at the 2n pairs of its two rows, before and after.
+            let swap = 4 * n * k;
+            if work_left < swap {
+                break;
+            }
+            work_left -= swap;
             let j = rng.gen_range(0..k);
             let (a, b) = (rng.gen_range(0..n), rng.gen_range(0..n));
             if a == b {
@@ -683,11 +695,11 @@ pub fn latin_hypercube(k: usize, n: usize, kind: LhsKind, seed: u64) -> Result<D
             if keeps {
                 at_min = at_min - before + after;
                 if at_min == 0 {
-                    (current, at_min) = min_dist(&perms);
-                    rescans_left -= 1;
-                    if rescans_left == 0 {
+                    if work_left < scan {
                         break;
                     }
+                    work_left -= scan;
+                    (current, at_min) = min_dist(&perms);
                 }
             } else {
                 perms[j].swap(a, b);

@@ -11,6 +11,18 @@ pub struct Worked {
     pub formula: String,
 }
 
+/// The results, or an error when one overflowed (inputs each finite but together past any real
+/// range, e.g. a slope of 1e308 N/m): a value of `inf` is no answer to print.
+pub fn finite(worked: Vec<Worked>) -> Result<Vec<Worked>, String> {
+    match worked.iter().find(|w| !w.value.is_finite()) {
+        Some(w) => Err(format!(
+            "{}: the result is {} {}: the inputs are past any real range (check their units)",
+            w.name, w.value, w.unit
+        )),
+        None => Ok(worked),
+    }
+}
+
 fn positive(name: &str, v: f64) -> Result<f64, String> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
@@ -161,6 +173,19 @@ mod tests {
         assert!((moisture(0.1, 0.0635).unwrap()[0].value - 36.5).abs() < 1e-9);
         assert!((bulk_density(1.5, 0.5, 0.001).unwrap()[0].value - 1000.0).abs() < 1e-9);
         assert!((relative_error(27.67, 27.35).unwrap()[0].value - 1.17001828).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_result_that_overflows_is_refused() {
+        let e = modulus(1e308, 1e308, 1e-300, None)
+            .and_then(finite)
+            .unwrap_err();
+        assert!(e.starts_with("youngs_modulus: the result is inf Pa"), "{e}");
+        let e = bulk_density(1e308, 1e-308, 1e-308)
+            .and_then(finite)
+            .unwrap_err();
+        assert!(e.starts_with("bulk_density: the result is inf"), "{e}");
+        assert!(moisture(2.0, 1.0).and_then(finite).is_ok());
     }
 
     #[test]

@@ -100,6 +100,16 @@ pub fn decode(bytes: &[u8]) -> Result<image::DynamicImage, String> {
             .collect();
         format!("cannot read the image: {}", words.join(" "))
     };
+    // The JPEG decoder fills a file cut short with grey and says nothing (half a photo measured
+    // 7 deg against the whole one's 30): a complete JPEG has its end marker after its last scan
+    // (inside a scan every 0xFF byte is followed by 0x00, so the marker cannot occur there).
+    if bytes.starts_with(&[0xFF, 0xD8]) {
+        let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+        let end = bytes.windows(2).rposition(|w| w == [0xFF, 0xD9]);
+        if !matches!((last_scan, end), (Some(s), Some(e)) if e > s) {
+            return Err("cannot read the image: the JPEG is cut short (no end-of-image marker after its last scan)".into());
+        }
+    }
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| unreadable(&e))?;
@@ -412,6 +422,23 @@ mod tests {
         assert!(decode(b"not an image")
             .unwrap_err()
             .contains("cannot read the image"));
+    }
+
+    #[test]
+    fn a_jpeg_cut_short_is_refused() {
+        let mut jpeg = Vec::new();
+        let img = image::RgbImage::from_fn(64, 48, |x, y| {
+            image::Rgb([(x * 4) as u8, (y * 5) as u8, 90])
+        });
+        image::DynamicImage::ImageRgb8(img)
+            .write_to(
+                &mut std::io::Cursor::new(&mut jpeg),
+                image::ImageFormat::Jpeg,
+            )
+            .unwrap();
+        assert!(decode(&jpeg).is_ok());
+        let e = decode(&jpeg[..jpeg.len() / 2]).unwrap_err();
+        assert!(e.contains("the JPEG is cut short"), "{e}");
     }
 
     #[test]

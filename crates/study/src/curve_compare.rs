@@ -56,6 +56,14 @@ pub fn compare_files(
     let sim_n = normalisation.apply(&sim, lab_peak_n);
     let lab_n = comparison.lab_normalised();
     let range = common_range([&sim_n, &lab_n]).ok_or("the curves do not overlap")?;
+    // The measures are null in JSON when they are not finite: say why in the users' terms.
+    let not_finite = |what: &str| {
+        if !(lab_peak_n.is_finite() && lab_peak_n > 0.0) {
+            format!("no {what}: the lab curves' peak force is {lab_peak_n} N, which the curves cannot be scaled by (--normalisation none compares the forces as they are)")
+        } else {
+            format!("no {what}: it is not a finite number (forces past any real range? the simulated peak is {} N)", sim.peak().1)
+        }
+    };
     Ok(CurveComparison {
         simulated_file: simulated.to_path_buf(),
         lab_files: lab_files.to_vec(),
@@ -63,10 +71,10 @@ pub fn compare_files(
         normalisation,
         lab_peak_n,
         range,
-        mse: number("curve_mse").ok_or("no curve_mse")?,
+        mse: number("curve_mse").ok_or_else(|| not_finite("curve_mse"))?,
         simulated: Measures {
-            peak: number("curve_peak").ok_or("no curve_peak")?,
-            mean: number("curve_mean").ok_or("no curve_mean")?,
+            peak: number("curve_peak").ok_or_else(|| not_finite("curve_peak"))?,
+            mean: number("curve_mean").ok_or_else(|| not_finite("curve_mean"))?,
             stiffness: number("curve_stiffness"),
         },
         lab: Measures::of(&lab_n),

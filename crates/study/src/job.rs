@@ -187,6 +187,20 @@ impl Job {
         if self.tests.is_empty() {
             return Err("tests: expected at least one test".into());
         }
+        // A study has a few stages of at most 100 000 runs each; larger numbers are a damaged
+        // file (and would wrap when shown counting from 1).
+        if self.stage >= 1000 {
+            return Err(format!(
+                "stage: expected a stage number below 1000, got {}",
+                self.stage
+            ));
+        }
+        if self.index >= 10_000_000 {
+            return Err(format!(
+                "index: expected a run number below 10000000, got {}",
+                self.index
+            ));
+        }
         for (i, t) in self.tests.iter().enumerate() {
             if t.name.is_empty()
                 || !t

@@ -59,6 +59,11 @@ impl Study {
     }
 
     pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
+        // A value from the file (a path, a name) may hold a line break; the error is one line.
+        Study::parse_text(path, text).map_err(|e| one_line(&e))
+    }
+
+    fn parse_text(path: &Path, text: &str) -> Result<Study, String> {
         let file = path.display().to_string();
         let err = |key: &str, msg: String| format!("{file}: {key}: {msg}");
         let doc: toml::Table =
@@ -70,6 +75,14 @@ impl Study {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "study".into())
         });
+        // The name titles the report and its figures: one printable line.
+        let chars = name.chars().count();
+        if chars == 0 || chars > MAX_NAME_CHARS || name.chars().any(char::is_control) {
+            return Err(err(
+                "name",
+                format!("expected 1 to {MAX_NAME_CHARS} characters without line breaks or control characters, got {chars} characters"),
+            ));
+        }
         let seed = raw.seed.unwrap_or(1);
         let run_time_limit_s = raw.run_time_limit_s;
         let backend = match &raw.backend {

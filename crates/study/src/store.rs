@@ -453,14 +453,10 @@ impl StoreLock {
 impl Drop for StoreLock {
     fn drop(&mut self) {
         // Only our own lock: after a takeover the file may be another process's.
-        let ours = std::fs::read_to_string(&self.path)
-            .ok()
-            .and_then(|t| {
-                t.lines()
-                    .next()
-                    .map(|l| l.trim() == std::process::id().to_string())
-            })
-            .unwrap_or(false);
+        let ours = read_lock(&self.path)
+            .lines()
+            .next()
+            .is_some_and(|l| l.trim() == std::process::id().to_string());
         if ours {
             let _ = std::fs::remove_file(&self.path);
         }
@@ -484,6 +480,18 @@ enum Holder {
     Folder,
 }
 
+/// The start of a lock file's text: a lock is three short lines, so a few kilobytes are plenty
+/// and a huge or endless file is not read on; "" for anything but a readable plain file.
+fn read_lock(path: &Path) -> String {
+    use std::io::Read;
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return String::new();
+    }
+    let mut bytes = Vec::new();
+    let _ = std::fs::File::open(path).and_then(|f| f.take(4096).read_to_end(&mut bytes));
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
 /// How long a lock file may stay empty or unreadable while its maker writes it.
 const LOCK_WRITE_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
 
@@ -496,7 +504,12 @@ fn held_by(path: &Path, me: u32) -> Holder {
             Holder::Folder
         };
     }
-    let text = std::fs::read_to_string(path).unwrap_or_default();
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        // A pipe or a device (or a link to one) is no lock any demcal wrote: reading it could
+        // wait for ever (a pipe) or never end (/dev/zero).
+        return Holder::Stale;
+    }
+    let text = read_lock(path);
     let mut lines = text.lines().map(str::trim);
     let (first, host, start) = (
         lines.next().unwrap_or(""),

@@ -212,7 +212,7 @@ fn bo_html(
                 let mut c = centre.clone();
                 c[a] = x;
                 c[b] = y;
-                g.predict(&c).0
+                g.predict_mean(&c)
             };
             if let Ok(svg) = heat_map(
                 &format!(

@@ -402,11 +402,22 @@ pub fn parse_target(
             ))
         }
     };
-    if !minimised && (value == 0.0 || !value.is_finite()) {
+    // Subnormal values too: a relative error divided by 1e-320 is infinite.
+    if !minimised && !value.is_normal() {
         return Err(err(
             &format!("{key}.value"),
-            format!("expected a non-zero number (relative errors divide by it), got {value}"),
+            format!("expected a non-zero number, at least 1e-300 in size (relative errors divide by it), got {value}"),
         ));
+    }
+    if t.value.is_some() && t.replicates.is_some() && !replicates.is_empty() {
+        let lo = replicates.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = replicates.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if !(lo..=hi).contains(&value) {
+            return Err(err(
+                &format!("{key}.value"),
+                format!("{value} lies outside its replicates ({lo} .. {hi}), so it cannot be their mean: give the replicates alone, or the value that belongs to them"),
+            ));
+        }
     }
     let unit = match (&t.unit, &curve) {
         (Some(u), _) => u.clone(),

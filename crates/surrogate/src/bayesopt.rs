@@ -166,7 +166,7 @@ pub fn propose(
     let dim = gp.dim();
     let mut rng = Pcg64::seed_from_u64(mix(opts.seed, iteration as u64, 1));
 
-    let mean = |p: &[f64]| gp.predict(p).0;
+    let mean = |p: &[f64]| gp.predict_mean(p);
     let (predicted_minimizer, predicted_minimum) = search_box(&mean, dim, x.to_vec(), &mut rng);
 
     // Constant liar: the lowest response seen stands in for each pending point's result.
@@ -185,7 +185,7 @@ pub fn propose(
         let best = current
             .points()
             .iter()
-            .map(|p| current.predict(p).0)
+            .map(|p| current.predict_mean(p))
             .fold(f64::INFINITY, f64::min);
         let chosen = &points;
         let score = |p: &[f64]| {

@@ -117,7 +117,7 @@ impl Fitted {
     /// The prediction at coded inputs.
     pub fn predict_coded(&self, c: &[f64]) -> f64 {
         match &self.predictor {
-            Predictor::Gp(g) => g.predict(c).0,
+            Predictor::Gp(g) => g.predict_mean(c),
             Predictor::Network(n) => n.predict(c),
         }
     }
@@ -254,7 +254,7 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
         }
     };
     let predict = |c: &[f64]| match &predictor {
-        Predictor::Gp(g) => g.predict(c).0,
+        Predictor::Gp(g) => g.predict_mean(c),
         Predictor::Network(n) => n.predict(c),
     };
     let metrics = |rows: &[usize]| {

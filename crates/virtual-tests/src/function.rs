@@ -31,6 +31,9 @@ pub struct Function;
 
 /// The longest wall time a run may be asked to take (s).
 const MAX_DURATION_S: f64 = 3600.0;
+/// The longest formula read (characters). Parsing time grows faster than the length (40 000
+/// terms took 12.5 s), and a real response surface is a few hundred characters.
+pub const MAX_EXPRESSION_CHARS: usize = 2000;
 
 /// Most points a curve may have: more only eats memory in every stored run.
 pub const MAX_CURVE_POINTS: usize = 1_000_000;
@@ -211,6 +214,20 @@ impl VirtualTest for Function {
                 "{}: function: noise and duration_s must be >= 0",
                 file.name
             ));
+        }
+        let formulas = [
+            ("expression", Some(&s.expression)),
+            ("fail_when", s.fail_when.as_ref()),
+            ("curve.expression", s.curve.as_ref().map(|c| &c.expression)),
+        ];
+        for (key, text) in formulas {
+            let n = text.map_or(0, |t| t.chars().count());
+            if n > MAX_EXPRESSION_CHARS {
+                return Err(file.error(
+                    key,
+                    format!("a formula of {n} characters: at most {MAX_EXPRESSION_CHARS}"),
+                ));
+            }
         }
         if s.duration_s > MAX_DURATION_S {
             return Err(file.error(

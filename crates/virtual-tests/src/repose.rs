@@ -343,7 +343,26 @@ pub fn parse_spheres(name: &str, text: &str) -> Result<(Vec<glam::DVec3>, Vec<f6
             .iter()
             .position(|l| l.starts_with("ITEM:"))
             .map_or(lines.len(), |e| start + 1 + e);
-        parse_rows(&lines[start + 1..end], ' ', columns(&header)?, start + 2)?
+        let rows = parse_rows(&lines[start + 1..end], ' ', columns(&header)?, start + 2)?;
+        // The frame's header says how many atoms follow; a file cut short or pasted together
+        // disagrees with it.
+        if let Some(n) = lines[..start]
+            .iter()
+            .rposition(|l| l.starts_with("ITEM: NUMBER OF ATOMS"))
+        {
+            let declared = lines
+                .get(n + 1)
+                .and_then(|l| l.trim().parse::<usize>().ok())
+                .ok_or_else(|| format!("{name}: line {}: expected the number of atoms", n + 2))?;
+            if declared != rows.0.len() {
+                return Err(format!(
+                    "{name}: line {}: the frame declares {declared} atoms but holds {} rows",
+                    n + 2,
+                    rows.0.len()
+                ));
+            }
+        }
+        rows
     } else {
         let header: Vec<&str> = lines
             .first()

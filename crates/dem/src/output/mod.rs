@@ -55,6 +55,13 @@ pub fn write_atomically(
     path: &Path,
     body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 ) -> io::Result<()> {
+    // The rename would replace whatever is there: never a folder or a device (/dev/null).
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        return Err(io::Error::other(format!(
+            "{}: exists and is not a plain file; not replaced",
+            path.display()
+        )));
+    }
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".part");
     {

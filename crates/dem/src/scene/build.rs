@@ -297,6 +297,18 @@ pub(super) fn build(d: &SceneDescription, ctx: &Ctx) -> Result<Scene, SceneError
         RunLength::Steps(n) => n,
     };
     let gravity = s.gravity;
+    if !(gravity.is_finite() && gravity.length() <= super::MAX_GRAVITY) {
+        return Err(ctx.err(
+            "simulation.gravity",
+            format!(
+                "expected finite numbers (m/s²) of size at most {:e} (10 000 g), got [{}, {}, {}]",
+                super::MAX_GRAVITY,
+                gravity.x,
+                gravity.y,
+                gravity.z
+            ),
+        ));
+    }
     let min_r = groups
         .iter()
         .map(|g| g.mixture.min_sphere_radius())
@@ -630,6 +642,16 @@ pub(super) fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable
     }
     for (k, m) in d.materials.iter().enumerate() {
         let key = |s: &str| format!("material[{k}].{s}");
+        // Names head columns, files and messages: one printable line of reasonable length.
+        let chars = m.name.chars().count();
+        if chars == 0 || chars > 100 || m.name.chars().any(char::is_control) {
+            return Err(ctx.err(
+                key("name"),
+                format!(
+                    "expected 1 to 100 characters without line breaks or control characters, got {chars} characters"
+                ),
+            ));
+        }
         if table.id_of(&m.name).is_some() {
             return Err(ctx.err(
                 key("name"),
@@ -659,6 +681,20 @@ pub(super) fn materials(d: &SceneDescription, ctx: &Ctx) -> Result<MaterialTable
                 ctx.positive(e, key("youngs_modulus"))? / (2.0 * (1.0 + m.poisson_ratio))
             }
         };
+        if !(super::MIN_SHEAR_MODULUS..=super::MAX_SHEAR_MODULUS).contains(&shear) {
+            let which = match m.stiffness {
+                Stiffness::ShearModulus(_) => "shear_modulus",
+                Stiffness::YoungsModulus(_) => "youngs_modulus",
+            };
+            return Err(ctx.err(
+                key(which),
+                format!(
+                    "a shear modulus of {shear:e} Pa: expected {:e} to {:e} Pa",
+                    super::MIN_SHEAR_MODULUS,
+                    super::MAX_SHEAR_MODULUS
+                ),
+            ));
+        }
         table.add_material(Material {
             name: m.name.clone(),
             density: m.density,

@@ -37,6 +37,17 @@ pub const MAX_STEPS: u64 = 10_000_000_000;
 /// its neighbour list, so this is about what a workstation's memory holds. Fills are checked
 /// against it before anything is allocated.
 pub const MAX_SPHERES: usize = 10_000_000;
+/// The smallest and largest sphere radius a scene may give (m).
+pub const MIN_RADIUS: f64 = 1e-7;
+pub const MAX_RADIUS: f64 = 100.0;
+/// The range of a material's shear modulus (Pa; Young's modulus is converted first): below it
+/// the time step leaves any real run (1e-300 gave a step of 1e149 s), above it no solid.
+pub const MIN_SHEAR_MODULUS: f64 = 1.0;
+pub const MAX_SHEAR_MODULUS: f64 = 1e13;
+/// The largest gravity a scene may set (m/s², 10 000 g: centrifuge tests included).
+pub const MAX_GRAVITY: f64 = 1e5;
+/// The largest initial speed a particle group may be given (m/s).
+pub const MAX_SPEED: f64 = 1e4;
 
 /// A scene problem: `file: key: message` (`file: message` where no key is to blame).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

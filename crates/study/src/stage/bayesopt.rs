@@ -185,7 +185,7 @@ impl Stage for BayesOpt {
         let (idx, x, y) = finished(study, st);
         let (j, _) = x
             .iter()
-            .map(|c| gp.predict(c).0)
+            .map(|c| gp.predict_mean(c))
             .enumerate()
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .ok_or("no run gave a response")?;
@@ -195,7 +195,7 @@ impl Stage for BayesOpt {
             "{}; calibrated at run {} (GP mean of the objective {}, observed {}); the GP's predicted minimum {}",
             out.stop.clone().unwrap_or_default(),
             i + 1,
-            sig(gp.predict(&x[j]).0),
+            sig(gp.predict_mean(&x[j])),
             sig(y[j]),
             sig(out.history.last().map_or(f64::NAN, |h| h.predicted_minimum))
         ));

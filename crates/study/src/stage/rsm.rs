@@ -220,9 +220,10 @@ impl Stage for Rsm {
 /// The axial distance of a CCD: `rotatable`, `face`, `spherical`, `orthogonal`, or a positive
 /// number (written as a number or as text).
 fn ccd_alpha(v: Option<&toml::Value>) -> Result<CcdAlpha, String> {
-    const EXPECTED: &str = "expected rotatable, face, spherical, orthogonal or a positive number";
+    const EXPECTED: &str =
+        "expected rotatable, face, spherical, orthogonal or a positive number up to 100";
     let positive = |a: f64| {
-        (a.is_finite() && a > 0.0)
+        (a.is_finite() && a > 0.0 && a <= design::MAX_ALPHA)
             .then_some(CcdAlpha::Custom(a))
             .ok_or_else(|| format!("{a}: {EXPECTED}"))
     };
@@ -234,7 +235,9 @@ fn ccd_alpha(v: Option<&toml::Value>) -> Result<CcdAlpha, String> {
             "spherical" => Ok(CcdAlpha::Spherical),
             "orthogonal" => Ok(CcdAlpha::Orthogonal),
             other => match other.parse::<f64>() {
-                Ok(a) if a.is_finite() && a > 0.0 => Ok(CcdAlpha::Custom(a)),
+                Ok(a) if a.is_finite() && a > 0.0 && a <= design::MAX_ALPHA => {
+                    Ok(CcdAlpha::Custom(a))
+                }
                 _ => Err(format!("\"{s}\": {EXPECTED}")),
             },
         },

@@ -70,6 +70,25 @@ impl StageDef for Screening {
                 ))
             }
         };
+        if t.get("runs").is_some() && !matches!(design, ScreeningDesign::PlackettBurman { .. }) {
+            return Err(t.fail(
+                "runs",
+                "only a plackett-burman design takes runs (a fractional design's size follows from its resolution, a factorial's from the parameters)",
+            ));
+        }
+        // The design is made now, over every parameter, so that a size it cannot have (a
+        // Plackett-Burman of 7 runs) is refused when the file is read, not when the stage starts.
+        let (made, key) = match design {
+            ScreeningDesign::PlackettBurman { runs } => {
+                (design::plackett_burman(n_params, runs, 0), "runs")
+            }
+            ScreeningDesign::Fractional { resolution } => (
+                design::fractional_factorial_by_resolution(n_params, resolution),
+                "resolution",
+            ),
+            ScreeningDesign::Factorial => (design::full_factorial(n_params), "design"),
+        };
+        made.map_err(|e| t.fail(key, e))?;
         let min_factors = t.count("min_factors", 2.min(n_params), 1, None)?;
         let max_factors = t.count("max_factors", 4.min(n_params), 1, None)?;
         if min_factors > max_factors {

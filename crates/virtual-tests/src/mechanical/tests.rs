@@ -174,7 +174,15 @@ fn check(kind: Kind, file: &TestFile, s: &Settings) -> Result<(), String> {
                 ));
             }
         }
-        Kind::Compression => {}
+        Kind::Compression => {
+            // Radial compression: past the diameter the plates would meet through the stalk.
+            if s.loading.max_displacement >= sp.diameter {
+                return Err(format!(
+                    "{}: {t}.max_displacement: {} m is not less than the specimen's diameter ({} m): the plates would meet",
+                    file.name, s.loading.max_displacement, sp.diameter
+                ));
+            }
+        }
     }
     Ok(())
 }

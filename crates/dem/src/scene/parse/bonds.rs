@@ -9,6 +9,7 @@ use serde::Deserialize;
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 pub(super) struct BondEntry {
+    #[serde(deserialize_with = "super::material_pair")]
     materials: [String; 2],
     #[serde(deserialize_with = "crate::units::bond_stiffness::one")]
     normal_stiffness: f64,

@@ -249,9 +249,24 @@ struct MaterialEntry {
     youngs_modulus: Option<f64>,
 }
 
+/// A pair of material names, exactly two (a fixed array would take the first two of three).
+pub(super) fn material_pair<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<[String; 2], D::Error> {
+    let names = Vec::<String>::deserialize(d)?;
+    match <[String; 2]>::try_from(names) {
+        Ok(pair) => Ok(pair),
+        Err(names) => Err(serde::de::Error::custom(format!(
+            "expected two material names, got {}",
+            names.len()
+        ))),
+    }
+}
+
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 struct InteractionEntry {
+    #[serde(deserialize_with = "material_pair")]
     materials: [String; 2],
     restitution: f64,
     static_friction: f64,

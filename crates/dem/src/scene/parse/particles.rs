@@ -349,10 +349,21 @@ fn shape_and_size(
                 ));
             }
             let size = size.ok_or_else(|| ctx.err(key("size"), "missing; expected the radius distribution, e.g. { type = \"fixed\", radius = 0.002 }"))?;
-            return Ok((
-                ParticleShape::Sphere,
-                size_distribution(ctx, &key("size"), &size, Some(Dimension::Length))?,
-            ));
+            let dist = size_distribution(ctx, &key("size"), &size, Some(Dimension::Length))?;
+            // Past these the time step and the masses leave what f64 and a run can hold (a
+            // radius of 1e-300 m "diverged at t = 0").
+            let (lo, hi) = (dist.min_radius(), dist.max_radius());
+            if !(lo >= super::super::MIN_RADIUS && hi <= super::super::MAX_RADIUS) {
+                return Err(ctx.err(
+                    key("size"),
+                    format!(
+                        "radii from {lo:e} to {hi:e} m: expected {:e} m (0.1 µm) to {:e} m",
+                        super::super::MIN_RADIUS,
+                        super::super::MAX_RADIUS
+                    ),
+                ));
+            }
+            return Ok((ParticleShape::Sphere, dist));
         }
     };
     if size.is_some() {
@@ -927,10 +938,23 @@ pub(super) fn particle_group(
             ))
         }
     };
+    let velocity = v3(p.velocity.unwrap_or([0.0; 3]));
+    if !(velocity.is_finite() && velocity.length() <= super::super::MAX_SPEED) {
+        return Err(ctx.err(
+            format!("particles[{k}].velocity"),
+            format!(
+                "expected finite numbers (m/s) of size at most {:e}, got [{}, {}, {}]",
+                super::super::MAX_SPEED,
+                velocity.x,
+                velocity.y,
+                velocity.z
+            ),
+        ));
+    }
     Ok(ParticleGroup {
         particles,
         placement,
-        velocity: v3(p.velocity.unwrap_or([0.0; 3])),
+        velocity,
     })
 }
 

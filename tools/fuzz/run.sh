@@ -34,9 +34,10 @@ one() {
   local t=$1
   mkdir -p "corpus/$t" "artifacts/$t"
   local start=$SECONDS
-  cargo +nightly fuzz run -O "$t" "corpus/$t" "seeds/$t" -- \
-    -runs="$runs" -timeout=10 -malloc_limit_mb=1024 -rss_limit_mb=2048 \
-    -print_final_stats=1 -close_fd_mask=1 >"logs/$t.log" 2>&1
+  # The binaries built above, run directly: `cargo fuzz run` would build again for each.
+  "target/x86_64-unknown-linux-gnu/release/$t" "corpus/$t" "seeds/$t" \
+    -artifact_prefix="artifacts/$t/" -runs="$runs" -timeout=10 -malloc_limit_mb=1024 \
+    -rss_limit_mb=2048 -print_final_stats=1 -close_fd_mask=1 >"logs/$t.log" 2>&1
   local rc=$?
   local execs crashes hangs
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "logs/$t.log" | grep -o '[0-9]*$' | tail -1)

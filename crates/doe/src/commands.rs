@@ -633,7 +633,7 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
                 .map(|r| r[j])
                 .fold((-1.0f64, 1.0f64), |(a, b), v| (a.min(v), b.max(v)));
             let (a, b) = (to_coded(c.lower).max(lo), to_coded(c.upper).min(hi));
-            if !(a <= b) {
+            if a > b || a.is_nan() || b.is_nan() {
                 return Err(format!(
                     "--goal '{g}': {} .. {} lies outside the runs' range of {name} ({} .. {}): the model cannot be read there",
                     c.lower,

@@ -349,6 +349,17 @@ fn heap_angle(
         return Err(format!("--base {base}: expected a finite height (m)"));
     }
     let (positions, radii) = read_spheres(path)?;
+    let top = positions
+        .iter()
+        .zip(&radii)
+        .map(|(p, r)| p.z + r)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if base >= top {
+        return Err(format!(
+            "--base {base}: at or above the top of every sphere in {} ({top:.4} m): give the height of the plate the heap stands on (m)",
+            path.display()
+        ));
+    }
     let m = ReposeMeasurement {
         axis: (axis[0], axis[1]),
         base_z: base,
@@ -416,7 +427,9 @@ fn with_negative_numbers(c: clap::Command) -> clap::Command {
     c.mut_args(|a| {
         if !a.get_action().takes_values() {
             a
-        } else if a.get_value_delimiter().is_some() {
+        } else if a.get_value_delimiter().is_some() || a.get_id() == "crop" {
+            // A list (`--axis -0.001,0.002`, `--crop -5,0,10,10`) is not a number, so only
+            // hyphen values let it start with a minus.
             a.allow_hyphen_values(true)
         } else {
             a.allow_negative_numbers(true)
@@ -668,10 +681,27 @@ fn run_job(path: &Path, record: Option<&Path>) -> Result<(), String> {
         return Err(format!("{name}: interrupted; no record written"));
     };
     let json = serde_json::to_string_pretty(&rec).map_err(|e| e.to_string())?;
-    let tmp = out.with_extension("tmp");
-    std::fs::write(&tmp, json)
-        .and_then(|_| std::fs::rename(&tmp, &out))
-        .map_err(|e| format!("{}: cannot write the record: {e}", out.display()))?;
+    // A temporary name of this process's own, made new (never an existing file or pipe), and
+    // removed if the write fails.
+    let mut tmp = out.clone().into_os_string();
+    tmp.push(format!(".{}.part", std::process::id()));
+    let tmp = PathBuf::from(tmp);
+    let cannot = |e: std::io::Error| format!("{}: cannot write the record: {e}", out.display());
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .map_err(cannot)?;
+    let written = {
+        use std::io::Write;
+        file.write_all(json.as_bytes())
+            .and_then(|_| file.sync_all())
+            .and_then(|_| std::fs::rename(&tmp, &out))
+    };
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(cannot(e));
+    }
     match (&rec.response, &rec.error, rec.error_kind) {
         (Some(y), _, _) => println!("{name}: {} = {y} (record {})", job.response, out.display()),
         (None, e, kind) => println!(

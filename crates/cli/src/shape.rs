@@ -77,8 +77,10 @@ pub fn run(action: ShapeCommand) -> Result<(), String> {
             let mut rows = Vec::new();
             let mut counted = Vec::new();
             if let Some(path) = stl {
-                if !(scale > 0.0 && scale.is_finite()) {
-                    return Err(format!("--scale: expected a positive number, got {scale}"));
+                // From a drawing in nanometres to one in kilometres; past these the solid's
+                // volume leaves f64 ("encloses no volume" at 1e300).
+                if !(1e-9..=1e3).contains(&scale) {
+                    return Err(format!("--scale: expected a factor from 1e-9 to 1e3 (0.001 for a drawing in mm), got {scale}"));
                 }
                 let solid = MeshSolid::read(&path, scale)?;
                 let fit = sphere_fit::fit(&solid, &options)

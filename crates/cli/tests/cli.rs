@@ -789,26 +789,40 @@ value = 30.0
     assert!(e.contains("bad.json: seed: invalid type"), "{e}");
 }
 
-/// A path to something endless (/dev/zero) is refused after reading no more than the file kind's
-/// limit, where `demcal simulate /dev/zero` used to reach 4.2 GB.
+/// A path to something endless (/dev/zero) is refused before it is read, and a file past the
+/// kind's limit after reading no more than the limit, where `demcal simulate /dev/zero` used to
+/// reach 4.2 GB.
 #[cfg(unix)]
 #[test]
 fn endless_files_are_refused_at_their_size_limit() {
+    let dir = temp_dir("endless");
+    let big = dir.join("big.toml");
+    // Sparse: 17 MiB that take no disk.
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(17 << 20)
+        .unwrap();
     for cmd in ["simulate", "test", "run"] {
-        let out = output_within(
-            {
-                let mut c = demcal();
-                c.args([cmd, "/dev/zero"]);
-                c
-            },
-            20.0,
-        );
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{cmd}");
-        assert_eq!(err.lines().count(), 1, "{cmd}: {err}");
-        assert!(
-            err.contains("/dev/zero") && err.contains("larger than 16 MiB"),
-            "{cmd}: {err}"
-        );
+        for (path, why) in [
+            (Path::new("/dev/zero"), "not a plain file (a device)"),
+            (big.as_path(), "larger than 16 MiB"),
+        ] {
+            let out = output_within(
+                {
+                    let mut c = demcal();
+                    c.arg(cmd).arg(path);
+                    c
+                },
+                20.0,
+            );
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{cmd}");
+            assert_eq!(err.lines().count(), 1, "{cmd}: {err}");
+            assert!(
+                err.contains(&path.display().to_string()) && err.contains(why),
+                "{cmd}: {err}"
+            );
+        }
     }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -384,3 +384,125 @@ fn command_line_errors_are_one_line_and_negative_numbers_are_values() {
     assert!(e.contains("none.csv"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// What the rerun of the battery on the fixed binary still found, each fixed.
+#[test]
+fn the_rerun_of_the_battery_finds_these_refused_or_said() {
+    let dir = temp_dir("rerun");
+    // A sweep step so small that its count overflowed (a panic in builds with overflow checks).
+    let s = write(
+        &dir,
+        "study.toml",
+        &edited(
+            BOWL,
+            "plan = [{ stage = \"screening\", design = \"pb\" }]",
+            "plan = [{ stage = \"sweep\", parameter = \"a\", from = 0.4, to = 1.2, step = 1e-300 }]",
+        ),
+    );
+    let e = refused(cmd(&["status", &s]));
+    assert!(
+        e.contains("plan[0].step") && e.contains("at most 1000"),
+        "{e}"
+    );
+    // A crop starting with a minus names --crop, not an unknown "-5".
+    let e = refused(cmd(&[
+        "lab",
+        "photo-angle",
+        "x.png",
+        "--crop",
+        "-5,-5,10,10",
+    ]));
+    assert!(e.contains("--crop"), "{e}");
+    // A plate height above the heap names --base.
+    let dump = "x,y,z,radius\n0,0,0.001,0.001\n0.002,0,0.001,0.001\n";
+    let e = refused(cmd(&[
+        "heap-angle",
+        &write(&dir, "h.csv", dump),
+        "--base",
+        "10",
+    ]));
+    assert!(
+        e.starts_with("error: --base 10: at or above the top"),
+        "{e}"
+    );
+    // A scale that takes the solid's volume out of f64.
+    let stl = "solid t\nfacet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+    let e = refused(cmd(&[
+        "shape",
+        "fit",
+        "--stl",
+        &write(&dir, "t.stl", stl),
+        "--scale",
+        "1e300",
+    ]));
+    assert!(
+        e.contains("--scale: expected a factor from 1e-9 to 1e3"),
+        "{e}"
+    );
+    // A target the surrogate cannot reach is said so.
+    let out = output_within(
+        cmd(&[
+            "surrogate",
+            "optimize",
+            CCD,
+            "--response",
+            "angle_deg",
+            "--factors",
+            "D,E,G",
+            "--model",
+            "gp",
+            "--goal",
+            "target=1e308",
+        ]),
+        60.0,
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && text.contains("the target 1e308 is not reached") && text.contains("(target 1e308)"),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The record is written through a temporary file of the process's own: a pipe or a file at the
+/// old fixed name (`rec.tmp`) is neither waited on nor overwritten.
+#[test]
+fn a_record_is_written_through_a_temporary_file_of_its_own() {
+    let dir = temp_dir("record-tmp");
+    let study = write(&dir, "study.toml", BOWL);
+    let loaded = study::Study::load(Path::new(&study)).unwrap();
+    let job = study::Job::new(
+        &loaded,
+        &study::replay(&loaded, &[], None).unwrap().stages[0].runs[0],
+    );
+    let job_file = dir.join("run001.json");
+    std::fs::write(&job_file, job.to_json()).unwrap();
+    let pipe = fifo(&dir, "rec.tmp");
+    let record = dir.join("rec.json");
+    let out = output_within(
+        cmd(&[
+            "run-one",
+            &job_file.display().to_string(),
+            "--record",
+            &record.display().to_string(),
+        ]),
+        30.0,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(std::fs::read_to_string(&record)
+        .unwrap()
+        .contains("\"status\""));
+    use std::os::unix::fs::FileTypeExt;
+    assert!(std::fs::metadata(&pipe).unwrap().file_type().is_fifo());
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".part"))
+        .collect();
+    assert!(left.is_empty());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -103,11 +103,16 @@ mod tests {
 
     #[test]
     fn endless_and_oversized_files_are_refused_without_reading_them_whole() {
+        // A device is refused before it is opened (a named pipe would block the open).
         let e = read_text(Path::new("/dev/zero"), MAX_TEXT_BYTES).unwrap_err();
-        assert_eq!(e, "larger than 16 MiB, the most such a file may be");
+        assert_eq!(e, "not a plain file (a device)");
         assert_eq!(
             open_checked(Path::new("/dev/zero"), MAX_TABLE_BYTES).unwrap_err(),
-            "not a plain file"
+            "not a plain file (a device)"
+        );
+        assert_eq!(
+            read_text(Path::new("/tmp"), MAX_TEXT_BYTES).unwrap_err(),
+            "not a plain file (a folder)"
         );
         let dir = std::env::temp_dir().join(format!("demcal-files-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

@@ -230,7 +230,7 @@ fn fills_that_cannot_fit_say_so() {
     let e = fill(&cylinder(), &beads(RADIUS), FillTarget::Count(4703), 1, &[]).unwrap_err();
     assert!(started.elapsed().as_secs_f64() < 0.1);
     assert!(
-        e.starts_with("the region is too small: 4703 particles would fill 70.0 % of it"),
+        e.starts_with("the region is too small: 4703 particles would fill at least 70.0 % of it"),
         "{e}"
     );
     // 57 % of a cylinder four spheres across: they jam, and the error says how far they got.

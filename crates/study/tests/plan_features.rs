@@ -207,7 +207,12 @@ fn a_sweep_that_cannot_reach_the_lab_value_or_is_badly_given_says_so_in_one_line
         "{e}"
     );
     // The lab value beyond what the swept values give: stopped with the reason.
-    let far = sweep_study("").replace("value = 97.0", "value = 20.0");
+    let far = sweep_study("")
+        .replace("value = 97.0", "value = 20.0")
+        .replace(
+            "replicates = [96.0, 97.0, 98.0]",
+            "replicates = [19.0, 20.0, 21.0]",
+        );
     let e = run_study(&dir, &far).unwrap_err();
     assert!(e.contains("stage 1 (sweep): the fitted curve does not reach the lab value 20.00 between 0.1800 and 0.2400"), "{e}");
     let notes = summary(&dir)["stages"][0]["notes"].to_string();

@@ -370,6 +370,15 @@ pub fn fit(req: &FitRequest, json_out: bool) -> Result<String, String> {
 
 /// `demcal surrogate optimize`: fits, then searches the model with a genetic algorithm (for a
 /// GA-BP network this is GA-BP-GA) inside the table's factor ranges.
+/// A number as people write it: 38.65, but 1e308 rather than 309 digits.
+fn plain(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 pub fn optimize(req: &FitRequest, goal: Goal, json_out: bool) -> Result<String, String> {
     let f = fit_model(req)?;
     let k = f.factors.len();
@@ -390,9 +399,15 @@ pub fn optimize(req: &FitRequest, goal: Goal, json_out: bool) -> Result<String, 
     let predicted = f.predict_coded(&found.best);
     let actual = f.to_actual(&found.best);
     let goal_text = match goal {
-        Goal::Target(t) => format!("target {t}"),
+        Goal::Target(t) => format!("target {}", plain(t)),
         Goal::Minimize => "minimize".into(),
         Goal::Maximize => "maximize".into(),
+    };
+    // A target the surrogate cannot reach inside the data's ranges is said so, not passed off
+    // as found (target=1e308 printed its nearest prediction without a word).
+    let missed = match goal {
+        Goal::Target(t) if (predicted - t).abs() > 0.01 * t.abs().max(1e-9) => Some(t),
+        _ => None,
     };
     if json_out {
         let mut m = metrics_json(&f);
@@ -409,6 +424,7 @@ pub fn optimize(req: &FitRequest, goal: Goal, json_out: bool) -> Result<String, 
                 .collect::<serde_json::Map<_, _>>()),
         );
         m.insert("predicted".into(), json!(predicted));
+        m.insert("target_reached".into(), json!(missed.is_none()));
         m.insert("generations".into(), json!(found.history.len()));
         return Ok(serde_json::to_string_pretty(&serde_json::Value::Object(m)).unwrap() + "\n");
     }
@@ -427,5 +443,14 @@ pub fn optimize(req: &FitRequest, goal: Goal, json_out: bool) -> Result<String, 
         writeln!(out, "  {n} = {v:.6}").unwrap();
     }
     writeln!(out, "predicted {} = {predicted:.6}", req.response).unwrap();
+    if let Some(t) = missed {
+        writeln!(
+            out,
+            "the target {} is not reached within the factors' ranges: this is the nearest prediction, {} from it",
+            plain(t),
+            plain((predicted - t).abs())
+        )
+        .unwrap();
+    }
     Ok(out)
 }

@@ -39,7 +39,8 @@ pub fn run_file(
     let test = registry::find(&file.test).ok_or_else(|| {
         TestError::Settings(format!(
             "{}: test: unknown test \"{}\"",
-            file.name, file.test
+            file.name,
+            file.test.escape_debug()
         ))
     })?;
     let mut run = Run::new(seed.or(file.seed).unwrap_or(1), out, progress);
@@ -66,7 +67,13 @@ pub fn run_file(
 /// Reads and checks a test file's settings without running anything.
 pub fn check_file(file: &TestFile) -> Result<(), String> {
     registry::find(&file.test)
-        .ok_or_else(|| format!("{}: test: unknown test \"{}\"", file.name, file.test))?
+        .ok_or_else(|| {
+            format!(
+                "{}: test: unknown test \"{}\"",
+                file.name,
+                file.test.escape_debug()
+            )
+        })?
         .check_file(file)
 }
 
@@ -74,7 +81,13 @@ pub fn check_file(file: &TestFile) -> Result<(), String> {
 /// dropped) with `seed`. Nothing is simulated.
 pub fn check_scene(file: &TestFile, seed: Option<u64>) -> Result<(), String> {
     registry::find(&file.test)
-        .ok_or_else(|| format!("{}: test: unknown test \"{}\"", file.name, file.test))?
+        .ok_or_else(|| {
+            format!(
+                "{}: test: unknown test \"{}\"",
+                file.name,
+                file.test.escape_debug()
+            )
+        })?
         .check_scene_file(file, seed.or(file.seed).unwrap_or(1))
 }
 

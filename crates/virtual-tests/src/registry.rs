@@ -88,7 +88,10 @@ impl TestFile {
             None => return Err(format!("{name}: test: missing (expected one of: {list})")),
         };
         let registered = find(&test).ok_or_else(|| {
-            format!("{name}: test: unknown test \"{test}\" (expected one of: {list})")
+            format!(
+                "{name}: test: unknown test \"{}\" (expected one of: {list})",
+                test.escape_debug()
+            )
         })?;
         TestFile::read(name, folder, value, &test, registered.needs_materials())
     }

@@ -19,3 +19,13 @@ proptest! {
         }
     }
 }
+
+/// Found by the `test_file` fuzz target: a test name holding a line break made a two-line error.
+#[test]
+fn an_unknown_test_name_with_a_line_break_is_shown_on_one_line() {
+    let e = TestFile::parse("t.toml", "test = \"angle\\nof_repose\"\n").unwrap_err();
+    assert_eq!(
+        e,
+        "t.toml: test: unknown test \"angle\\nof_repose\" (expected one of: angle_of_repose, incline_tilt, incline_slide, shear, compression, bending, tension, cantilever, function)"
+    );
+}

@@ -111,14 +111,19 @@ impl StageDef for Sweep {
                 if step <= 0.0 || to <= from {
                     return Err(t.fail("step", "expected step > 0 and to > from"));
                 }
-                // Rounding: 0.18 to 0.24 by 0.01 is 7 values, not 6.
-                let n = ((to - from) / step + 1e-9).floor() as usize + 1;
-                if n > MAX_SWEEP_VALUES {
+                // Rounding: 0.18 to 0.24 by 0.01 is 7 values, not 6. Counted in floating point
+                // and checked before the cast: a step of 1e-300 would overflow a count.
+                let steps = ((to - from) / step + 1e-9).floor();
+                if steps.is_nan() || steps >= MAX_SWEEP_VALUES as f64 {
                     return Err(t.fail(
                         "step",
-                        format!("{n} values from {from} to {to}; at most {MAX_SWEEP_VALUES}"),
+                        format!(
+                            "{:e} values from {from} to {to}; at most {MAX_SWEEP_VALUES}",
+                            steps + 1.0
+                        ),
                     ));
                 }
+                let n = steps as usize + 1;
                 (0..n).map(|i| tidy(from + i as f64 * step)).collect()
             }
             (None, None) => {

@@ -353,7 +353,11 @@ fn shape_and_size(
             // Past these the time step and the masses leave what f64 and a run can hold (a
             // radius of 1e-300 m "diverged at t = 0").
             let (lo, hi) = (dist.min_radius(), dist.max_radius());
-            if !(lo >= super::super::MIN_RADIUS && hi <= super::super::MAX_RADIUS) {
+            // (A radius of 0 or less, or not a number, is the size's own check, by key.)
+            if lo > 0.0
+                && hi.is_finite()
+                && (lo < super::super::MIN_RADIUS || hi > super::super::MAX_RADIUS)
+            {
                 return Err(ctx.err(
                     key("size"),
                     format!(

@@ -458,7 +458,9 @@ fn the_rerun_of_the_battery_finds_these_refused_or_said() {
     );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
-        out.status.success() && text.contains("the target 1e308 is not reached") && text.contains("(target 1e308)"),
+        out.status.success()
+            && text.contains("the target 1e308 is not reached")
+            && text.contains("(target 1e308)"),
         "{text}"
     );
     std::fs::remove_dir_all(&dir).unwrap();

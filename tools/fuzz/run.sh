@@ -39,12 +39,14 @@ one() {
     -artifact_prefix="artifacts/$t/" -runs="$runs" -timeout=10 -malloc_limit_mb=1024 \
     -rss_limit_mb=2048 -print_final_stats=1 -close_fd_mask=1 >"logs/$t.log" 2>&1
   local rc=$?
-  local execs crashes hangs
-  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "logs/$t.log" | grep -o '[0-9]*$' | tail -1)
+  local execs crashes hangs slowest rss
+  execs=$(grep -a -o 'stat::number_of_executed_units: *[0-9]*' "logs/$t.log" | grep -o '[0-9]*$' | tail -1)
+  slowest=$(grep -a -o 'stat::slowest_unit_time_sec: *[0-9]*' "logs/$t.log" | grep -o '[0-9]*$' | tail -1)
+  rss=$(grep -a -o 'stat::peak_rss_mb: *[0-9]*' "logs/$t.log" | grep -o '[0-9]*$' | tail -1)
   crashes=$(ls "artifacts/$t" | grep -c -E '^(crash|oom|leak)-' || true)
   hangs=$(ls "artifacts/$t" | grep -c -E '^(timeout|slow-unit)-' || true)
-  printf '%-11s executions %-9s seconds %-5s crashes %s hangs %s exit %s\n' \
-    "$t" "${execs:-?}" "$((SECONDS - start))" "$crashes" "$hangs" "$rc"
+  printf '%-11s executions %-9s seconds %-5s slowest_s %-3s peak_rss_mb %-5s crashes %s hangs %s exit %s\n' \
+    "$t" "${execs:-?}" "$((SECONDS - start))" "${slowest:-?}" "${rss:-?}" "$crashes" "$hangs" "$rc"
   return $rc
 }
 

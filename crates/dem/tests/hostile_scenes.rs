@@ -34,3 +34,19 @@ proptest! {
         read(&text);
     }
 }
+
+/// Found by the `scene` fuzz target: a motion type holding a line break made a two-line error.
+#[test]
+fn a_value_with_a_line_break_is_quoted_on_one_line() {
+    let text = CHUTE.replacen(
+        "[[geometry]]",
+        "[[geometry]]\nmotion = [{ type = \"tr\\nslation\" }]",
+        1,
+    );
+    read(&text);
+    let Err(e) = Scene::from_toml(&text, "scene.toml", Path::new(".")) else {
+        panic!("accepted");
+    };
+    let e = e.to_string();
+    assert!(e.contains("unknown motion \"tr\\nslation\""), "{e}");
+}

@@ -161,10 +161,27 @@ pub(crate) struct Ctx<'a> {
 
 impl Ctx<'_> {
     pub fn err(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
+        // A message quotes the file's own values (a motion's type, a name), which may hold line
+        // breaks: shown escaped, so that an error stays one line (a fuzz find).
+        let message: String = message.into();
+        let message = if message.chars().any(char::is_control) {
+            message
+                .chars()
+                .map(|c| {
+                    if c.is_control() {
+                        c.escape_debug().to_string()
+                    } else {
+                        c.to_string()
+                    }
+                })
+                .collect()
+        } else {
+            message
+        };
         SceneError {
             file: self.file.to_string(),
             key: key.into(),
-            message: message.into(),
+            message,
         }
     }
 

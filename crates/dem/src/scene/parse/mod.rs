@@ -8,6 +8,7 @@
 
 mod bonds;
 mod particles;
+mod size;
 
 use super::description::*;
 use super::{Ctx, SceneError};

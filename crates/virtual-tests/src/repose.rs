@@ -3,6 +3,16 @@
 //! surface profile (the highest particle surface per radial bin), fit a straight line to each flank
 //! between the toe and the rounded apex, and report the mean angle and its spread over flanks and
 //! planes.
+//!
+//! Guards, so that a heap too small to have flanks is refused rather than measured (a 100-bead
+//! heap 2.6 beads high once gave 4.80 +- 7.43 deg with a flank at -5.9 deg and a NaN radius,
+//! which a study would have fed to its model): every particle finite; the heap higher than two
+//! particle diameters; at least three profile points per flank in the fit band; and every flank
+//! falling away from the axis (a fitted angle above zero, finite). A flank level or rising
+//! outward is a plane where the surface is a layer of beads with bumps, not a slope: it is
+//! neither averaged in (it drags the mean down) nor dropped (that drags it up, and hides that
+//! the heap is too small); the measurement fails naming it. Each failure is one line starting
+//! "repose measurement:", and the lifted-cylinder test reports it as a failed measurement.
 
 use glam::DVec3;
 
@@ -81,6 +91,22 @@ pub enum HeapParticle {
 }
 
 impl HeapParticle {
+    fn is_finite(&self) -> bool {
+        match self {
+            HeapParticle::Sphere { centre, radius } => centre.is_finite() && radius.is_finite(),
+            HeapParticle::Convex {
+                centre,
+                vertices,
+                equal_volume_radius,
+                ..
+            } => {
+                centre.is_finite()
+                    && equal_volume_radius.is_finite()
+                    && vertices.iter().all(|v| v.is_finite())
+            }
+        }
+    }
+
     fn size(&self) -> f64 {
         match self {
             HeapParticle::Sphere { radius, .. } => *radius,
@@ -167,6 +193,14 @@ pub fn measure_particles(
     if m.planes == 0 {
         return Err("repose measurement: planes must be at least 1".into());
     }
+    // A NaN or infinite particle would pass through every comparison below and come out as a
+    // NaN angle.
+    if let Some(k) = particles.iter().position(|p| !p.is_finite()) {
+        return Err(format!(
+            "repose measurement: particle {}: its position or size is not a finite number",
+            k + 1
+        ));
+    }
     let mean_d = 2.0 * particles.iter().map(|p| p.size()).sum::<f64>() / particles.len() as f64;
     let bin = m.bin_width.unwrap_or(mean_d);
     let heap_height = particles
@@ -231,6 +265,7 @@ pub fn measure_particles(
             });
         }
     }
+    check_flanks(&flanks, heap_height / mean_d, m.fit_band)?;
     let n = flanks.len() as f64;
     let angle_deg = flanks.iter().map(|f| f.angle_deg).sum::<f64>() / n;
     let angle_std_deg = if flanks.len() > 1 {
@@ -254,6 +289,16 @@ pub fn measure_particles(
         })
         .sum::<f64>()
         / n;
+    // Cannot happen with finite particles and descending flanks; kept so that no NaN ever
+    // reaches a study as a measured angle.
+    if ![angle_deg, angle_std_deg, heap_height, heap_radius]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        return Err(format!(
+            "repose measurement: the result is not finite (angle {angle_deg} deg, spread {angle_std_deg} deg, height {heap_height} m, radius {heap_radius} m)"
+        ));
+    }
     Ok(ReposeResult {
         angle_deg,
         angle_std_deg,
@@ -261,6 +306,40 @@ pub fn measure_particles(
         heap_radius,
         flanks,
     })
+}
+
+/// Fails unless every flank falls away from the axis: a fitted angle that is finite and above
+/// zero. The message counts the flanks that do not, names up to three, and gives the heap's
+/// height in particle diameters (`diameters`).
+fn check_flanks(flanks: &[Flank], diameters: f64, band: (f64, f64)) -> Result<(), String> {
+    let bad: Vec<&Flank> = flanks
+        .iter()
+        .filter(|f| !(f.angle_deg.is_finite() && f.angle_deg > 0.0))
+        .collect();
+    if bad.is_empty() {
+        return Ok(());
+    }
+    let named: Vec<String> = bad
+        .iter()
+        .take(3)
+        .map(|f| {
+            format!(
+                "plane {:.0} deg, side {}: {:.2} deg",
+                f.plane_angle.to_degrees(),
+                f.side,
+                f.angle_deg
+            )
+        })
+        .collect();
+    Err(format!(
+        "repose measurement: {} of {} flanks do not fall away from the axis between {:.0} % and {:.0} % of the heap height ({}{}); a heap {diameters:.1} particle diameters high is too low or too small to show its slope: use more particles",
+        bad.len(),
+        flanks.len(),
+        100.0 * band.0,
+        100.0 * band.1,
+        named.join("; "),
+        if bad.len() > 3 { "; ..." } else { "" }
+    ))
 }
 
 /// Least-squares line z = a + b s through the points; returns (b, a).

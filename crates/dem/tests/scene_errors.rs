@@ -253,6 +253,30 @@ fn dynamic_friction_is_an_alias_of_rolling_friction() {
             .rolling_friction,
         0.1
     );
+    // Papers mean sliding friction by "dynamic friction" as often as EDEM's rolling friction:
+    // the alias is read, and said how.
+    let warning = "scene.toml: interaction[0].dynamic_friction: read as rolling friction, as EDEM and the calibration papers use the name; sliding (kinetic) friction is static_friction here. Write rolling_friction to silence this warning";
+    assert_eq!(
+        s.warnings
+            .iter()
+            .filter(|w| w.contains("friction"))
+            .collect::<Vec<_>>(),
+        [warning]
+    );
+    let kinetic = GOOD.replacen("rolling_friction = 0.1", "kinetic_friction = 0.1", 1);
+    let s = load(&kinetic).unwrap();
+    assert!(
+        s.warnings
+            .contains(&warning.replace("dynamic_friction", "kinetic_friction")),
+        "{:?}",
+        s.warnings
+    );
+    // The plain name says nothing.
+    assert!(!load(&GOOD)
+        .unwrap()
+        .warnings
+        .iter()
+        .any(|w| w.contains("rolling friction")));
     let e = error_after(
         "rolling_friction = 0.1",
         "rolling_friction = 0.1\ndynamic_friction = 0.1",

@@ -118,17 +118,24 @@ impl Scene {
             }
         })?;
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        let mut description = parse::scene(&text, &name, &base)?;
+        let (mut description, warnings) = parse::scene_with_warnings(&text, &name, &base)?;
         if let Some(b) = backend {
             description.simulation.backend = b.to_string();
         }
-        Scene::from_description(&description, &name)
+        Scene::from_description(&description, &name).map(|s| s.with_warnings(warnings))
     }
 
     /// Builds a scene from TOML text; `file` names it in errors, `base` resolves relative paths.
     pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Scene, SceneError> {
-        let description = parse::scene(text, file, base)?;
-        Scene::from_description(&description, file)
+        let (description, warnings) = parse::scene_with_warnings(text, file, base)?;
+        Scene::from_description(&description, file).map(|s| s.with_warnings(warnings))
+    }
+
+    /// The parser's warnings (how the file is written) before the builder's.
+    fn with_warnings(mut self, mut warnings: Vec<String>) -> Scene {
+        warnings.append(&mut self.warnings);
+        self.warnings = warnings;
+        self
     }
 
     /// Builds a scene from its description; `file` names it in errors ("scene" when there is no

@@ -30,6 +30,16 @@ pub(super) fn v3(a: V3) -> DVec3 {
 /// Reads a scene file's text; `file` names it in errors, `base` (its folder) resolves the
 /// relative paths inside (STL files, the output directory).
 pub fn scene(text: &str, file: &str, base: &Path) -> Result<SceneDescription, SceneError> {
+    scene_with_warnings(text, file, base).map(|(d, _)| d)
+}
+
+/// [`scene`], with the warnings about how the file is written (a friction alias that papers use
+/// for another coefficient), which the built scene's warnings do not see.
+pub fn scene_with_warnings(
+    text: &str,
+    file: &str,
+    base: &Path,
+) -> Result<(SceneDescription, Vec<String>), SceneError> {
     let ctx = Ctx { file };
     let de = toml::Deserializer::new(text);
     let parsed: SceneFile = serde_path_to_error::deserialize(de).map_err(|e| {
@@ -53,7 +63,39 @@ pub fn scene(text: &str, file: &str, base: &Path) -> Result<SceneDescription, Sc
             format!("{msg}{at}"),
         )
     })?;
-    describe(parsed, &ctx, base)
+    let description = describe(parsed, &ctx, base)?;
+    // Only a file that spells an alias is read a second time, as a plain table.
+    let warnings = if FRICTION_ALIASES.iter().any(|a| text.contains(a)) {
+        let table: toml::Table = text.parse().unwrap_or_default();
+        friction_alias_warnings(table.get("interaction"), file)
+    } else {
+        Vec::new()
+    };
+    Ok((description, warnings))
+}
+
+/// Other names `rolling_friction` is read under (serde aliases of [`InteractionEntry`]).
+const FRICTION_ALIASES: [&str; 2] = ["dynamic_friction", "kinetic_friction"];
+
+/// A warning for each `[[interaction]]` that gives rolling friction under another name. The
+/// calibration papers written with EDEM call rolling friction "dynamic friction", which is what
+/// the alias is for; but in mechanics "dynamic" or "kinetic" friction is the sliding coefficient,
+/// and a user who means that would silently set rolling friction instead.
+fn friction_alias_warnings(interactions: Option<&toml::Value>, file: &str) -> Vec<String> {
+    let Some(list) = interactions.and_then(toml::Value::as_array) else {
+        return Vec::new();
+    };
+    let mut warnings = Vec::new();
+    for (k, entry) in list.iter().enumerate() {
+        for alias in FRICTION_ALIASES {
+            if entry.get(alias).is_some() {
+                warnings.push(format!(
+                    "{file}: interaction[{k}].{alias}: read as rolling friction, as EDEM and the calibration papers use the name; sliding (kinetic) friction is static_friction here. Write rolling_friction to silence this warning"
+                ));
+            }
+        }
+    }
+    warnings
 }
 
 /// Reads `value` as `T` (a section of a scene already read as TOML); errors name the key after
@@ -94,6 +136,9 @@ pub struct SharedParts {
     pub interactions: Vec<InteractionDescription>,
     pub particle_types: Vec<ParticleTypeDescription>,
     pub bonds: Vec<BondDescription>,
+    /// How the parts are written that the user should hear about (a friction alias); the
+    /// command that reads the file prints them once.
+    pub warnings: Vec<String>,
 }
 
 /// Reads the `material`, `interaction` and `particle_type` arrays of `table` (other keys are the
@@ -123,6 +168,7 @@ pub fn shared_parts(
         None => Vec::new(),
     };
     Ok(SharedParts {
+        warnings: friction_alias_warnings(table.get("interaction"), file),
         bonds: bonds::bonds(&ctx, bond_entries)?,
         materials: materials
             .into_iter()
@@ -271,6 +317,7 @@ struct InteractionEntry {
     materials: [String; 2],
     restitution: f64,
     static_friction: f64,
+    // The names in FRICTION_ALIASES; reading one gives a warning (friction_alias_warnings).
     #[serde(alias = "dynamic_friction", alias = "kinetic_friction")]
     rolling_friction: f64,
     /// JKR cohesion (J/m^2).

@@ -4,6 +4,7 @@
 mod bench;
 mod curve;
 mod help_check;
+mod init;
 mod lab;
 mod progress;
 mod shape;
@@ -106,6 +107,20 @@ enum Command {
         /// Run the stages on the CPU or the GPU (default: the file's backend, or cpu).
         #[arg(long, value_parser = ["cpu", "gpu"])]
         backend: Option<String>,
+    },
+    /// Write a commented test file and a study file to start a calibration from (repose.toml and
+    /// study.toml for `repose`, ...); existing files are never overwritten.
+    #[command(
+        after_help = "Then: demcal test DIR/<kind>.toml (one run), demcal status DIR/study.toml (a check without simulating), demcal run DIR/study.toml --jobs 2.\n\nExample:\n  demcal init repose my-heap"
+    )]
+    Init {
+        /// The lab test: repose (lifted-cylinder angle of repose), incline (tilting plate),
+        /// shear, compression or bending (bonded stalk specimens).
+        #[arg(value_parser = init::KINDS)]
+        kind: String,
+        /// The folder to write into (created if missing; default: the current folder).
+        #[arg(default_value = ".")]
+        dir: PathBuf,
     },
     /// Run (or resume) a calibration study: every stage of its plan, the runs stored in
     /// <study>.db next to it, then the report in report/ next to it.
@@ -260,6 +275,9 @@ fn run_test(
     backend: Option<String>,
 ) -> Result<(), String> {
     let mut file = virtual_tests::TestFile::load(path)?;
+    for w in &file.parts.warnings {
+        eprintln!("warning: {w}");
+    }
     if let Some(b) = backend.or(file.backend.take()) {
         file.backend = Some(chosen_backend(&b)?.to_string());
     }
@@ -521,6 +539,7 @@ fn main() -> ExitCode {
             record,
             threads,
         } => set_threads(threads).and_then(|_| on_pool(|| run_job(&job, record.as_deref()))),
+        Command::Init { kind, dir } => init::run(&kind, &dir),
         Command::Status { study } => study::status(&study).map(|s| print!("{s}")),
         Command::Report { study, out } => study::report(&study, out.as_deref()).map(|dir| {
             println!("wrote {}", dir.join("index.html").display());
@@ -600,6 +619,9 @@ fn run_study(
             Some(b) => b == "gpu",
             None => study::Study::load(path).is_ok_and(|s| s.backend == "gpu"),
         } && dem::sim::resolve_backend("gpu").is_ok_and(|(chosen, _)| chosen == "gpu");
+    if let Ok(s) = study::Study::load(path) {
+        print_test_warnings(&s);
+    }
     let jobs_given = jobs.is_some();
     let jobs = jobs.unwrap_or(if gpu { progress::DEFAULT_PER_BATCH } else { 1 });
     if here {
@@ -636,6 +658,18 @@ fn run_study(
     }
     print!("{}", result?);
     Ok(())
+}
+
+/// How a study's test files are written that the user should hear about (a friction alias),
+/// once per run rather than once per simulation.
+fn print_test_warnings(study: &study::Study) {
+    for t in &study.tests {
+        if let Ok(parts) = dem::scene::parse::shared_parts(&t.table, &t.source, &t.dir) {
+            for w in &parts.warnings {
+                eprintln!("warning: {w}");
+            }
+        }
+    }
 }
 
 /// `demcal run-one`: runs a job and writes its record (done, or failed with its kind and reason)

@@ -10,6 +10,7 @@ use crate::factor::{Factor, Scale};
 use crate::fit::{fmt_sig, Curvature, Fit};
 use crate::model::{parse_terms, ModelOrder, Term};
 use crate::optimize::{Criterion, Goal, Problem, Subject};
+use crate::text_table::{Align, TextTable};
 use crate::DataTable;
 
 /// Reads `--factors`: a count (`3` gives A, B, C in coded units), names (`A,B,C`, coded = actual)
@@ -704,25 +705,22 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
     } else {
         "coded"
     };
-    write!(s, "\n{:>3}", "#").unwrap();
-    for f in &exp.factor_names {
-        write!(s, " {:>12}", format!("{f} ({unit})")).unwrap();
-    }
-    for r in &req.responses {
-        write!(s, " {r:>12}").unwrap();
-    }
-    writeln!(s, " {:>12}", "desirability").unwrap();
+    // Columns as wide as their names: "restitution (actual)" is wider than its numbers.
+    let mut header = vec!["#".to_string()];
+    header.extend(exp.factor_names.iter().map(|f| format!("{f} ({unit})")));
+    header.extend(req.responses.iter().cloned());
+    header.push("desirability".into());
+    let titles: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut table = TextTable::new(&titles, &vec![Align::Right; titles.len()]);
     for (i, sol) in solutions.iter().enumerate() {
-        write!(s, "{:>3}", i + 1).unwrap();
         let values = sol.actual.as_ref().unwrap_or(&sol.coded);
-        for v in values {
-            write!(s, " {:>12}", fmt_sig(*v)).unwrap();
-        }
-        for v in &sol.responses {
-            write!(s, " {:>12}", fmt_sig(*v)).unwrap();
-        }
-        writeln!(s, " {:>12.4}", sol.desirability).unwrap();
+        let mut row = vec![(i + 1).to_string()];
+        row.extend(values.iter().chain(&sol.responses).map(|v| fmt_sig(*v)));
+        row.push(format!("{:.4}", sol.desirability));
+        table.row(row);
     }
+    writeln!(s).unwrap();
+    s.push_str(&table.render());
     if solutions.iter().all(|s| s.desirability == 0.0) {
         writeln!(
             s,

@@ -101,6 +101,10 @@ pub struct Fit {
     pub aliased: Vec<String>,
 }
 
+/// A leverage above this counts as 1: the model passes through the run whatever it measures, so
+/// the run's deleted residual, PRESS and predicted R² are not defined.
+pub const LEVERAGE_ONE: f64 = 1.0 - 1e-10;
+
 fn f_p_value(f: f64, df1: usize, df2: usize) -> Option<f64> {
     if df1 == 0 || df2 == 0 || !f.is_finite() {
         return None;
@@ -400,7 +404,7 @@ impl Fit {
                 (xi * &c * xi.transpose())[(0, 0)]
             })
             .collect();
-        let press = if leverage.iter().any(|&h| h > 1.0 - 1e-10) {
+        let press = if leverage.iter().any(|&h| h > LEVERAGE_ONE) {
             None
         } else {
             Some(
@@ -424,7 +428,7 @@ impl Fit {
         let studentized = (0..n)
             .map(|i| {
                 let h = leverage[i];
-                if h > 1.0 - 1e-10 || df_res < 2 {
+                if h > LEVERAGE_ONE || df_res < 2 {
                     return f64::NAN;
                 }
                 // Residual variance without run i.
@@ -439,7 +443,7 @@ impl Fit {
         let cooks_distance = (0..n)
             .map(|i| {
                 let h = leverage[i];
-                if h > 1.0 - 1e-10 || error_ms.is_none() {
+                if h > LEVERAGE_ONE || error_ms.is_none() {
                     return f64::NAN;
                 }
                 residuals[i].powi(2) / (p as f64 * ms_res) * h / (1.0 - h).powi(2)
@@ -684,206 +688,6 @@ impl Fit {
             "removed_terms": self.removed.iter().map(|(n, p)| serde_json::json!({"name": n, "p": p})).collect::<Vec<_>>(),
         })
     }
-
-    /// A plain-text report laid out like Design-Expert's ANOVA and fit-statistics panes.
-    pub fn report(&self) -> String {
-        use std::fmt::Write;
-        let mut s = String::new();
-        let title = if self.aliased.is_empty() {
-            model_title(&self.terms)
-        } else {
-            "cubic (aliased terms left out)".into()
-        };
-        writeln!(
-            s,
-            "ANOVA for {title} model, response {} ({} runs)",
-            self.experiment.response_name,
-            self.experiment.runs()
-        )
-        .unwrap();
-        if !self.aliased.is_empty() {
-            writeln!(s, "Aliased terms left out: {}", self.aliased.join(", ")).unwrap();
-        }
-        if !self.removed.is_empty() {
-            let list: Vec<String> = self
-                .removed
-                .iter()
-                .map(|(n, p)| format!("{n} (p {})", fmt_p(*p)))
-                .collect();
-            writeln!(s, "Backward elimination removed: {}", list.join(", ")).unwrap();
-        }
-        writeln!(s, "Partial (type III) sums of squares\n").unwrap();
-        writeln!(
-            s,
-            "{:<14} {:>14} {:>4} {:>13} {:>10} {:>9}",
-            "Source", "Sum of Squares", "df", "Mean Square", "F-value", "p-value"
-        )
-        .unwrap();
-        let mut line = |r: &AnovaRow, note: &str| {
-            let f = r.f.map_or(String::new(), fmt_sig);
-            let p = r.p.map_or(String::new(), fmt_p);
-            writeln!(
-                s,
-                "{:<14} {:>14} {:>4} {:>13} {:>10} {:>9}  {note}",
-                r.name,
-                fmt_sig(r.sum_sq),
-                r.df,
-                if r.df > 0 {
-                    fmt_sig(r.mean_sq)
-                } else {
-                    String::new()
-                },
-                f,
-                p
-            )
-            .unwrap();
-        };
-        let sig = |p: Option<f64>| match p {
-            Some(p) if p < 0.05 => "significant",
-            Some(_) => "not significant",
-            None => "",
-        };
-        line(&self.model, sig(self.model.p));
-        for r in &self.anova_terms {
-            line(r, "");
-        }
-        if let Some(c) = &self.curvature {
-            line(c, sig(c.p));
-        }
-        line(&self.residual, "");
-        if let Some(l) = &self.lack_of_fit {
-            line(l, sig(l.p));
-        }
-        if let Some(pe) = &self.pure_error {
-            line(pe, "");
-        }
-        writeln!(
-            s,
-            "{:<14} {:>14} {:>4}",
-            "Cor Total",
-            fmt_sig(self.total_sum_sq),
-            self.total_df
-        )
-        .unwrap();
-        let na = |v: Option<f64>| v.map_or("N/A".to_string(), |v| format!("{v:.4}"));
-        writeln!(s).unwrap();
-        writeln!(
-            s,
-            "Std. Dev.  {:>10}    R²             {:.4}",
-            fmt_sig(self.std_dev),
-            self.r2
-        )
-        .unwrap();
-        writeln!(
-            s,
-            "Mean       {:>10}    Adjusted R²    {:.4}",
-            fmt_sig(self.mean),
-            self.adj_r2
-        )
-        .unwrap();
-        writeln!(
-            s,
-            "C.V. %     {:>10.2}    Predicted R²   {}",
-            self.cv_percent,
-            na(self.pred_r2)
-        )
-        .unwrap();
-        writeln!(
-            s,
-            "PRESS      {:>10}    Adeq Precision {}",
-            self.press.map_or("N/A".into(), fmt_sig),
-            na(self.adeq_precision)
-        )
-        .unwrap();
-        writeln!(s, "\nCoefficients in coded factors").unwrap();
-        writeln!(
-            s,
-            "{:<14} {:>12} {:>4} {:>11} {:>11} {:>11} {:>7}",
-            "Term", "Estimate", "df", "Std Error", "95% CI Low", "95% CI High", "VIF"
-        )
-        .unwrap();
-        for c in &self.coefficients {
-            writeln!(
-                s,
-                "{:<14} {:>12} {:>4} {:>11} {:>11} {:>11} {:>7}",
-                c.name,
-                fmt_sig(c.estimate),
-                1,
-                fmt_sig(c.std_error),
-                fmt_sig(c.ci_low),
-                fmt_sig(c.ci_high),
-                c.vif.map_or(String::new(), |v| format!("{v:.4}"))
-            )
-            .unwrap();
-        }
-        let names = self.term_names();
-        writeln!(s, "\nFinal equation in terms of coded factors:").unwrap();
-        writeln!(
-            s,
-            "{} = {}",
-            self.experiment.response_name,
-            equation(
-                self.coefficients
-                    .iter()
-                    .map(|c| c.estimate)
-                    .zip(names.iter().cloned())
-            )
-        )
-        .unwrap();
-        if let Some(eq) = self.actual_equation() {
-            let vars = self.actual_variable_names();
-            writeln!(s, "\nFinal equation in terms of actual factors:").unwrap();
-            writeln!(
-                s,
-                "{} = {}",
-                self.experiment.response_name,
-                equation(eq.iter().map(|(t, v)| (*v, t.name(&vars))))
-            )
-            .unwrap();
-        }
-        if !self.effects.is_empty() {
-            writeln!(s, "\nEffects (two-level runs)").unwrap();
-            writeln!(
-                s,
-                "{:<14} {:>12} {:>10} {:>14}",
-                "Term", "Effect", "t-value", "% Contribution"
-            )
-            .unwrap();
-            for e in &self.effects {
-                writeln!(
-                    s,
-                    "{:<14} {:>12} {:>10} {:>14.2}",
-                    e.name,
-                    fmt_sig(e.effect),
-                    fmt_sig(e.t),
-                    e.contribution_percent
-                )
-                .unwrap();
-            }
-            if let Some((t, bonf)) = self.pareto_limits(0.05) {
-                writeln!(s, "t limit {t:.4}, Bonferroni limit {bonf:.4} (alpha 0.05)").unwrap();
-            }
-        }
-        s
-    }
-}
-
-fn equation(parts: impl Iterator<Item = (f64, String)>) -> String {
-    let mut s = String::new();
-    for (i, (v, name)) in parts.enumerate() {
-        let sign = if v < 0.0 { "-" } else { "+" };
-        let body = if name == "Intercept" {
-            fmt_sig(v.abs())
-        } else {
-            format!("{} {name}", fmt_sig(v.abs()))
-        };
-        if i == 0 {
-            s.push_str(&format!("{}{body}", if v < 0.0 { "-" } else { "" }));
-        } else {
-            s.push_str(&format!(" {sign} {body}"));
-        }
-    }
-    s
 }
 
 /// "quadratic", "2FI", ... when the terms are exactly a standard model, else "reduced" or "custom".

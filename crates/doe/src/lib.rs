@@ -14,11 +14,13 @@ pub mod diagnostics;
 pub mod experiment;
 pub mod factor;
 pub mod fit;
+pub mod fit_report;
 pub mod model;
 pub mod optimize;
 pub mod plots;
 pub mod plots_surface;
 pub mod raster;
+pub mod text_table;
 
 pub use data::DataTable;
 pub use design::Design;

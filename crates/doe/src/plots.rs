@@ -17,8 +17,8 @@ use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::fit::{t_critical, Fit};
 pub use crate::plots_surface::{
-    colour_map, contour_plot, contour_segments, grid, nice_ticks, perturbation_plot, surface_plot,
-    ContourMarks, Grid,
+    colour_map, contour_plot, contour_segments, grid, map_with_colour_bar, nice_ticks,
+    perturbation_plot, surface_plot, ContourMarks, FilledMap, Grid,
 };
 
 /// Width and height of every plot, in SVG units (pixels at 100 %).
@@ -168,13 +168,65 @@ pub fn tick(v: &f64) -> String {
     }
 }
 
+/// How an axis is ticked: `Decimal` for measured values (round ticks, fractional where the
+/// range is short), `Whole` for an axis that counts things (rounds, runs, iterations,
+/// generations), where 2.5 means nothing: whole-number ticks only, however short the range.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Ticks {
+    #[default]
+    Decimal,
+    Whole,
+}
+
+impl Ticks {
+    /// `Whole` when every finite value is a whole number (and there is one), else `Decimal`.
+    pub fn detect(values: impl IntoIterator<Item = f64>) -> Ticks {
+        let mut any = false;
+        for v in values.into_iter().filter(|v| v.is_finite()) {
+            if v.fract() != 0.0 {
+                return Ticks::Decimal;
+            }
+            any = true;
+        }
+        if any {
+            Ticks::Whole
+        } else {
+            Ticks::Decimal
+        }
+    }
+
+    /// How many labels to ask plotters for over `range` (its `x_labels` / `y_labels`), at most
+    /// `n`. Plotters ticks with the finest step of 1, 2 or 5 times a power of ten that gives no
+    /// more labels than asked; asking for no more than the whole numbers in the range keeps
+    /// that step at 1 or more, so every tick is a whole number.
+    pub fn labels(self, range: &std::ops::Range<f64>, n: usize) -> usize {
+        match self {
+            Ticks::Decimal => n,
+            Ticks::Whole => {
+                let whole = range.end.floor() - range.start.ceil() + 1.0;
+                if whole.is_finite() && whole >= 1.0 {
+                    n.min(whole as usize)
+                } else {
+                    0
+                }
+            }
+        }
+    }
+}
+
 /// Axes in the plots' style: a light grid, round ticks, the labels' size, titles `x` and `y`.
 pub fn draw_mesh(chart: &mut Chart, x: &str, y: &str) -> Result<(), String> {
+    draw_mesh_ticks(chart, x, y, Ticks::Decimal)
+}
+
+/// [`draw_mesh`] with the x axis ticked as `x_ticks` says (whole numbers for counts).
+pub fn draw_mesh_ticks(chart: &mut Chart, x: &str, y: &str, x_ticks: Ticks) -> Result<(), String> {
+    let x_labels = x_ticks.labels(&chart.x_range(), 6);
     chart
         .configure_mesh()
         .x_desc(x)
         .y_desc(y)
-        .x_labels(6)
+        .x_labels(x_labels)
         .y_labels(6)
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
@@ -442,6 +494,19 @@ pub fn scatter(
     hlines: &[HLine],
     square: bool,
 ) -> Result<String, String> {
+    scatter_ticks(x_desc, y_desc, points, line, hlines, square, Ticks::Decimal)
+}
+
+/// [`scatter`] with the x axis ticked as `x_ticks` says.
+fn scatter_ticks(
+    x_desc: &str,
+    y_desc: &str,
+    points: &[(f64, f64)],
+    line: Option<([(f64, f64); 2], &str)>,
+    hlines: &[HLine],
+    square: bool,
+    x_ticks: Ticks,
+) -> Result<String, String> {
     let (mut x0, mut x1) = min_max(points.iter().map(|p| p.0));
     let (mut y0, mut y1) = min_max(points.iter().map(|p| p.1).chain(hlines.iter().map(|h| h.y)));
     if square {
@@ -467,7 +532,7 @@ pub fn scatter(
         };
         let (xr, yr) = (padded(x0, x1), padded(y0, y1));
         let mut chart = chart(root, xr.clone(), yr, top as u32)?;
-        draw_mesh(&mut chart, x_desc, y_desc)?;
+        draw_mesh_ticks(&mut chart, x_desc, y_desc, x_ticks)?;
         for h in hlines {
             chart
                 .draw_series(DashedLineSeries::new(
@@ -564,13 +629,14 @@ pub fn residuals_vs_run(fit: &Fit, runs: &[usize]) -> Result<String, String> {
         .enumerate()
         .map(|(i, r)| (runs.get(i).copied().unwrap_or(i + 1) as f64, *r))
         .collect();
-    scatter(
+    scatter_ticks(
         "run number (order made)",
         STUDENTIZED,
         &pts,
         None,
         &outlier_lines(fit),
         false,
+        Ticks::Whole,
     )
 }
 
@@ -602,7 +668,12 @@ pub fn cooks_distance_plot(fit: &Fit, runs: &[usize]) -> Result<String, String> 
         )?;
         let xr = (x0 - 0.7)..(x1 + 0.7);
         let mut chart = chart(root, xr.clone(), 0.0..top, (used + 10) as u32)?;
-        draw_mesh(&mut chart, "run number (order made)", "Cook's distance")?;
+        draw_mesh_ticks(
+            &mut chart,
+            "run number (order made)",
+            "Cook's distance",
+            Ticks::Whole,
+        )?;
         chart
             .draw_series(DashedLineSeries::new(
                 [(xr.start, 1.0), (xr.end, 1.0)],
@@ -622,6 +693,61 @@ pub fn cooks_distance_plot(fit: &Fit, runs: &[usize]) -> Result<String, String> 
         chart
             .draw_series(pts.iter().map(|&p| Circle::new(p, 6, NEGATIVE.filled())))
             .map_err(err)?;
+        Ok(())
+    })
+}
+
+/// One line of a [`line_plot`]: its legend text, colour and points (drawn as dots joined).
+#[derive(Clone, Debug)]
+pub struct Line {
+    pub label: String,
+    pub colour: RGBColor,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Lines over a common x axis with a legend row above the plot, such as a search's best value
+/// by round. `x_ticks`: [`Ticks::Whole`] for an axis that counts (rounds, iterations,
+/// generations, runs); `None` decides from the points ([`Ticks::detect`]).
+pub fn line_plot(
+    x_desc: &str,
+    y_desc: &str,
+    lines: &[Line],
+    x_ticks: Option<Ticks>,
+) -> Result<String, String> {
+    let all = || lines.iter().flat_map(|l| l.points.iter());
+    let (x0, x1) = min_max(all().map(|p| p.0));
+    let (y0, y1) = min_max(all().map(|p| p.1));
+    if x0 > x1 || y0 > y1 {
+        return Err("plot: no points to draw".into());
+    }
+    let x_ticks = x_ticks.unwrap_or_else(|| Ticks::detect(all().map(|p| p.0)));
+    render(|root| {
+        let items: Vec<(Mark, String)> = lines
+            .iter()
+            .filter(|l| !l.label.is_empty())
+            .map(|l| (Mark::Line(l.colour, 3), l.label.clone()))
+            .collect();
+        let top = if items.is_empty() {
+            18
+        } else {
+            legend_row(root, &items, 16, 26, SIZE.0 as i32 - 32)? + 10
+        };
+        let mut chart = chart(root, padded(x0, x1), padded(y0, y1), top as u32)?;
+        draw_mesh_ticks(&mut chart, x_desc, y_desc, x_ticks)?;
+        for l in lines {
+            let finite = || {
+                l.points
+                    .iter()
+                    .filter(|p| p.0.is_finite() && p.1.is_finite())
+                    .copied()
+            };
+            chart
+                .draw_series(LineSeries::new(finite(), l.colour.stroke_width(3)))
+                .map_err(err)?;
+            chart
+                .draw_series(finite().map(|p| Circle::new(p, 5, l.colour.filled())))
+                .map_err(err)?;
+        }
         Ok(())
     })
 }

@@ -2,6 +2,7 @@
 //! contour and the optimum), the 3-D surface and the perturbation plot. Shared style in
 //! [`crate::plots`].
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -296,11 +297,10 @@ pub fn contour_plot(
             .map_err(err)?;
             used += (crate::plots::svg_px(TEXT) * 1.45) as i32;
         }
-        let bar_area = 128;
-        let (left, _) = root.split_horizontally(SIZE.0 - bar_area);
+        let (left, _) = root.split_horizontally(SIZE.0 - BAR_AREA);
         let mut chart = ChartBuilder::on(&left)
             .margin(14)
-            .margin_top(used + 10)
+            .margin_top(used + TOP_TICK_ROOM)
             .margin_right(8)
             .x_label_area_size(66)
             .y_label_area_size(92)
@@ -322,7 +322,7 @@ pub fn contour_plot(
         let to_actual = |l: &Vec<(f64, f64)>| -> Vec<(f64, f64)> {
             l.iter().map(|p| (ax(p.0), ay(p.1))).collect()
         };
-        let (px_x, px_y) = chart.plotting_area().get_pixel_range();
+        let (_, px_y) = chart.plotting_area().get_pixel_range();
         for &level in &levels {
             let lines = chain(&contour_segments(&g, level));
             for l in &lines {
@@ -395,50 +395,191 @@ pub fn contour_plot(
                 .draw_series([Cross::new(p, 11, BLACK.stroke_width(3))])
                 .map_err(err)?;
         }
-        // The colour bar, as tall as the plot, with the response's ticks and title.
-        let bx = (SIZE.0 - bar_area) as i32 + 12;
-        let (top, bottom) = (px_y.start, px_y.end);
-        let _ = px_x;
-        const SLICES: i32 = 96;
-        for s in 0..SLICES {
-            let ya = bottom - (bottom - top) * (s + 1) / SLICES;
-            let yb = bottom - (bottom - top) * s / SLICES;
-            root.draw(&Rectangle::new(
-                [(bx, ya), (bx + 22, yb + 1)],
-                colour_map((s as f64 + 0.5) / SLICES as f64).filled(),
-            ))
-            .map_err(err)?;
-        }
-        root.draw(&Rectangle::new(
-            [(bx, top), (bx + 22, bottom)],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(err)?;
-        for &level in &levels {
-            let y = bottom - ((level - lo) / span * (bottom - top) as f64).round() as i32;
-            root.draw(&PathElement::new(vec![(bx + 22, y), (bx + 28, y)], BLACK))
-                .map_err(err)?;
-            root.draw(&Text::new(
-                tick(&level),
-                (bx + 31, y),
-                (FONT, TEXT)
-                    .into_font()
-                    .color(&BLACK)
-                    .pos(Pos::new(HPos::Left, VPos::Center)),
-            ))
-            .map_err(err)?;
-        }
-        root.draw(&Text::new(
-            labels.response.clone(),
-            (SIZE.0 as i32 - 14, (top + bottom) / 2),
-            (FONT, DESC)
-                .into_font()
-                .transform(FontTransform::Rotate270)
-                .color(&BLACK)
-                .pos(Pos::new(HPos::Center, VPos::Center)),
-        ))
-        .map_err(err)?;
+        colour_bar(
+            root,
+            (px_y.start, px_y.end),
+            (lo, hi),
+            &levels,
+            &labels.response,
+        )?;
         Ok(())
+    })
+}
+
+/// Space between a filled plot and the legend or note above it. The axes end on round values,
+/// so the top tick label sits on the plot's top edge and reaches half its height above it.
+const TOP_TICK_ROOM: i32 = 22;
+
+/// Width kept at the right of a filled plot for its colour bar, tick labels and title.
+const BAR_AREA: u32 = 128;
+
+/// The colour bar of [`colour_map`] over `lo..hi` at the right of `root`, spanning the pixel
+/// rows `top..bottom` (the plot's height), with a tick and label at each of `ticks` and
+/// `title` (the mapped quantity with its unit) along its outer side.
+fn colour_bar(
+    root: &DrawingArea<SVGBackend, Shift>,
+    (top, bottom): (i32, i32),
+    (lo, hi): (f64, f64),
+    ticks: &[f64],
+    title: &str,
+) -> Result<(), String> {
+    let bx = (SIZE.0 - BAR_AREA) as i32 + 12;
+    let span = (hi - lo).max(1e-300);
+    const SLICES: i32 = 96;
+    for s in 0..SLICES {
+        let ya = bottom - (bottom - top) * (s + 1) / SLICES;
+        let yb = bottom - (bottom - top) * s / SLICES;
+        root.draw(&Rectangle::new(
+            [(bx, ya), (bx + 22, yb + 1)],
+            colour_map((s as f64 + 0.5) / SLICES as f64).filled(),
+        ))
+        .map_err(err)?;
+    }
+    root.draw(&Rectangle::new(
+        [(bx, top), (bx + 22, bottom)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(err)?;
+    for &level in ticks {
+        let y = bottom - ((level - lo) / span * (bottom - top) as f64).round() as i32;
+        root.draw(&PathElement::new(vec![(bx + 22, y), (bx + 28, y)], BLACK))
+            .map_err(err)?;
+        root.draw(&Text::new(
+            tick(&level),
+            (bx + 31, y),
+            (FONT, TEXT)
+                .into_font()
+                .color(&BLACK)
+                .pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(err)?;
+    }
+    root.draw(&Text::new(
+        title.to_string(),
+        (SIZE.0 as i32 - 14, (top + bottom) / 2),
+        (FONT, DESC)
+            .into_font()
+            .transform(FontTransform::Rotate270)
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Center)),
+    ))
+    .map_err(err)?;
+    Ok(())
+}
+
+/// A filled map for [`map_with_colour_bar`]: values on a regular grid of cells over two axes,
+/// with optional marks. Fields left out (`..Default::default()`) draw nothing.
+#[derive(Clone, Debug, Default)]
+pub struct FilledMap<'a> {
+    /// Axis titles, each with its unit.
+    pub x_desc: &'a str,
+    pub y_desc: &'a str,
+    /// The ranges the cells cover.
+    pub x_range: (f64, f64),
+    pub y_range: (f64, f64),
+    /// `values[i][j]`: the cell i of the columns along x, j of the rows along y (bottom up);
+    /// every column as long. Non-finite cells are left white.
+    pub values: &'a [Vec<f64>],
+    /// The colour bar's title: the mapped quantity with its unit, e.g. "predicted angle of
+    /// repose (deg)".
+    pub quantity: &'a str,
+    /// Points drawn as black dots (the runs), with their legend text ("" for no legend entry).
+    pub points: &'a [(f64, f64)],
+    pub points_label: &'a str,
+    /// A point ringed in white (the chosen or best point), with its legend text.
+    pub chosen: Option<((f64, f64), &'a str)>,
+}
+
+/// A filled map of `map.values` in the colours of [`colour_map`] (blue low, red high) with a
+/// colour bar giving the scale, its ticks and the quantity with its unit, as the contour plot
+/// has: a map without one cannot be read. Points and the chosen point are marked, with a legend
+/// row above the plot when they have labels.
+pub fn map_with_colour_bar(map: &FilledMap) -> Result<String, String> {
+    let nx = map.values.len();
+    let ny = map.values.first().map_or(0, Vec::len);
+    if nx == 0 || ny == 0 || map.values.iter().any(|c| c.len() != ny) {
+        return Err("plot: a map needs a rectangular grid of values".into());
+    }
+    let ((x0, x1), (y0, y1)) = (map.x_range, map.y_range);
+    if !(x0.is_finite() && x1.is_finite() && x0 < x1 && y0.is_finite() && y1.is_finite() && y0 < y1)
+    {
+        return Err("plot: a map needs increasing finite ranges".into());
+    }
+    let (lo, hi) = min_max(map.values.iter().flatten().copied());
+    if lo > hi {
+        return Err("plot: no finite value to map".into());
+    }
+    let ticks = if hi - lo > 1e-12 * lo.abs().max(hi.abs()).max(1e-300) {
+        nice_ticks(lo, hi, 6)
+    } else {
+        vec![lo]
+    };
+    let (cw, ch) = ((x1 - x0) / nx as f64, (y1 - y0) / ny as f64);
+    render(|root| {
+        let mut items = Vec::new();
+        if !map.points.is_empty() && !map.points_label.is_empty() {
+            items.push((Mark::Dot(BLACK), map.points_label.to_string()));
+        }
+        if let Some((_, label)) = map.chosen.filter(|c| !c.1.is_empty()) {
+            items.push((Mark::Ring(BLACK), label.to_string()));
+        }
+        let used = if items.is_empty() {
+            8
+        } else {
+            legend_row(root, &items, 16, 26, SIZE.0 as i32 - 32)?
+        };
+        let (left, _) = root.split_horizontally(SIZE.0 - BAR_AREA);
+        let mut chart = ChartBuilder::on(&left)
+            .margin(14)
+            .margin_top(used + TOP_TICK_ROOM)
+            .margin_right(8)
+            .x_label_area_size(66)
+            .y_label_area_size(92)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err)?;
+        draw_mesh(&mut chart, map.x_desc, map.y_desc)?;
+        let span = (hi - lo).max(1e-300);
+        chart
+            .draw_series((0..nx).flat_map(|i| {
+                (0..ny).filter_map(move |j| {
+                    let v = map.values[i][j];
+                    let (xa, ya) = (x0 + i as f64 * cw, y0 + j as f64 * ch);
+                    v.is_finite().then(|| {
+                        Rectangle::new(
+                            [(xa, ya), (xa + cw, ya + ch)],
+                            colour_map((v - lo) / span).filled(),
+                        )
+                    })
+                })
+            }))
+            .map_err(err)?;
+        let inside = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
+        chart
+            .draw_series(
+                map.points
+                    .iter()
+                    .filter(inside)
+                    .map(|&p| Circle::new(p, 6, WHITE.filled())),
+            )
+            .map_err(err)?;
+        chart
+            .draw_series(
+                map.points
+                    .iter()
+                    .filter(inside)
+                    .map(|&p| Circle::new(p, 4, BLACK.filled())),
+            )
+            .map_err(err)?;
+        if let Some((c, _)) = map.chosen {
+            chart
+                .draw_series([Circle::new(c, 10, BLACK.stroke_width(5))])
+                .map_err(err)?;
+            chart
+                .draw_series([Circle::new(c, 10, WHITE.stroke_width(3))])
+                .map_err(err)?;
+        }
+        let (_, py) = chart.plotting_area().get_pixel_range();
+        colour_bar(root, (py.start, py.end), (lo, hi), &ticks, map.quantity)
     })
 }
 

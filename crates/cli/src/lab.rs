@@ -8,9 +8,9 @@ use lab::photo::{self, Background, PhotoSettings, Threshold};
 
 #[derive(Subcommand)]
 pub enum LabCommand {
-    /// Angle of repose from a side photo of a heap: greyscale, threshold, the heap with its holes
-    /// filled, its outline, and a line fitted to each flank between 15 % and 85 % of its height
-    /// (camera level, square pixels).
+    /// Angle of repose from a side photo of a heap: the plate it stands on found and left out,
+    /// greyscale, threshold, the heap with its holes filled, its outline, and a line fitted to
+    /// each flank between 15 % and 85 % of its height (camera level, square pixels).
     #[command(
         after_help = "Example:\n  demcal lab photo-angle heap.jpg --crop 100,50,1600,900 --debug heap-check.png --json"
     )]
@@ -25,10 +25,15 @@ pub enum LabCommand {
         #[arg(long, value_parser = ["auto", "light", "dark"], default_value = "auto")]
         background: String,
         /// Use only this part of the photo: x,y,width,height in pixels (leave out the cylinder,
-        /// the plate's edge, a ruler).
+        /// a ruler, or a plate that is not found).
         #[arg(long)]
         crop: Option<String>,
-        /// Write the photo with the outline (red) and the fitted flank lines (green) here (PNG).
+        /// Do not look for the plate below the heap: measure the whole (cropped) photo. The
+        /// plate is a band of rows of one width, wider than the heap's base, right below it.
+        #[arg(long)]
+        no_plate: bool,
+        /// Write the photo with the outline (red), the fitted flank lines (green) and the plate's
+        /// top edge (blue) here (PNG).
         #[arg(long)]
         debug: Option<PathBuf>,
         /// Print one JSON object (left_deg, right_deg, mean_deg, ...) instead of text.
@@ -105,9 +110,13 @@ pub fn run(action: LabCommand) -> Result<(), String> {
             threshold,
             background,
             crop,
+            no_plate,
             debug,
             json,
-        } => return photo_angle(&image, &threshold, &background, crop, debug, json),
+        } => {
+            let find_plate = !no_plate;
+            return photo_angle(&image, &threshold, &background, crop, find_plate, debug, json);
+        }
         LabCommand::Friction { tilt_deg } => formulas::friction_from_tilt(tilt_deg),
         LabCommand::Modulus {
             slope,
@@ -135,6 +144,7 @@ fn photo_angle(
     threshold: &str,
     background: &str,
     crop: Option<String>,
+    find_plate: bool,
     debug: Option<PathBuf>,
     json: bool,
 ) -> Result<(), String> {
@@ -185,6 +195,7 @@ fn photo_angle(
             _ => Background::Auto,
         },
         crop,
+        find_plate,
         ..PhotoSettings::default()
     };
     let img = photo::open(path)?;
@@ -209,6 +220,7 @@ fn photo_angle(
                 .map(|d| format!("; outline and lines drawn in {}", d.display()))
                 .unwrap_or_default()
         );
+        println!("{}", a.base_line);
     }
     Ok(())
 }

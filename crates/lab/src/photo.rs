@@ -3,10 +3,14 @@
 //! one), the heap as the largest connected region with its holes filled, its outline (the top
 //! heap pixel of each column), and a straight line fitted to each flank between 15 % and 85 % of
 //! the heap's height, which leaves out the toe and the rounded apex. Pixels become degrees with
-//! the camera level and square pixels.
+//! the camera level and square pixels. A plate the heap stands on is found first and the heap
+//! measured above its top edge ([`crate::plate`]): taken into the heap, it made the flanks
+//! 5-14 deg too low.
 
 use image::{GrayImage, Luma, Rgb, RgbImage};
 use imageproc::region_labelling::{connected_components, Connectivity};
+
+use crate::plate::{self, Plate};
 
 /// How the heap is told from its background.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,6 +38,8 @@ pub struct PhotoSettings {
     pub crop: Option<(u32, u32, u32, u32)>,
     /// Heights (fractions of the heap's) between which the flanks are fitted.
     pub fit_band: (f64, f64),
+    /// Look for a plate below the heap and measure above it (`--no-plate` turns it off).
+    pub find_plate: bool,
 }
 
 impl Default for PhotoSettings {
@@ -43,6 +49,7 @@ impl Default for PhotoSettings {
             background: Background::Auto,
             crop: None,
             fit_band: (0.15, 0.85),
+            find_plate: true,
         }
     }
 }
@@ -74,14 +81,20 @@ pub struct PhotoAngle {
     /// Image row of the heap's base and column of its apex (in the cropped image).
     pub base_row: u32,
     pub apex_column: u32,
+    /// The plate found below the heap, whose top edge is the heap's base line (the heap was
+    /// measured on the rows above it), or None.
+    pub plate: Option<Plate>,
+    /// What the search for the base line did, in words.
+    pub base_line: String,
     /// The top heap pixel of each column (row), None where the column has no heap.
     #[serde(skip)]
     pub outline: Vec<Option<u32>>,
 }
 
 /// The largest photo measured, in pixels (64 megapixels: 8 000 x 8 000). Measuring takes about
-/// 15 bytes a pixel (the colour image, its grey copy, the region labels), so this bounds it near
-/// 1 GB; a larger photo is refused before it is decoded.
+/// 17 bytes a pixel (the colour image, its grey copy, the plate search's blurred copy, the part
+/// above the plate, the region labels), so this bounds it near 1.1 GB; a larger photo is refused
+/// before it is decoded.
 #[cfg(not(fuzzing))]
 pub const MAX_PIXELS: u64 = 64_000_000;
 /// Under the fuzzer (`--cfg fuzzing`) 100 000 pixels, so that each input is measured in
@@ -152,8 +165,40 @@ pub fn open(path: &std::path::Path) -> Result<image::DynamicImage, String> {
     decode(&bytes).map_err(|e| format!("{name}: {e}"))
 }
 
-/// Measures the heap in `image` (any colour type; it is made grey).
+/// Measures the heap in `image` (any colour type; it is made grey): within `--crop`, above the
+/// plate the heap stands on when one is found.
 pub fn measure(image: &image::DynamicImage, s: &PhotoSettings) -> Result<PhotoAngle, String> {
+    let grey = cropped_grey(image, s)?;
+    let found = if s.find_plate {
+        plate::find(&grey)
+    } else {
+        None
+    };
+    let Some(p) = found else {
+        let mut a = measure_grey(&grey, s)?;
+        a.base_line = if s.find_plate {
+            "no plate found below the heap: the whole photo measured".into()
+        } else {
+            "no plate looked for (--no-plate): the whole photo measured".into()
+        };
+        return Ok(a);
+    };
+    let above = image::imageops::crop_imm(&grey, 0, 0, grey.width(), p.top_row).to_image();
+    let within = if s.crop.is_some() { " of the crop" } else { "" };
+    let base_line = format!(
+        "base line found at row {}{within} (a plate {} px high, {} px wide, grey {:.2}, below the heap): measured above it",
+        p.top_row, p.height_px, p.width_px, p.grey
+    );
+    let mut a = measure_grey(&above, s).map_err(|e| {
+        format!("{e} ({base_line}; --no-plate measures the whole photo, --crop a part of it)")
+    })?;
+    a.plate = Some(p);
+    a.base_line = base_line;
+    Ok(a)
+}
+
+/// The photo made grey and cropped to `--crop`, refused when too small to hold a heap.
+fn cropped_grey(image: &image::DynamicImage, s: &PhotoSettings) -> Result<GrayImage, String> {
     let mut grey = image.to_luma8();
     if let Some((x, y, w, h)) = s.crop {
         let (iw, ih) = grey.dimensions();
@@ -170,9 +215,16 @@ pub fn measure(image: &image::DynamicImage, s: &PhotoSettings) -> Result<PhotoAn
             "the image is {w} x {h} pixels: too small to measure a heap"
         ));
     }
+    Ok(grey)
+}
+
+/// Measures the heap in `grey` (already cropped): threshold, the heap region with its holes
+/// filled, its outline and a line fitted to each flank.
+fn measure_grey(grey: &GrayImage, s: &PhotoSettings) -> Result<PhotoAngle, String> {
+    let (w, h) = grey.dimensions();
     let level = match s.threshold {
-        Threshold::Otsu => imageproc::contrast::otsu_level(&grey),
-        Threshold::Iterative => iterative_level(&grey),
+        Threshold::Otsu => imageproc::contrast::otsu_level(grey),
+        Threshold::Iterative => iterative_level(grey),
     };
     let dark = |p: &Luma<u8>| p[0] <= level;
     // The background is the class that holds most of the border unless told.
@@ -270,6 +322,8 @@ pub fn measure(image: &image::DynamicImage, s: &PhotoSettings) -> Result<PhotoAn
         heap_width_px: heap_width,
         base_row,
         apex_column: apex,
+        plate: None,
+        base_line: String::new(),
         outline,
     })
 }
@@ -331,8 +385,9 @@ pub fn iterative_level(grey: &GrayImage) -> u8 {
     t.clamp(0.0, 255.0) as u8
 }
 
-/// The photo (greyscale, cropped as measured) with the outline in red and the fitted lines in
-/// green, from the base to the apex's height, for a person to check the measurement.
+/// The photo (greyscale, cropped as measured) with the outline in red, the fitted lines in
+/// green, from the base to the apex's height, and the plate's top edge (the base line the heap
+/// was measured above) in blue across the photo, for a person to check the measurement.
 pub fn debug_picture(image: &image::DynamicImage, s: &PhotoSettings, a: &PhotoAngle) -> RgbImage {
     let mut grey = image.to_luma8();
     if let Some((x, y, w, h)) = s.crop {
@@ -345,6 +400,14 @@ pub fn debug_picture(image: &image::DynamicImage, s: &PhotoSettings, a: &PhotoAn
     for (x, top) in a.outline.iter().enumerate() {
         if let Some(y) = top {
             out.put_pixel(x as u32, *y, Rgb([230, 30, 30]));
+        }
+    }
+    if let Some(p) = &a.plate {
+        // Two rows thick, on the plate: the heap's last row stays visible above it.
+        for y in p.top_row..(p.top_row + 2).min(out.height()) {
+            for x in 0..out.width() {
+                out.put_pixel(x, y, Rgb([40, 90, 230]));
+            }
         }
     }
     let row = |z: f64| a.base_row as f64 + 1.0 - z;

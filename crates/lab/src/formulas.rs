@@ -1,5 +1,5 @@
 //! The small formulas of a calibration's lab side, each with the formula it used written out
-//! (the README's "Lab helpers"): friction from a tilt angle, elastic and shear modulus from a
+//! (docs/features.md, "Lab helpers"): friction from a tilt angle, elastic and shear modulus from a
 //! load-displacement slope, moisture content on a wet basis, bulk density, relative error.
 
 /// A computed quantity: its name, value, unit and the formula with the numbers put in.

@@ -391,11 +391,11 @@ job_name = "maize"
     }
 
     #[test]
-    fn the_readme_example_reads() {
-        let readme = include_str!("../../../../README.md");
+    fn the_documented_example_reads() {
+        let readme = include_str!("../../../../docs/features.md");
         let start = readme
             .find("[executor]\nkind = \"slurm\"")
-            .expect("the README's example");
+            .expect("the example of docs/features.md, \"Running on a cluster\"");
         let end = start + readme[start..].find("```").unwrap();
         let ExecutorSpec::Slurm(s) = parse(&readme[start..end]).unwrap() else {
             panic!("not slurm")

@@ -31,6 +31,7 @@ value with its uncertainty interval, "0.115 (0.104 to 0.127)".
 
 import argparse
 import csv
+import difflib
 import json
 import re
 import resource
@@ -520,11 +521,14 @@ def process(c, path, text, faults, notes):
         else:
             if short(old) == short(new) == "(a block)":
                 diff = [
-                    f"{a!r} -> {b!r}"
-                    for a, b in zip(masked(old).splitlines(), masked(str(new)).splitlines())
-                    if a != b
+                    line
+                    for line in difflib.unified_diff(
+                        masked(old).splitlines(), masked(str(new)).splitlines(), lineterm="", n=0
+                    )
+                    if line[:1] in "+-" and line[:3] not in ("---", "+++")
                 ]
-                faults.append(f"{path}: {key}: the quoted output differs: {'; '.join(diff[:3])}")
+                shown = "\n      ".join(diff[:8])
+                faults.append(f"{path}: {key}: the quoted output differs (- docs, + binary):\n      {shown}")
             else:
                 faults.append(f"{path}: {key}: the docs say {short(old)}, the binary gives {short(new)}")
         if toml:

@@ -472,11 +472,21 @@ fn parse_command_line() -> Result<Cli, ExitCode> {
                 e.exit();
             }
             let text = e.render().to_string();
-            let first = text
-                .lines()
-                .find(|l| !l.trim().is_empty())
+            let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+            let first = lines
+                .next()
                 .unwrap_or("error: cannot read the command line");
             let first = first.strip_prefix("error: ").unwrap_or(first);
+            // "the following required arguments were not provided:" lists them on the indented
+            // lines after it.
+            let listed: Vec<&str> = lines
+                .take_while(|l| l.starts_with(' '))
+                .map(str::trim)
+                .collect();
+            let first = match first.strip_suffix(':') {
+                Some(head) if !listed.is_empty() => format!("{head}: {}", listed.join(", ")),
+                _ => first.to_string(),
+            };
             // The (sub)command the error is about: the leading words that name one.
             let mut words = Vec::new();
             let mut cmd = Cli::command();

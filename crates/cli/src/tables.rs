@@ -113,7 +113,7 @@ pub(crate) enum SurrogateCommand {
     /// Train a surrogate, then search it with a genetic algorithm (GA-BP-GA for --model ga-bp)
     /// for the factor settings that meet the goal, inside the table's factor ranges.
     #[command(
-        after_help = "Example:\n  demcal surrogate optimize crates/doe/tests/data/silage-repose-ccd.csv --response angle_deg --factors D,E,G --model ga-bp --goal target=38.65"
+        after_help = "A response whose every value in the table is >= 0 (an error, an MSE) is never predicted below 0: a model that dips below zero is reported as 0, and the output says so. To minimise a relative error, model the response it is computed from: --target-of RESPONSE --value LAB.\n\nExamples:\n  demcal surrogate optimize crates/doe/tests/data/silage-repose-ccd.csv --response angle_deg --factors D,E,G --model ga-bp --goal target=38.65\n  demcal surrogate optimize results.csv --response relative_error --target-of angle_deg --value 38.65 --factors D,E,G --model gp --goal minimize"
     )]
     Optimize {
         /// The result table (CSV: factor columns and the response column).
@@ -123,6 +123,20 @@ pub(crate) enum SurrogateCommand {
         /// target=V (e.g. the lab's 38.65), minimize or maximize.
         #[arg(long)]
         goal: String,
+        /// With --goal minimize: --response is the relative error |RESPONSE - VALUE| / |VALUE|
+        /// (a fraction or in %, checked against the table) of this column. The surrogate then
+        /// models this column and computes the error from its prediction, so the error is never
+        /// below zero and smallest where the model meets the lab value.
+        #[arg(long, value_name = "RESPONSE", requires = "value")]
+        target_of: Option<String>,
+        /// The lab value the error of --target-of is taken against.
+        #[arg(
+            long,
+            value_name = "LAB",
+            requires = "target_of",
+            allow_hyphen_values = true
+        )]
+        value: Option<f64>,
         /// One JSON object with the solution instead of the table.
         #[arg(long)]
         json: bool,
@@ -186,10 +200,19 @@ pub(crate) fn surrogate_command(action: SurrogateCommand) -> Result<(), String> 
             data,
             model,
             goal,
+            target_of,
+            value,
             json,
         } => {
             let goal = commands::Goal::parse(&goal)?;
-            print!("{}", commands::optimize(&model.request(data)?, goal, json)?);
+            // clap makes each of the two need the other.
+            let error_of = target_of
+                .zip(value)
+                .map(|(response, lab)| commands::ErrorOf { response, lab });
+            print!(
+                "{}",
+                commands::optimize(&model.request(data)?, goal, error_of.as_ref(), json)?
+            );
         }
     }
     Ok(())

@@ -1,13 +1,14 @@
-//! The report's curve section, when the target is a curve: what was compared and how (the
-//! normalisation and units in words), and a plot of the lab's mean curve with its band against
-//! the simulated curves of the run with the smallest MSE and of the validation runs. The report
-//! ([`crate::report`]) renders it; this module draws and words it, and does not import the
-//! report.
+//! The report's curve sections, one per curve target (the study's one target, or each curve
+//! target among several): what was compared and how (the normalisation and units in words), and
+//! a plot of the lab's mean curve with its band against the simulated curves of the run with the
+//! smallest MSE and of the validation runs. The report ([`crate::report`]) renders them; this
+//! module draws and words them, and does not import the report.
 
 use doe::plots;
 use plotters::prelude::*;
 
 use crate::curve::{stored_curve, Curve, COMPARE_POINTS, STIFFNESS_FRACTION};
+use crate::lab_curve::CurveTarget;
 use crate::record::Replay;
 use crate::spec::Study;
 use crate::store::Status;
@@ -16,8 +17,13 @@ use crate::text::sig;
 /// Points each curve is drawn with.
 const DRAW_POINTS: usize = 400;
 
-/// The section: paragraphs of plain text (the report escapes them) and the plot.
+/// A section: paragraphs of plain text (the report escapes them) and the plot.
 pub struct Section {
+    /// With several targets, which test's curve it is (`test compression: force_displacement`),
+    /// for a heading; None for a study of one target.
+    pub title: Option<String>,
+    /// What the figure's files are named after.
+    pub stem: String,
     pub paragraphs: Vec<String>,
     pub svg: Result<String, String>,
 }
@@ -29,9 +35,28 @@ struct Simulated {
     best: bool,
 }
 
-/// The section for `study`'s curve target (None without one).
-pub fn section(study: &Study, r: &Replay) -> Option<Section> {
-    let c = study.target.curve.as_ref()?;
+/// A section for each of `study`'s curve targets (none without one).
+pub fn sections(study: &Study, r: &Replay) -> Vec<Section> {
+    if study.combine.is_none() {
+        return study
+            .target
+            .curve
+            .iter()
+            .map(|c| section(study, r, c, None))
+            .collect();
+    }
+    // With several targets each test's outcome is under its name in the run's `tests`.
+    study
+        .targets
+        .iter()
+        .filter_map(|t| Some((t.curve.as_ref()?, study.tests[t.test].name.as_str())))
+        .map(|(c, test)| section(study, r, c, Some(test)))
+        .collect()
+}
+
+/// The section for the curve target `c`, whose test's outcome is a run's outputs (`test`
+/// None) or the outputs' `tests.<test>`.
+fn section(study: &Study, r: &Replay, c: &CurveTarget, test: Option<&str>) -> Section {
     let cmp = c.comparison();
     let norm = c.normalisation;
     let (xn, xu) = norm.x_axis();
@@ -39,7 +64,8 @@ pub fn section(study: &Study, r: &Replay) -> Option<Section> {
     let (lo, hi) = c.lab.mean.range();
     let mut paragraphs = vec![
         format!(
-            "The test's {} curve is compared with {} lab replicate(s) from {}. Normalisation {}. The lab curve is {}; the band spans the replicates' smallest to largest force at each point.",
+            "The {}{} curve is compared with {} lab replicate(s) from {}. Normalisation {}. The lab curve is {}; the band spans the replicates' smallest to largest force at each point.",
+            test.map_or("test's ".to_string(), |t| format!("test {t}'s ")),
             c.curve,
             c.lab.replicates.len(),
             c.files.join(", "),
@@ -71,9 +97,13 @@ pub fn section(study: &Study, r: &Replay) -> Option<Section> {
             let Some(rec) = rec.as_ref().filter(|r| r.status == Status::Done) else {
                 continue;
             };
+            let outputs = match test {
+                None => &rec.outputs,
+                Some(t) => &rec.outputs["tests"][t],
+            };
             let (Some(mse), Some(curve)) = (
-                rec.outputs.get("curve_mse").and_then(|v| v.as_f64()),
-                stored_curve(&rec.outputs),
+                outputs.get("curve_mse").and_then(|v| v.as_f64()),
+                stored_curve(outputs),
             ) else {
                 continue;
             };
@@ -92,7 +122,8 @@ pub fn section(study: &Study, r: &Replay) -> Option<Section> {
     }
     if let Some((mse, label, curve)) = best {
         paragraphs.push(format!(
-            "The run with the smallest curve_mse is {label}: {}.",
+            "The run with the smallest {}curve_mse is {label}: {}.",
+            test.map_or(String::new(), |t| format!("{t} ")),
             sig(mse)
         ));
         sims.insert(
@@ -118,8 +149,20 @@ pub fn section(study: &Study, r: &Replay) -> Option<Section> {
         };
         (side(&c.lab.min), side(&c.lab.max))
     });
-    let svg = plot(study, &lab, band.as_ref(), &sims, (xn, xu), (yn, yu));
-    Some(Section { paragraphs, svg })
+    let what = match test {
+        None => study.target.response.clone(),
+        Some(t) => format!("test {t}"),
+    };
+    let svg = plot(&what, &lab, band.as_ref(), &sims, (xn, xu), (yn, yu));
+    Section {
+        title: test.map(|t| format!("test {t}: {}", c.curve)),
+        stem: match test {
+            None => "curves".to_string(),
+            Some(t) => format!("curves-{t}"),
+        },
+        paragraphs,
+        svg,
+    }
 }
 
 fn thin(c: &Curve) -> Vec<(f64, f64)> {
@@ -132,8 +175,9 @@ fn thin(c: &Curve) -> Vec<(f64, f64)> {
     d.x.into_iter().zip(d.y).collect()
 }
 
+/// The plot; `what` names the curve in its caption (the response, or the test).
 fn plot(
-    study: &Study,
+    what: &str,
     lab: &Curve,
     band: Option<&(Curve, Curve)>,
     sims: &[Simulated],
@@ -163,7 +207,7 @@ fn plot(
     plots::render(|root| {
         let mut chart = ChartBuilder::on(root)
             .caption(
-                format!("Lab and simulated curves ({})", study.target.response),
+                format!("Lab and simulated curves ({what})"),
                 ("sans-serif", 24),
             )
             .margin(14)

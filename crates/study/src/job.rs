@@ -213,6 +213,13 @@ impl Job {
                     t.name
                 ));
             }
+            // The run's outcome keeps each test's under its name.
+            if self.tests[..i].iter().any(|u| u.name == t.name) {
+                return Err(format!(
+                    "tests[{i}].name: \"{}\" names an earlier test too (each test has its own folder and outcome)",
+                    t.name
+                ));
+            }
         }
         match (self.combine, self.terms.is_empty()) {
             (None, false) => return Err("terms: given without combine".into()),
@@ -273,7 +280,7 @@ impl Job {
         }
         let result = self.simulate(interrupted, start, report);
         let (status, response, outputs, error) = match result {
-            Err(e) if e.kind == RunErrorKind::Interrupted => return None,
+            Err((_, e)) if e.kind == RunErrorKind::Interrupted => return None,
             Ok(json) => match json.get(&self.response).and_then(|v| v.as_f64()) {
                 Some(y) if y.is_finite() => (Status::Done, Some(y), json, None),
                 _ => (
@@ -286,7 +293,8 @@ impl Job {
                     )),
                 ),
             },
-            Err(e) => (Status::Failed, None, serde_json::Value::Null, Some(e)),
+            // With several tests, what the tests before the failed one gave is kept.
+            Err((kept, e)) => (Status::Failed, None, kept, Some(e)),
         };
         let mut rec = self.record(error, start.elapsed().as_secs_f64());
         rec.status = status;
@@ -319,100 +327,71 @@ impl Job {
         }
     }
 
-    /// Makes every test and, with several targets, scores the run.
+    /// Makes every test and, with several targets, scores the run. A failure comes with what
+    /// the run gave before it: with several targets, the outcomes of the tests that finished and
+    /// each target's row ([`score`]), so that a run whose second test fails keeps its first
+    /// test's values; null otherwise.
     fn simulate(
         &self,
         interrupted: &AtomicBool,
         start: Instant,
         report: &dyn Fn(&str, f64),
-    ) -> Result<serde_json::Value, RunError> {
+    ) -> Result<serde_json::Value, (serde_json::Value, RunError)> {
+        let null = serde_json::Value::Null;
         if self.tests.is_empty() {
-            return Err(RunError::new(
-                RunErrorKind::BadSettings,
-                "the job has no test".to_string(),
+            return Err((
+                null,
+                RunError::new(RunErrorKind::BadSettings, "the job has no test".to_string()),
             ));
         }
         let several = self.tests.len() > 1;
-        let mut outcomes = Vec::new();
-        for t in &self.tests {
+        let mut outcomes = serde_json::Map::new();
+        let mut failed = None;
+        for (k, t) in self.tests.iter().enumerate() {
             let dir = if several {
                 self.out_dir.join(&t.name)
             } else {
                 self.out_dir.clone()
             };
-            let json = self
-                .simulate_test(t, &dir, interrupted, start, report)
-                .map_err(|mut e| {
+            // Progress names the test a run of several is in ("test heap (2/2): settle").
+            let head = format!("test {} ({}/{})", t.name, k + 1, self.tests.len());
+            let named = |phase: &str, time: f64| {
+                if several {
+                    report(&format!("{head}: {phase}"), time);
+                } else {
+                    report(phase, time);
+                }
+            };
+            if several {
+                // The line changes as the test starts, not a few hundred steps into it.
+                named("starting", 0.0);
+            }
+            match self.simulate_test(t, &dir, interrupted, start, &named) {
+                Ok(json) => {
+                    outcomes.insert(t.name.clone(), json);
+                }
+                Err(mut e) => {
                     if several && e.kind != RunErrorKind::Interrupted {
                         e.message = format!("test {}: {}", t.name, e.message);
                     }
-                    e
-                })?;
-            outcomes.push(json);
+                    failed = Some(e);
+                    break;
+                }
+            }
         }
-        match self.combine {
-            None => Ok(outcomes.swap_remove(0)),
-            Some(c) => self.score(c, outcomes),
+        let Some(combine) = self.combine else {
+            // One test: `check` refuses several without a combination.
+            return match failed {
+                Some(e) => Err((null, e)),
+                None => Ok(outcomes.into_iter().next().map_or(null, |(_, o)| o)),
+            };
+        };
+        let names: Vec<String> = self.tests.iter().map(|t| t.name.clone()).collect();
+        let (out, unscored) = score(&self.response, combine, &self.terms, &names, outcomes);
+        match failed.or(unscored) {
+            Some(e) => Err((out, e)),
+            None => Ok(out),
         }
-    }
-
-    /// The outcome of a run with several targets: each test's outcome under `tests`, each
-    /// target's simulated value and error under `targets`, and the combined objective.
-    fn score(
-        &self,
-        combine: Combine,
-        outcomes: Vec<serde_json::Value>,
-    ) -> Result<serde_json::Value, RunError> {
-        let mut ys = Vec::new();
-        let mut rows = Vec::new();
-        for term in &self.terms {
-            let test = self.tests.get(term.test).ok_or_else(|| {
-                RunError::new(
-                    RunErrorKind::BadSettings,
-                    format!(
-                        "a target names test {}, the job has {}",
-                        term.test + 1,
-                        self.tests.len()
-                    ),
-                )
-            })?;
-            let y = outcomes[term.test]
-                .get(&term.response)
-                .and_then(|v| v.as_f64())
-                .filter(|y| y.is_finite())
-                .ok_or_else(|| {
-                    RunError::new(
-                        RunErrorKind::MeasurementFailed,
-                        format!(
-                            "test {} gave no finite number for {}",
-                            test.name, term.response
-                        ),
-                    )
-                })?;
-            rows.push(serde_json::json!({
-                "test": test.name,
-                "response": term.response,
-                "simulated": y,
-                "lab": term.lab,
-                "relative_error_percent": 100.0 * term.relative_error(y),
-                "desirability": term.desirability(y),
-            }));
-            ys.push(y);
-        }
-        let tests: serde_json::Map<String, serde_json::Value> = self
-            .tests
-            .iter()
-            .zip(outcomes)
-            .map(|(t, o)| (t.name.clone(), o))
-            .collect();
-        let mut out = serde_json::Map::new();
-        out.insert(
-            self.response.clone(),
-            serde_json::json!(combine.combine(&self.terms, &ys)),
-        );
-        out.insert("targets".into(), serde_json::Value::Array(rows));
-        out.insert("tests".into(), serde_json::Value::Object(tests));
-        Ok(serde_json::Value::Object(out))
     }
 
     fn simulate_test(
@@ -475,6 +454,123 @@ impl Job {
             (result, _) => result,
         }
     }
+}
+
+/// The outcome of a run with several targets, from its tests' outcomes (by test name): the
+/// outcomes under `tests`; each target's row under `targets`, in the order of `terms` (its
+/// simulated value, lab value, relative error and desirability, the first and the last two
+/// null when its test did not finish or gave no number); and the combined objective under
+/// `response` when every target has a number. The error names the first target without one.
+///
+/// A run just made is scored so, and a stored run again with the targets as they are now
+/// ([`rescored`]): each target's value is a simulated one, so a new lab value, weight or limit
+/// needs no simulation.
+pub(crate) fn score(
+    response: &str,
+    combine: Combine,
+    terms: &[Term],
+    test_names: &[String],
+    outcomes: serde_json::Map<String, serde_json::Value>,
+) -> (serde_json::Value, Option<RunError>) {
+    let mut ys = Vec::new();
+    let mut rows = Vec::new();
+    let mut missing = None;
+    for term in terms {
+        let test = test_names.get(term.test);
+        let outcome = test.and_then(|name| outcomes.get(name));
+        let y = outcome
+            .and_then(|o| o.get(&term.response))
+            .and_then(|v| v.as_f64())
+            .filter(|y| y.is_finite());
+        if y.is_none() && missing.is_none() {
+            missing = Some(match (test, outcome) {
+                (None, _) => RunError::new(
+                    RunErrorKind::BadSettings,
+                    format!(
+                        "a target names test {}, the run has {}",
+                        term.test + 1,
+                        test_names.len()
+                    ),
+                ),
+                (Some(name), None) => RunError::new(
+                    RunErrorKind::MeasurementFailed,
+                    format!("test {name} did not finish"),
+                ),
+                (Some(name), Some(_)) => RunError::new(
+                    RunErrorKind::MeasurementFailed,
+                    format!("test {name} gave no finite number for {}", term.response),
+                ),
+            });
+        }
+        rows.push(serde_json::json!({
+            "test": test.cloned().unwrap_or_default(),
+            "response": term.response,
+            "simulated": y,
+            "lab": term.lab,
+            "relative_error_percent": y.map(|y| 100.0 * term.relative_error(y)),
+            "desirability": y.map(|y| term.desirability(y)),
+        }));
+        ys.extend(y);
+    }
+    let mut out = serde_json::Map::new();
+    if missing.is_none() {
+        let objective = combine.combine(terms, &ys);
+        if objective.is_finite() {
+            out.insert(response.to_string(), serde_json::json!(objective));
+        } else {
+            missing = Some(RunError::new(
+                RunErrorKind::MeasurementFailed,
+                format!("the combined objective {response} is {objective}"),
+            ));
+        }
+    }
+    out.insert("targets".into(), serde_json::Value::Array(rows));
+    out.insert("tests".into(), serde_json::Value::Object(outcomes));
+    (serde_json::Value::Object(out), missing)
+}
+
+/// A stored run of a study with several targets, scored again from its tests' stored outcomes
+/// with the study's targets as they are now (lab values, weights, limits, importance, the
+/// combination): the run's fingerprint holds only what was simulated, so such a change keeps
+/// the runs and this gives each its new objective, exactly what simulating it again would.
+/// A run that failed in a test stays failed (its targets' rows are scored again); a run whose
+/// tests all finished is done or failed as its targets now score it. A run of a study with one
+/// target, or stored before its tests' outcomes were kept, comes back as it was.
+pub fn rescored(study: &Study, mut r: RunRecord) -> RunRecord {
+    let Some(combine) = study.combine else {
+        return r;
+    };
+    let outcomes = match r.outputs.get_mut("tests") {
+        Some(serde_json::Value::Object(m)) => std::mem::take(m),
+        _ => return r,
+    };
+    let names: Vec<String> = study.tests.iter().map(|t| t.name.clone()).collect();
+    let finished = names.iter().all(|n| outcomes.contains_key(n));
+    let response = study.target.response.as_str();
+    let (out, unscored) = score(response, combine, &study.terms(), &names, outcomes);
+    if finished {
+        match unscored {
+            None => {
+                r.status = Status::Done;
+                r.response = out.get(response).and_then(|v| v.as_f64());
+                r.error = None;
+                r.error_kind = None;
+            }
+            Some(e) => {
+                r.status = Status::Failed;
+                r.response = None;
+                r.error = Some(e.message);
+                r.error_kind = Some(e.kind);
+            }
+        }
+    }
+    r.outputs = out;
+    r
+}
+
+/// Every stored run [`rescored`]: what the report's tables and files show.
+pub fn rescored_all(study: &Study, runs: Vec<RunRecord>) -> Vec<RunRecord> {
+    runs.into_iter().map(|r| rescored(study, r)).collect()
 }
 
 /// A test's outcome as JSON, with the curve measures added when the study compares a curve. A

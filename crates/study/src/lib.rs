@@ -172,7 +172,8 @@ pub fn run(
     }
     let replay = outcome.map_err(ended)?;
     store.set_meta("last_study_text", &study.text)?;
-    let dir = report::write(&study, &replay, &store.runs()?, None)?;
+    let stored = job::rescored_all(&study, store.runs()?);
+    let dir = report::write(&study, &replay, &stored, None)?;
     let mut out = status_text(&study, &replay);
     writeln!(
         out,
@@ -193,7 +194,7 @@ pub fn run(
 fn load_replay(path: &Path) -> Result<(Study, Replay, Vec<store::RunRecord>), String> {
     let study = Study::load(path)?;
     let store = Store::open(&study.store_path(), false)?;
-    let stored = store.runs()?;
+    let stored = job::rescored_all(&study, store.runs()?);
     let r = replay(&study, &stored, None)?;
     Ok((study, r, stored))
 }

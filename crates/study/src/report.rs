@@ -251,15 +251,22 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> (String, Figures) {
     .unwrap();
     report_settings::fixed_settings(&mut h, study, r, stored);
 
-    if let Some(c) = crate::curve_report::section(study, r) {
+    // A section per curve target: the study's one, or each curve among several targets.
+    let curves = crate::curve_report::sections(study, r);
+    if !curves.is_empty() {
         h.push_str("<h2>Curves</h2>");
+    }
+    for c in curves {
+        if let Some(t) = &c.title {
+            write!(h, "<h3>{}</h3>", esc(t)).unwrap();
+        }
         for p in &c.paragraphs {
             write!(h, "<p>{}</p>", esc(p)).unwrap();
         }
         figs.row(
             &mut h,
             vec![(
-                "curves".into(),
+                c.stem,
                 c.svg,
                 "The lab's mean curve with its band against the simulated curves.".into(),
             )],
@@ -427,9 +434,10 @@ fn runs_table(h: &mut String, study: &Study, st: &StageResult) {
                 let status = match r.status {
                     Status::Done => "done".to_string(),
                     Status::Failed => format!(
-                        "failed ({}): {}",
+                        "failed ({}): {}{}",
                         r.error_kind.map(|k| k.as_str()).unwrap_or("unknown"),
-                        r.error.clone().unwrap_or_default()
+                        r.error.clone().unwrap_or_default(),
+                        targets_report::kept(study, r)
                     ),
                 };
                 write!(

@@ -228,18 +228,21 @@ pub(crate) fn test_label(file: &str, tests: &[TestSpec], t: &TestSpec) -> String
 }
 
 impl crate::record::RunSpec {
-    /// The exact test this run simulates, and its seed.
+    /// The exact tests this run simulates, and its seed: what its stored outcome depends on. A
+    /// curve target's comparison is part of it, since the run stores the curve measures made
+    /// against the lab curves. The targets' lab values, weights, limits and importance are not:
+    /// a run of several targets stores each target's simulated value and every test's outcome,
+    /// and the replay scores them again with the targets as they are ([`crate::job::rescored`]),
+    /// so a changed lab value needs no simulation.
     pub fn fingerprint(&self, study: &Study) -> String {
-        let Some(combine) = study.combine else {
+        if study.combine.is_none() {
             let test = toml::to_string(&study.test_with(0, &self.values)).unwrap_or_default();
-            // A curve target's runs also depend on the lab curves they were compared with.
             let curve = match &study.target.curve {
                 Some(c) => format!("{CURVE_LINE}{}\n", c.comparison().digest()),
                 None => String::new(),
             };
             return format!("{test}\n# seed = {}\n{curve}", self.seed);
-        };
-        // Several targets: every test, and how the targets score the run.
+        }
         let mut f = String::new();
         for (k, t) in study.tests.iter().enumerate() {
             let test = toml::to_string(&study.test_with(k, &self.values)).unwrap_or_default();
@@ -251,9 +254,19 @@ impl crate::record::RunSpec {
                 f.push_str(&format!("{CURVE_LINE}{}\n", c.comparison().digest()));
             }
         }
-        let terms = serde_json::to_string(&study.terms()).unwrap_or_default();
-        f.push_str(&format!("{OBJECTIVE_LINE}{combine:?} {terms}\n"));
         f
+    }
+
+    /// Whether a stored run's fingerprint is this run's. Runs of several targets stored before
+    /// their fingerprints left the objective out end in it (`# objective = ` and the targets'
+    /// terms): they match when what comes before it does, and are scored again like any other.
+    pub fn fingerprint_matches(&self, study: &Study, stored: &str) -> bool {
+        let now = self.fingerprint(study);
+        stored == now
+            || (study.combine.is_some()
+                && stored
+                    .split_once(OBJECTIVE_LINE)
+                    .is_some_and(|(simulated, _)| simulated == now))
     }
 
     pub fn inputs(&self, study: &Study) -> serde_json::Value {

@@ -44,7 +44,8 @@ pub fn replay(
                 ),
             ));
         }
-        by_key.insert((r.stage, r.index), r.clone());
+        // A run of several targets is scored with the targets as they are now.
+        by_key.insert((r.stage, r.index), crate::job::rescored(study, r.clone()));
     }
     let n = study.parameters.len();
     let mut ctx = Context {
@@ -90,7 +91,7 @@ pub fn replay(
                             ),
                         ));
                     }
-                    if r.fingerprint != spec.fingerprint(study) {
+                    if !spec.fingerprint_matches(study, &r.fingerprint) {
                         return Err(stale(study, &describe_change(study, spec, &r)));
                     }
                     st.records.push(Some(r));
@@ -245,8 +246,10 @@ fn describe_change(study: &Study, spec: &RunSpec, r: &RunRecord) -> String {
                 return format!("{head} was simulated without the parameter {}", p.name);
             }
             Some(old) if (old - v).abs() > 1e-12 * v.abs().max(1e-300) => {
+                // Stored runs are scored with the targets as they are now, so a new lab value,
+                // weight or limit moves what a stage plans from the runs before it.
                 return format!(
-                    "{head} was simulated with {} = {}, the study now gives {}",
+                    "{head} was simulated with {} = {}, the study now gives {} (a stage that chooses its runs from the results before it asks for other runs when a lab value, weight or limit changed)",
                     p.name,
                     sig(old),
                     sig(*v)
@@ -265,12 +268,10 @@ fn describe_change(study: &Study, spec: &RunSpec, r: &RunRecord) -> String {
         let f = f.split(CURVE_LINE).next().unwrap_or("");
         f.split(OBJECTIVE_LINE).next().unwrap_or("").to_string()
     };
-    let objective_part = |f: &str| f.split(OBJECTIVE_LINE).nth(1).unwrap_or("").to_string();
+    // The targets' lab values, weights and limits are not in a fingerprint (the runs are scored
+    // again); a stored one may end in them (`OBJECTIVE_LINE`), from before.
     let now = spec.fingerprint(study);
     if test_part(&r.fingerprint) == test_part(&now) {
-        if objective_part(&r.fingerprint) != objective_part(&now) {
-            return format!("{head} was scored with other targets, weights or limits");
-        }
         return format!("{head} was compared with other lab curves or another normalisation");
     }
     format!("{head} was simulated with other test settings (the test's fixed settings changed)")

@@ -87,6 +87,17 @@ impl Target {
         }
     }
 
+    /// A model's prediction of the response, as a report gives it: a minimised response (a curve
+    /// MSE, a combined error or undesirability) is never negative, so a prediction below 0 is
+    /// read as 0 ([`non_negative`]).
+    pub fn predicted(&self, model: f64) -> f64 {
+        if self.minimised {
+            non_negative(model)
+        } else {
+            model
+        }
+    }
+
     /// Standard deviation of the replicates, when there are two or more.
     pub fn std(&self) -> Option<f64> {
         let n = self.replicates.len();
@@ -112,6 +123,20 @@ impl Target {
             high: 1.0,
             curve_scale: 1.0,
         }
+    }
+}
+
+/// A model's prediction of something never negative (a relative error, a curve MSE, a combined
+/// error or undesirability): a smooth model of values that reach down to 0 dips below it near
+/// their least value, or carries their fall past it at an edge of the ranges, and such a
+/// prediction is read as 0. A search still minimises the model as it is, so that its answer is
+/// where the model is lowest rather than any point of the plateau the clamp would make.
+pub fn non_negative(model: f64) -> f64 {
+    // NaN stays NaN: a failed prediction is not a perfect one.
+    if model < 0.0 {
+        0.0
+    } else {
+        model
     }
 }
 
@@ -586,6 +611,17 @@ mod tests {
         assert!((y - (1.0 - d)).abs() < 1e-12, "{y} against {}", 1.0 - d);
         // Beyond a limit the whole point is worth nothing.
         assert_eq!(Combine::Desirability.combine(&[a, b], &[16.0, 2.0]), 1.0);
+    }
+
+    #[test]
+    fn a_minimised_response_is_never_predicted_below_zero() {
+        let mut t = Target::combined(Combine::Weighted);
+        assert_eq!(t.predicted(-0.15), 0.0);
+        assert_eq!(t.predicted(2.5), 2.5);
+        assert!(t.predicted(f64::NAN).is_nan());
+        // A matched response may be negative (a displacement, a signed force).
+        t.minimised = false;
+        assert_eq!(t.predicted(-0.15), -0.15);
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::fmt::Write;
 
 use serde_json::json;
 
-use crate::record::{target_values, StageResult, Validation};
+use crate::record::{StageResult, Validation};
 use crate::spec::{Combine, Study};
 use crate::store::RunRecord;
 use crate::text::{esc, sig};
@@ -205,13 +205,52 @@ pub(crate) fn csv_head(study: &Study) -> Vec<String> {
         .collect()
 }
 
-/// A run's values of the extra columns.
+/// A run's values of the extra columns: each target's simulated value, also in a failed run
+/// for the targets whose tests finished before the failure.
 pub(crate) fn csv_row(study: &Study, r: &RunRecord) -> Vec<String> {
     if study.combine.is_none() {
         return Vec::new();
     }
-    match target_values(r) {
-        Some(v) if v.len() == study.targets.len() => v.iter().map(|y| y.to_string()).collect(),
-        _ => vec![String::new(); study.targets.len()],
+    simulated(study, r)
+        .into_iter()
+        .map(|y| y.map(|y| y.to_string()).unwrap_or_default())
+        .collect()
+}
+
+/// Each target's simulated value in a run (None where its test did not finish or gave none);
+/// all None when the run's targets are not the study's (a store from before they were kept).
+fn simulated(study: &Study, r: &RunRecord) -> Vec<Option<f64>> {
+    match r.outputs["targets"].as_array() {
+        Some(rows) if rows.len() == study.targets.len() => {
+            rows.iter().map(|t| t["simulated"].as_f64()).collect()
+        }
+        _ => vec![None; study.targets.len()],
+    }
+}
+
+/// For the runs table's status of a failed run of several targets: what the tests that
+/// finished before the failure gave (`; kept: stiff value = 13.9`), or nothing.
+pub(crate) fn kept(study: &Study, r: &RunRecord) -> String {
+    if study.combine.is_none() || r.status != crate::store::Status::Failed {
+        return String::new();
+    }
+    let kept: Vec<String> = study
+        .targets
+        .iter()
+        .zip(simulated(study, r))
+        .filter_map(|(t, y)| {
+            let y = y?;
+            Some(format!(
+                "{} {} = {}",
+                study.tests[t.test].name,
+                t.response,
+                sig(y)
+            ))
+        })
+        .collect();
+    if kept.is_empty() {
+        String::new()
+    } else {
+        format!("; kept: {}", kept.join(", "))
     }
 }

@@ -4,6 +4,14 @@
 //! Factor columns are mapped onto [-1, 1] by their observed minimum and maximum (what MATLAB's
 //! `mapminmax` does before a BP network, and the box a GP's length scales are read in), so the
 //! search stays inside the ranges the table covers.
+//!
+//! An error (|sim - lab| / lab, an MSE) cannot be negative, but a smooth model of one can: its
+//! kink at zero is smoothed into a dip below it, and a network extrapolates the error's slopes
+//! below zero at a corner of the box, where minimising it then lands. So `optimize` of a
+//! column whose every observed value is >= 0 reports predictions clamped at 0 and says when it
+//! clamped, and `--target-of RESPONSE --value LAB` ([`ErrorOf`]) models the response instead,
+//! whose prediction gives the error: never below zero, and smallest where the model meets the lab
+//! value.
 
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -89,6 +97,16 @@ impl Goal {
     }
 }
 
+/// `demcal surrogate optimize --target-of RESPONSE --value LAB`: the column minimised is the
+/// relative error of the response column against the lab value, |response - lab| / |lab|, as a
+/// fraction or in % (checked against the table). The surrogate models the response and the
+/// error is computed from its prediction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ErrorOf {
+    pub response: String,
+    pub lab: f64,
+}
+
 /// A fitted surrogate over the table's factors.
 pub struct Fitted {
     pub factors: Vec<String>,
@@ -106,6 +124,9 @@ pub struct Fitted {
     pub metrics_all: FitMetrics,
     /// Facts about the model for people (length scales, noise, epochs).
     pub details: serde_json::Value,
+    /// The response's smallest observed value: at 0 or above, a prediction below 0 is the
+    /// model's, not the data's.
+    pub observed_min: f64,
 }
 
 enum Predictor {
@@ -132,12 +153,21 @@ impl Fitted {
 
 /// Reads the table and fits the model.
 pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
-    let table = DataTable::read(&req.data)?;
+    fit_on(req, &DataTable::read(&req.data)?, &[])
+}
+
+/// Fits the model of `req.response` on `table`; `not_factors` are columns that are not factors
+/// by default either (an error column computed from the response).
+fn fit_on(req: &FitRequest, table: &DataTable, not_factors: &[String]) -> Result<Fitted, String> {
     let source = req.data.display().to_string();
     let y = table.column(&req.response)?;
     let factors = match &req.factors {
         Some(f) if !f.is_empty() => f.clone(),
-        _ => table.default_factor_columns(std::slice::from_ref(&req.response)),
+        _ => {
+            let mut responses = vec![req.response.clone()];
+            responses.extend(not_factors.iter().cloned());
+            table.default_factor_columns(&responses)
+        }
     };
     if factors.is_empty() {
         return Err(format!(
@@ -269,7 +299,9 @@ pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
         metrics(&test),
         metrics(&all),
     );
+    let observed_min = y.iter().copied().fold(f64::INFINITY, f64::min);
     Ok(Fitted {
+        observed_min,
         factors,
         ranges,
         model: req.model,
@@ -368,8 +400,6 @@ pub fn fit(req: &FitRequest, json_out: bool) -> Result<String, String> {
     Ok(out)
 }
 
-/// `demcal surrogate optimize`: fits, then searches the model with a genetic algorithm (for a
-/// GA-BP network this is GA-BP-GA) inside the table's factor ranges.
 /// A number as people write it: 38.65, but 1e308 rather than 309 digits.
 fn plain(v: f64) -> String {
     if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
@@ -379,36 +409,48 @@ fn plain(v: f64) -> String {
     }
 }
 
-pub fn optimize(req: &FitRequest, goal: Goal, json_out: bool) -> Result<String, String> {
-    let f = fit_model(req)?;
-    let k = f.factors.len();
-    let bounds = vec![(-1.0, 1.0); k];
+/// Where the search ended: the settings, and what the model says there.
+struct Answer {
+    /// The coded and actual settings.
+    best: Vec<f64>,
+    generations: usize,
+    /// The prediction reported for the column searched (the error, with `--target-of`).
+    predicted: f64,
+    /// A target (or, with `--target-of`, the lab value) the model does not come within 1 % of.
+    missed: Option<f64>,
+    /// More to say (a clamped prediction, the modelled response), and the same for JSON.
+    lines: Vec<String>,
+    json: serde_json::Map<String, serde_json::Value>,
+}
+
+/// `demcal surrogate optimize`: fits, then searches the model with a genetic algorithm (for a
+/// GA-BP network this is GA-BP-GA) inside the table's factor ranges. With `error_of`, the column
+/// minimised is an error of a response column: the response is modelled instead ([`ErrorOf`]).
+pub fn optimize(
+    req: &FitRequest,
+    goal: Goal,
+    error_of: Option<&ErrorOf>,
+    json_out: bool,
+) -> Result<String, String> {
     let opts = GaOptions::search_default(req.seed);
-    let found = genetic::minimize(
-        &bounds,
-        |c| {
-            let p = f.predict_coded(c);
-            match goal {
-                Goal::Target(t) => (p - t).abs(),
-                Goal::Minimize => p,
-                Goal::Maximize => -p,
+    let (f, answer, goal_text) = match error_of {
+        None => {
+            let f = fit_model(req)?;
+            let answer = search_column(&f, req, goal, &opts)?;
+            (f, answer, goal_name(goal))
+        }
+        Some(e) => {
+            if goal != Goal::Minimize {
+                return Err(format!(
+                    "--target-of {}: the error of {} is minimised; give --goal minimize",
+                    e.response, e.response
+                ));
             }
-        },
-        &opts,
-    )?;
-    let predicted = f.predict_coded(&found.best);
-    let actual = f.to_actual(&found.best);
-    let goal_text = match goal {
-        Goal::Target(t) => format!("target {}", plain(t)),
-        Goal::Minimize => "minimize".into(),
-        Goal::Maximize => "maximize".into(),
+            let (f, answer) = search_error_of(req, e, &opts)?;
+            (f, answer, goal_name(goal))
+        }
     };
-    // A target the surrogate cannot reach inside the data's ranges is said so, not passed off
-    // as found (target=1e308 printed its nearest prediction without a word).
-    let missed = match goal {
-        Goal::Target(t) if (predicted - t).abs() > 0.01 * t.abs().max(1e-9) => Some(t),
-        _ => None,
-    };
+    let actual = f.to_actual(&answer.best);
     if json_out {
         let mut m = metrics_json(&f);
         m.insert("model".into(), json!(f.model.name()));
@@ -423,17 +465,26 @@ pub fn optimize(req: &FitRequest, goal: Goal, json_out: bool) -> Result<String, 
                 .map(|(n, v)| (n.clone(), json!(v)))
                 .collect::<serde_json::Map<_, _>>()),
         );
-        m.insert("predicted".into(), json!(predicted));
-        m.insert("target_reached".into(), json!(missed.is_none()));
-        m.insert("generations".into(), json!(found.history.len()));
+        m.insert("predicted".into(), json!(answer.predicted));
+        m.insert("target_reached".into(), json!(answer.missed.is_none()));
+        m.insert("generations".into(), json!(answer.generations));
+        m.extend(answer.json);
         return Ok(serde_json::to_string_pretty(&serde_json::Value::Object(m)).unwrap() + "\n");
     }
     let mut out = String::new();
+    let modelled = match (error_of, answer.json.get("error_formula")) {
+        (Some(e), Some(formula)) => format!(
+            "{}, for {} = {}",
+            e.response,
+            req.response,
+            formula.as_str().unwrap_or_default()
+        ),
+        _ => req.response.clone(),
+    };
     writeln!(
         out,
-        "{} surrogate of {} ({goal_text}), searched by a genetic algorithm ({} generations of {})",
+        "{} surrogate of {modelled} ({goal_text}), searched by a genetic algorithm ({} generations of {})",
         f.model.name(),
-        req.response,
         opts.generations,
         opts.population
     )
@@ -442,15 +493,201 @@ pub fn optimize(req: &FitRequest, goal: Goal, json_out: bool) -> Result<String, 
     for (n, v) in f.factors.iter().zip(&actual) {
         writeln!(out, "  {n} = {v:.6}").unwrap();
     }
-    writeln!(out, "predicted {} = {predicted:.6}", req.response).unwrap();
+    writeln!(out, "predicted {} = {:.6}", req.response, answer.predicted).unwrap();
+    for line in &answer.lines {
+        writeln!(out, "{line}").unwrap();
+    }
+    Ok(out)
+}
+
+fn goal_name(goal: Goal) -> String {
+    match goal {
+        Goal::Target(t) => format!("target {}", plain(t)),
+        Goal::Minimize => "minimize".into(),
+        Goal::Maximize => "maximize".into(),
+    }
+}
+
+/// The search on the model of the column itself. When every observed value is >= 0 (an error,
+/// an MSE) a prediction below 0 is read as 0. A minimum is still searched on the model as it is,
+/// so that the answer is where the model is lowest rather than any point of the plateau the
+/// clamp makes; the clamp is said.
+fn search_column(
+    f: &Fitted,
+    req: &FitRequest,
+    goal: Goal,
+    opts: &GaOptions,
+) -> Result<Answer, String> {
+    let clamp = f.observed_min >= 0.0;
+    let model = |c: &[f64]| {
+        let p = f.predict_coded(c);
+        if clamp {
+            p.max(0.0)
+        } else {
+            p
+        }
+    };
+    let bounds = vec![(-1.0, 1.0); f.factors.len()];
+    let found = genetic::minimize(
+        &bounds,
+        |c| match goal {
+            Goal::Target(t) => (model(c) - t).abs(),
+            Goal::Minimize => f.predict_coded(c),
+            Goal::Maximize => -model(c),
+        },
+        opts,
+    )?;
+    let raw = f.predict_coded(&found.best);
+    let predicted = model(&found.best);
+    let mut lines = Vec::new();
+    let mut json = serde_json::Map::new();
+    json.insert("model_prediction".into(), json!(raw));
+    json.insert("clamped_at_zero".into(), json!(predicted != raw));
+    if predicted != raw {
+        lines.push(format!(
+            "the model predicts {raw:.6} here, but {} is never below 0 in the table (its least value is {:.6}): reported as 0. A minimum below the data is often the model's own, at an edge of the ranges; to minimise an error, model its response instead: --target-of RESPONSE --value LAB",
+            req.response,
+            f.observed_min
+        ));
+    }
+    // A target the surrogate cannot reach inside the data's ranges is said so, not passed off
+    // as found (target=1e308 printed its nearest prediction without a word).
+    let missed = match goal {
+        Goal::Target(t) if (predicted - t).abs() > 0.01 * t.abs().max(1e-9) => Some(t),
+        _ => None,
+    };
     if let Some(t) = missed {
-        writeln!(
-            out,
+        lines.push(format!(
             "the target {} is not reached within the factors' ranges: this is the nearest prediction, {} from it",
             plain(t),
             plain((predicted - t).abs())
-        )
-        .unwrap();
+        ));
     }
-    Ok(out)
+    Ok(Answer {
+        best: found.best,
+        generations: found.history.len(),
+        predicted,
+        missed,
+        lines,
+        json,
+    })
+}
+
+/// `--target-of`: fits the response, checks that the column minimised is its relative error
+/// against the lab value (as a fraction or in %), and searches for the settings whose predicted
+/// response comes nearest the lab value; the error reported is computed from that prediction.
+fn search_error_of(
+    req: &FitRequest,
+    e: &ErrorOf,
+    opts: &GaOptions,
+) -> Result<(Fitted, Answer), String> {
+    if !e.lab.is_normal() {
+        return Err(format!(
+            "--value {}: expected a non-zero lab value (the relative error divides by it)",
+            e.lab
+        ));
+    }
+    if e.response == req.response {
+        return Err(format!(
+            "--target-of {}: that is --response itself; name the response column the error of --response is computed from",
+            e.response
+        ));
+    }
+    let table = DataTable::read(&req.data)?;
+    let scale = error_scale(&table, &req.response, e)?;
+    if req
+        .factors
+        .as_ref()
+        .is_some_and(|f| f.contains(&req.response))
+    {
+        return Err(format!(
+            "--factors: '{}' is the error minimised; it cannot be a factor",
+            req.response
+        ));
+    }
+    let modelled = FitRequest {
+        response: e.response.clone(),
+        ..req.clone()
+    };
+    let f = fit_on(&modelled, &table, std::slice::from_ref(&req.response))?;
+    let bounds = vec![(-1.0, 1.0); f.factors.len()];
+    let found = genetic::minimize(&bounds, |c| (f.predict_coded(c) - e.lab).abs(), opts)?;
+    let response = f.predict_coded(&found.best);
+    let predicted = scale * (response - e.lab).abs() / e.lab.abs();
+    let formula = format!(
+        "|{} - {}| / {}{}",
+        e.response,
+        plain(e.lab),
+        plain(e.lab.abs()),
+        if scale == 100.0 { " x 100" } else { "" }
+    );
+    let mut lines = vec![format!(
+        "predicted {} = {response:.6} (the model is of {}, and the scores above; {} is computed from it)",
+        e.response, e.response, req.response
+    )];
+    let missed = ((response - e.lab).abs() > 0.01 * e.lab.abs()).then_some(e.lab);
+    if missed.is_some() {
+        lines.push(format!(
+            "the lab value {} is not reached within the factors' ranges: this is the nearest prediction",
+            plain(e.lab)
+        ));
+    }
+    let mut json = serde_json::Map::new();
+    json.insert("modelled".into(), json!(e.response));
+    json.insert("lab".into(), json!(e.lab));
+    json.insert("predicted_response".into(), json!(response));
+    json.insert("error_formula".into(), json!(formula));
+    let answer = Answer {
+        best: found.best,
+        generations: found.history.len(),
+        predicted,
+        missed,
+        lines,
+        json,
+    };
+    Ok((f, answer))
+}
+
+/// Whether the table's `error` column is |response - lab| / |lab| (1) or that in % (100): each
+/// row must agree within 1 % of the column's largest value (tables round their numbers). The
+/// error names the row that agrees least, so a wrong lab value or column is caught before any
+/// search.
+fn error_scale(table: &DataTable, error: &str, e: &ErrorOf) -> Result<f64, String> {
+    let errors = table.column(error)?;
+    let response = table.column(&e.response)?;
+    let fraction: Vec<f64> = response
+        .iter()
+        .map(|r| (r - e.lab).abs() / e.lab.abs())
+        .collect();
+    let tol = 0.01 * errors.iter().fold(0.0f64, |m, v| m.max(v.abs())) + 1e-12;
+    // The row furthest from the formula at each scale: (scale, row, distance).
+    let worst = [1.0, 100.0].map(|scale| {
+        let (i, d) = errors
+            .iter()
+            .zip(&fraction)
+            .map(|(v, f)| (v - scale * f).abs())
+            .enumerate()
+            .fold((0, 0.0f64), |w, (i, d)| if d > w.1 { (i, d) } else { w });
+        (scale, i, d)
+    });
+    let (scale, i, d) = if worst[0].2 <= worst[1].2 {
+        worst[0]
+    } else {
+        worst[1]
+    };
+    if d <= tol {
+        return Ok(scale);
+    }
+    Err(format!(
+        "--target-of {} --value {}: column '{error}' is not |{} - {}| / {} (as a fraction or in %): row {} has {} where that gives {}{}",
+        e.response,
+        plain(e.lab),
+        e.response,
+        plain(e.lab),
+        plain(e.lab.abs()),
+        i + 1,
+        plain(errors[i]),
+        plain(scale * fraction[i]),
+        if scale == 100.0 { " (in %)" } else { "" }
+    ))
 }

@@ -143,7 +143,8 @@ impl Stage for BayesOpt {
             iteration,
             evaluations: x.len(),
             best_observed: best,
-            predicted_minimum: proposal.predicted_minimum,
+            // The objective (an error) is never negative; its GP may dip below zero.
+            predicted_minimum: crate::target::non_negative(proposal.predicted_minimum),
         });
         let stop = if room == 0 {
             Some(format!("budget of {planned} runs spent"))
@@ -195,7 +196,7 @@ impl Stage for BayesOpt {
             "{}; calibrated at run {} (GP mean of the objective {}, observed {}); the GP's predicted minimum {}",
             out.stop.clone().unwrap_or_default(),
             i + 1,
-            sig(gp.predict_mean(&x[j])),
+            sig(crate::target::non_negative(gp.predict_mean(&x[j]))),
             sig(y[j]),
             sig(out.history.last().map_or(f64::NAN, |h| h.predicted_minimum))
         ));

@@ -266,7 +266,7 @@ impl Stage for GaBp {
         } else {
             network::search_target(&trained.network, &bounds, study.target.value, &search_opts)?
         };
-        let predicted = trained.network.predict(&search.best);
+        let predicted = study.target.predicted(trained.network.predict(&search.best));
         let mut point = ctx.values.clone();
         for (j, &pi) in st.active.iter().enumerate() {
             point[pi] = tidy(st.factors[j].to_actual(search.best[j]));

@@ -90,7 +90,7 @@ impl Stage for Optimize {
         let desirability = study.combine == Some(Combine::Desirability)
             && ctx.model_targets.len() == rows
             && rows > 0;
-        let (found, equally_good, target_fits) = if desirability {
+        let (mut found, equally_good, target_fits) = if desirability {
             // Design-Expert's numerical optimisation: each response its own model, their
             // desirabilities combined.
             let fits = target_fits(
@@ -129,6 +129,17 @@ impl Stage for Optimize {
             (found, ranges, Vec::new())
         };
 
+        // A minimised response's polynomial dips below zero near its least value; reported as 0.
+        for s in &mut found {
+            for (i, y) in s.responses.iter_mut().enumerate() {
+                let t = if desirability {
+                    study.targets.get(i)
+                } else {
+                    Some(&study.target)
+                };
+                *y = t.map_or(*y, |t| t.predicted(*y));
+            }
+        }
         let best = found.first().ok_or("the search found no solution")?.clone();
         // Every solution as every parameter's value, for a validation of several.
         let full = |s: &doe::optimize::Solution| {

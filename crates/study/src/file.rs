@@ -76,6 +76,11 @@ pub struct ParameterEntry {
     pub max: dem::units::Quantity,
     pub scale: Option<ScaleName>,
     pub unit: Option<String>,
+    /// How the report names it ("bead-bead rolling friction"); the name otherwise.
+    pub label: Option<String>,
+    /// Its symbol in the report (`mu_r`, `e`, `G`): Greek names become letters, `_x` a
+    /// subscript.
+    pub symbol: Option<String>,
 }
 
 /// An `[[import]]`: a value another study calibrated (`parameter` of `study`'s summary) written

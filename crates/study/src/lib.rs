@@ -42,6 +42,9 @@ pub mod surrogate_stages;
 pub mod target;
 mod targets_report;
 pub mod text;
+pub mod uncertainty;
+mod uncertainty_report;
+mod uncertainty_routes;
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -328,6 +331,9 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
                         .unwrap_or_default()
                 )
                 .unwrap();
+                if let Some(words) = crate::uncertainty_report::validation_words(v, t) {
+                    writeln!(s, "     {words}").unwrap();
+                }
             }
         }
     }
@@ -346,11 +352,19 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
         .unwrap();
     }
     if let Some(values) = stages::calibrated(study, &r.stages) {
+        // Each value to the digits its interval supports, where it has one.
+        let intervals = crate::uncertainty_report::per_parameter(study, &r.stages);
         let parts: Vec<String> = study
             .parameters
             .iter()
             .zip(&values)
-            .map(|(p, v)| format!("{} = {}", p.name, crate::text::sig(*v)))
+            .zip(&intervals)
+            .map(|((p, v), iv)| match iv {
+                Some((_, iv)) => {
+                    format!("{} = {}", p.name, crate::uncertainty_report::value_text(iv))
+                }
+                None => format!("{} = {}", p.name, crate::text::sig(*v)),
+            })
             .collect();
         let what = if r.stages.iter().any(|s| s.calibrated.is_some()) {
             "calibrated"
@@ -358,6 +372,13 @@ pub fn status_text(study: &Study, r: &Replay) -> String {
             "best so far"
         };
         writeln!(s, "{what}: {}", parts.join(", ")).unwrap();
+        let lines = crate::uncertainty_report::status_lines(study, &r.stages);
+        if !lines.is_empty() {
+            writeln!(s, "uncertainty (95 %):").unwrap();
+            for l in lines {
+                writeln!(s, "{l}").unwrap();
+            }
+        }
     }
     match &r.state {
         State::Complete => writeln!(s, "state: complete").unwrap(),

@@ -208,6 +208,17 @@ impl Study {
                     format!("a log-scale parameter needs min > 0, got {min}"),
                 ));
             }
+            for (k, v) in [("label", &p.label), ("symbol", &p.symbol)] {
+                if let Some(v) = v {
+                    let chars = v.chars().count();
+                    if chars == 0 || chars > MAX_NAME_CHARS || v.chars().any(char::is_control) {
+                        return Err(err(
+                            &format!("{key}.{k}"),
+                            format!("expected 1 to {MAX_NAME_CHARS} characters without line breaks or control characters, got {chars} characters"),
+                        ));
+                    }
+                }
+            }
             let unit = p.unit.clone();
             // Values are kept (and shown) in the base unit of a range given with a unit; a
             // label of another unit would show 1e6 as "1e6 MPa".
@@ -231,6 +242,8 @@ impl Study {
                 scale,
                 dimension: min_unit,
                 unit: unit.or_else(|| min_unit.map(|d| d.symbol().to_string())),
+                label: p.label.clone(),
+                symbol: p.symbol.as_deref().map(crate::text::symbol),
             });
         }
 

@@ -105,6 +105,9 @@ pub struct StageResult {
     /// `SurrogateOutcome`, `SweepOutcome`, ...): set with [`StageResult::set_outcome`], read with
     /// [`StageResult::outcome`] or the accessors below.
     pub outcome: Option<Arc<dyn Any + Send + Sync>>,
+    /// A calibrating stage: how well its calibrated values are known, and which are not
+    /// identified (`uncertainty`).
+    pub uncertainty: Option<crate::uncertainty::Uncertainty>,
     pub notes: Vec<String>,
     pub complete: bool,
 }
@@ -124,6 +127,7 @@ impl StageResult {
             full_fit: None,
             calibrated: None,
             outcome: None,
+            uncertainty: None,
             notes: Vec::new(),
             complete: false,
         }

@@ -81,6 +81,8 @@ figcaption { margin-top: 6px; max-width: 640px; }
 figcaption .files { color: #5b6478; white-space: nowrap; }
 .mono { font-family: ui-monospace, Menlo, Consolas, 'DejaVu Sans Mono', monospace; font-size: 0.88em; }
 p, li { max-width: 62em; }
+nav.toc { border: 1px solid #d6dde8; border-radius: 8px; padding: 6px 16px; background: #fafbfd; max-width: 40em; margin: 1em 0; }
+nav.toc ol { margin: 0.3em 0; padding-left: 1.6em; }
 ";
 
 fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> (String, Figures) {
@@ -199,11 +201,24 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> (String, Figures) {
                 &format!("validation ({} run)", v.runs),
             ),
         }
+        let check = crate::uncertainty_report::check(v, t);
         if let Some(e) = v.relative_error_percent {
+            let interval = check
+                .as_ref()
+                .and_then(|c| c.relative_error_interval)
+                .map(|(lo, hi)| format!(" (95 %: {lo:.1} to {hi:.1} %)"))
+                .unwrap_or_default();
             card(
                 &mut h,
-                &format!("{e:.2} %"),
-                "relative error |sim - lab| / lab",
+                &format!("{e:.2} %{interval}"),
+                "relative error |sim - lab| / lab; the interval is of the signed difference",
+            );
+        }
+        if let Some(c) = check.as_ref().and_then(|c| c.compatible.map(|ok| (c, ok))) {
+            card(
+                &mut h,
+                if c.1 { "compatible" } else { "not compatible" },
+                "validation mean against the lab's (95 %, Welch)",
             );
         }
     }
@@ -221,6 +236,7 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> (String, Figures) {
     targets_report::targets_section(&mut h, study, validation.as_ref());
     h.push_str("<h3>Parameters</h3>");
     report_settings::parameters_table(&mut h, study, r);
+    crate::uncertainty_report::section(&mut h, &mut figs, study, &r.stages);
     for i in &study.imports {
         write!(
             h,
@@ -277,7 +293,58 @@ fn html(study: &Study, r: &Replay, stored: &[RunRecord]) -> (String, Figures) {
     }
     h.push_str("<h2>Files</h2><p><a href=\"results.csv\">results.csv</a> (every stored run), <a href=\"summary.json\">summary.json</a> (calibrated values and validation) and <a href=\"figures/\">figures/</a> (each figure as SVG and as PNG at twice the size, named by its number) lie beside this page.</p>");
     h.push_str("</main></body></html>\n");
-    (h, figs)
+    (with_contents(&h), figs)
+}
+
+/// The page with a table of contents before its first section: every `<h2>` gets an anchor and
+/// a line.
+fn with_contents(page: &str) -> String {
+    let mut out = String::with_capacity(page.len() + 2048);
+    let mut items = Vec::new();
+    let mut rest = page;
+    let mut n = 0;
+    while let Some(at) = rest.find("<h2") {
+        out.push_str(&rest[..at]);
+        let tag_end = match rest[at..].find('>') {
+            Some(e) => at + e,
+            None => break,
+        };
+        let close = match rest[tag_end..].find("</h2>") {
+            Some(c) => tag_end + c,
+            None => break,
+        };
+        n += 1;
+        let inner = &rest[tag_end + 1..close];
+        // The heading's text without its markup (escaped already).
+        let mut text = String::new();
+        let mut in_tag = false;
+        for c in inner.chars() {
+            match c {
+                '<' => in_tag = true,
+                '>' => in_tag = false,
+                c if !in_tag => text.push(c),
+                _ => {}
+            }
+        }
+        let id = format!("section-{n}");
+        write!(out, "<h2 id=\"{id}\">{inner}</h2>").unwrap();
+        items.push((id, text));
+        rest = &rest[close + "</h2>".len()..];
+    }
+    out.push_str(rest);
+    if items.len() < 2 {
+        return out;
+    }
+    let mut toc = String::from("<nav class=\"toc\"><b>Contents</b><ol>");
+    for (id, text) in &items {
+        write!(toc, "<li><a href=\"#{id}\">{text}</a></li>").unwrap();
+    }
+    toc.push_str("</ol></nav>");
+    match out.find("<h2 id=\"section-1\"") {
+        Some(at) => out.insert_str(at, &toc),
+        None => out.push_str(&toc),
+    }
+    out
 }
 
 fn card(h: &mut String, value: &str, key: &str) {

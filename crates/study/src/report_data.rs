@@ -162,7 +162,8 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
             let (status, why, range) = match fate {
                 Fate::Calibrated => ("calibrated", None, None),
                 Fate::Held(why) => ("held", Some(why), None),
-                Fate::Undetermined(why, (lo, hi)) => ("undetermined", Some(why), Some(json!([lo, hi]))),
+                Fate::Undetermined(why, Some((lo, hi))) => ("undetermined", Some(why), Some(json!([lo, hi]))),
+                Fate::Undetermined(why, None) => ("undetermined", Some(why), None),
             };
             json!({
                 "name": p.name,
@@ -183,6 +184,8 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
         // Which of the optimisation's solutions the validation chose (1: the first).
         "validation_solution": r.stages.iter().rev().find(|s| s.validation().is_some()).map(|s| s.chosen_solution() + 1),
         "relative_error_percent": validation.as_ref().and_then(|v| v.relative_error_percent),
+        "validation": validation.as_ref().map(|v| crate::uncertainty_report::validation_summary(v, &study.target)),
+        "uncertainty": crate::uncertainty_report::summary(study, &r.stages),
         "objective": targets_report::summary(study, validation.as_ref()),
         "runs_made": where_ran(stored),
         "imports": study.imports.iter().map(|i| json!({

@@ -74,6 +74,7 @@ pub(crate) fn screening(
     fit: &Fit,
 ) {
     anova_html(h, fit, "First-order model with curvature");
+    verdicts_html(h, study, st, fit);
     effects_html(h, fit);
     let l = labels(study, st, fit);
     let stage = st.index + 1;
@@ -110,6 +111,9 @@ pub(crate) fn rsm(
         if fit.terms != full.terms {
             anova_html(h, fit, "Reduced model (backward elimination)");
         }
+    }
+    if let Some(fit) = &st.fit {
+        verdicts_html(h, study, st, fit);
     }
     let Some(fit) = &st.fit else { return };
     let l = labels(study, st, fit);
@@ -475,15 +479,58 @@ pub(crate) fn anova_html(h: &mut String, fit: &Fit, title: &str) {
         "<div class=\"scroll\"><table><tr><th>Std. Dev.</th><th>Mean</th><th>C.V. %</th><th>R²</th><th>Adjusted R²</th><th>Predicted R²</th><th>Adeq. precision</th></tr><tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{}</td></tr></table></div>",
         sig(fit.std_dev),
         sig(fit.mean),
-        sig(fit.cv_percent),
+        fit.cv_percent_defined().map(sig).unwrap_or_else(|| "N/A".into()),
         fit.r2,
         fit.adj_r2,
-        fit.pred_r2.map(|v| format!("{v:.4}")).unwrap_or_default(),
-        fit.adeq_precision.map(sig).unwrap_or_default()
+        fit.pred_r2.map(|v| format!("{v:.4}")).unwrap_or_else(|| "N/A".into()),
+        fit.adeq_precision.map(sig).unwrap_or_else(|| "N/A".into())
     )
     .unwrap();
+    for note in fit.not_available_notes() {
+        write!(h, "<p class=\"note\">{}</p>", esc(&note)).unwrap();
+    }
     coefficients_html(h, fit);
     equations_html(h, fit);
+}
+
+/// Curvature and lack of fit said in words, with what the plan does about them.
+fn verdicts_html(h: &mut String, study: &Study, st: &StageResult, fit: &Fit) {
+    let later: Vec<(usize, &str)> = study
+        .plan
+        .iter()
+        .enumerate()
+        .skip(st.index + 1)
+        .map(|(i, s)| (i + 1, s.kind()))
+        .collect();
+    let find = |k: &str| later.iter().find(|(_, s)| *s == k).map(|(i, _)| *i);
+    let mut words = Vec::new();
+    if let Some(c) = fit.curvature.as_ref().and_then(|c| c.p.map(|p| (c, p))) {
+        let (_, p) = c;
+        words.push(if p < 0.05 {
+            let plan = match find("rsm") {
+                Some(i) => format!("The plan goes on to a response surface (stage {i}), whose squared terms model the bend; the screening's first-order effects still rank the parameters."),
+                None => "This plan fits no quadratic model after it: its first-order model misjudges the centre of the ranges, so add an rsm stage, or narrow the ranges.".into(),
+            };
+            format!("Curvature is significant (p = {}): the response bends inside the ranges, and the centre points do not lie on the first-order model's plane. {plan}", fmt_p(p))
+        } else {
+            format!("Curvature is not significant (p = {}): the centre points agree with the first-order model.", fmt_p(p))
+        });
+    }
+    let thin = fit.pure_error.as_ref().is_some_and(|p| p.df <= 2);
+    if let Some(p) = fit.lack_of_fit.as_ref().and_then(|l| l.p).filter(|_| !thin) {
+        words.push(if p < 0.05 {
+            let plan = match find("optimize").or(find("validate")) {
+                Some(i) => format!("The plan uses it all the same (stage {i}); the validation runs show how far its optimum can be trusted."),
+                None => "Nothing after it relies on the model.".into(),
+            };
+            format!("Lack of fit is significant (p = {}): the model misses part of the response beyond the runs' own scatter (pure error). {plan}", fmt_p(p))
+        } else {
+            format!("Lack of fit is not significant (p = {}): the model's misfit is of the size of the runs' own scatter.", fmt_p(p))
+        });
+    }
+    for w in words {
+        write!(h, "<p class=\"note\">{}</p>", esc(&w)).unwrap();
+    }
 }
 
 /// Each coefficient of the coded equation with its standard error, 95 % confidence interval

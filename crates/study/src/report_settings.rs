@@ -6,7 +6,7 @@
 
 use std::fmt::Write;
 
-use crate::record::{Replay, EQUALLY_GOOD};
+use crate::record::Replay;
 use crate::spec::{Parameter, Study};
 use crate::stages::{self};
 use crate::store::{RunRecord, Status};
@@ -85,6 +85,16 @@ pub(crate) fn parameter_unit(p: &Parameter) -> String {
         .unwrap_or_default()
 }
 
+/// How the report names a parameter: its label (or name), and its symbol when the study gives
+/// one ("bead-bead rolling friction μᵣ").
+pub(crate) fn display_name(p: &Parameter) -> String {
+    let name = p.label.as_deref().unwrap_or(&p.name);
+    match &p.symbol {
+        Some(s) => format!("{name} {s}"),
+        None => name.to_string(),
+    }
+}
+
 /// `name (unit)` for a table's column heading, or the name alone.
 fn with_unit(name: &str, unit: &str) -> String {
     if unit.is_empty() {
@@ -101,9 +111,9 @@ pub(crate) enum Fate {
     Calibrated,
     /// Not calibrated: held at its value, and why.
     Held(String),
-    /// Set by the optimiser, but the final model does not determine it: why, and the stretch
-    /// (actual units) of values the optimiser found equally good.
-    Undetermined(String, (f64, f64)),
+    /// Set by a calibrating stage, but not identified (at a range end, hardly mattering, on a
+    /// ridge with another): why, and its 95 % interval (actual units) when it has one.
+    Undetermined(String, Option<(f64, f64)>),
 }
 
 /// Each parameter's fate, from the stages the study went through.
@@ -132,68 +142,72 @@ pub(crate) fn fates(study: &Study, r: &Replay) -> Vec<Fate> {
                 }
             }
         }
-        if st.kind == "optimize" && st.target_fits().is_empty() {
-            let Some(fit) = &st.fit else { continue };
-            for (j, &pi) in st.active.iter().enumerate() {
-                let in_model = fit
-                    .terms
-                    .iter()
-                    .any(|t| t.powers.get(j).is_some_and(|&p| p > 0));
-                let Some(&(lo, hi)) = st.equally_good().get(j) else {
-                    continue;
-                };
-                let actual = |c: f64| st.factors.get(j).map_or(c, |f| f.to_actual(c));
-                let range = (actual(lo), actual(hi));
-                let why = if !in_model {
-                    Some("not in the reduced model (backward elimination dropped every term with it)")
-                } else if hi - lo >= 1.0 {
-                    Some("the model hardly depends on it")
-                } else {
-                    None
-                };
-                if let Some(why) = why {
-                    fate[pi] = Fate::Undetermined(why.to_string(), range);
-                }
-            }
+    }
+    let name = |i: usize| study.parameters[i].name.clone();
+    for (stage, p) in crate::uncertainty_report::per_parameter(study, &r.stages)
+        .into_iter()
+        .flatten()
+    {
+        if !p.flags.is_empty() {
+            let why = p
+                .flags
+                .iter()
+                .map(|f| f.text(&name))
+                .collect::<Vec<_>>()
+                .join("; ");
+            fate[p.parameter] =
+                Fate::Undetermined(format!("{why} (stage {})", stage + 1), p.interval);
         }
     }
     fate
 }
 
 /// The summary's table of parameters: letter, name and unit, where it goes, range, scale, the
-/// value the validation used, and what became of it.
+/// value the validation used with its 95 % interval, and what became of it.
 pub(crate) fn parameters_table(h: &mut String, study: &Study, r: &Replay) {
     let calibrated = stages::calibrated(study, &r.stages);
     let fates = fates(study, r);
-    h.push_str("<div class=\"scroll\"><table><tr><th>Factor</th><th class=\"l\">Parameter (unit) and where in the test</th><th>Range</th><th class=\"l\">Scale</th><th>Value used</th><th class=\"l\">Status</th></tr>");
+    let intervals = crate::uncertainty_report::per_parameter(study, &r.stages);
+    h.push_str("<div class=\"scroll\"><table><tr><th>Factor</th><th class=\"l\">Parameter (unit) and where in the test</th><th>Range</th><th class=\"l\">Scale</th><th>Value used</th><th>95 % interval</th><th class=\"l\">Status</th></tr>");
     for (i, p) in study.parameters.iter().enumerate() {
-        let value = calibrated
-            .as_ref()
-            .map(|v| sig(v[i]))
-            .unwrap_or_else(|| "-".into());
+        let value = match (&intervals[i], &calibrated) {
+            (Some((_, pi)), _) => crate::uncertainty_report::value_text(pi),
+            (None, Some(v)) => sig(v[i]),
+            (None, None) => "-".into(),
+        };
+        let interval = match &intervals[i] {
+            Some((_, pi)) => match pi.interval {
+                Some((lo, hi)) => {
+                    let (_, a, b) = crate::uncertainty::rounded(pi.value, lo, hi);
+                    format!(
+                        "{}{a} to {}{b}",
+                        if pi.open.0 { "≤ " } else { "" },
+                        if pi.open.1 { "≥ " } else { "" }
+                    )
+                }
+                None => "none".into(),
+            },
+            None => "-".into(),
+        };
         let (class, status) = match &fates[i] {
             Fate::Calibrated if calibrated.is_some() => ("", "calibrated".to_string()),
             Fate::Calibrated => ("", "not calibrated yet".to_string()),
             Fate::Held(why) => ("", format!("held at {value}: {why}")),
-            Fate::Undetermined(why, (lo, hi)) => (
+            Fate::Undetermined(why, _) => (
                 " class=\"flag\"",
-                format!(
-                    "⚠ not determined by the final model: {why}. The optimiser found every value from {} to {} equally good (desirability within {} of the best); {value} is one of them",
-                    sig(*lo),
-                    sig(*hi),
-                    EQUALLY_GOOD
-                ),
+                format!("⚠ not identified, so not reported as calibrated: {why}; {value} is the value the optimiser picked"),
             ),
         };
         write!(
             h,
-            "<tr{class}><td>{}</td><td class=\"l name\">{}<br><span class=\"mono path\">{}</span></td><td>{} to {}</td><td class=\"l\">{}</td><td>{value}</td><td class=\"l wrap\">{}</td></tr>",
+            "<tr{class}><td>{}</td><td class=\"l name\">{}<br><span class=\"mono path\">{}</span></td><td>{} to {}</td><td class=\"l\">{}</td><td>{value}</td><td>{}</td><td class=\"l wrap\">{}</td></tr>",
             letter(i),
-            with_unit(&p.name, &parameter_unit(p)),
+            with_unit(&display_name(p), &parameter_unit(p)),
             esc(&p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>().join(", ")),
             sig(p.min),
             sig(p.max),
             if p.scale == doe::Scale::Log { "log" } else { "linear" },
+            esc(&interval),
             esc(&status)
         )
         .unwrap();

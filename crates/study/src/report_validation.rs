@@ -58,6 +58,9 @@ pub(crate) fn validation_html(
             }
         )
         .unwrap();
+        if let Some(words) = crate::uncertainty_report::validation_words(v, t) {
+            write!(h, "<p><b>Validation interval:</b> {}.</p>", esc(&words)).unwrap();
+        }
     }
     let interval = (study.combine.is_none())
         .then(|| report_model::interval_at_optimum(stages))

@@ -33,6 +33,9 @@ pub struct Parameter {
     /// The unit the report's tables and axes give (`unit`, else the base unit of a range given
     /// with a unit); None: told from the path's last key (a friction has none, a density kg/m³).
     pub unit: Option<String>,
+    /// How the report names it (`label`), and its symbol (`symbol`), when the study gives them.
+    pub label: Option<String>,
+    pub symbol: Option<String>,
 }
 
 impl Parameter {

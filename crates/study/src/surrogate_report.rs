@@ -5,7 +5,7 @@
 
 use std::fmt::Write;
 
-use doe::plots::{self, colour_map, padded, FONT};
+use doe::plots::{self, padded, FONT};
 
 use crate::report_figures::drawn_pairs;
 use plotters::prelude::*;
@@ -96,17 +96,22 @@ pub fn stage_json(study: &Study, st: &StageResult) -> Option<(&'static str, serd
     }
 }
 
-/// A row of the stage's figures, each captioned with the stage (its title is drawn inside).
-fn plots_row(h: &mut String, figs: &mut dyn FigureSink, st: &StageResult, svgs: Vec<String>) {
+/// A row of the stage's figures, each with its caption.
+fn plots_row(
+    h: &mut String,
+    figs: &mut dyn FigureSink,
+    st: &StageResult,
+    svgs: Vec<(String, String)>,
+) {
     let stage = st.index + 1;
     let items = svgs
         .into_iter()
         .enumerate()
-        .map(|(i, svg)| {
+        .map(|(i, (svg, caption))| {
             (
                 format!("stage{stage}-{}-{}", st.kind.replace('_', "-"), i + 1),
                 Ok(svg),
-                format!("Stage {stage} ({}), as titled in the figure.", st.kind),
+                format!("Stage {stage} ({}): {caption}", st.kind),
             )
         })
         .collect();
@@ -184,7 +189,10 @@ fn bo_html(
             ),
         ],
     ) {
-        row.push(svg);
+        row.push((svg, format!(
+            "convergence of the Bayesian optimisation: after each round (0 = the Latin hypercube), the lowest objective ({}) observed so far and the minimum the GP fitted to the runs then predicted.",
+            objective_name(study)
+        )));
     }
     if let Some(g) = &o.gp {
         // The calibrated point in the stage's coded units: where the other factors are held.
@@ -215,16 +223,18 @@ fn bo_html(
                 g.predict_mean(&c)
             };
             if let Ok(svg) = heat_map(
-                &format!(
-                    "GP predicted objective: {} x {}",
-                    st.factors[a].name, st.factors[b].name
-                ),
                 (&st.factors[a], &st.factors[b]),
+                &format!("GP predicted {}", objective_name(study)),
                 f,
                 &points.iter().map(|p| (p[a], p[b])).collect::<Vec<_>>(),
                 Some((centre[a], centre[b])),
             ) {
-                row.push(svg);
+                row.push((svg, format!(
+                    "the GP's predicted objective ({}) over {} and {}, the other parameters held at their calibrated values; dots are the runs, the white ring the calibrated run.",
+                    objective_name(study),
+                    st.factors[a].name,
+                    st.factors[b].name
+                )));
             }
         }
     }
@@ -282,7 +292,12 @@ fn ga_bp_html(
             &study.target.response,
             &pts,
         ) {
-            row.push(svg);
+            row.push((svg, format!(
+                "the network's prediction of {} against the simulated value for the {name} rows ({} of them, R² {:.3}); on the line the network is exact.",
+                study.target.response,
+                rows.len(),
+                m.r2
+            )));
         }
     }
     let all: Vec<(f64, f64)> =
@@ -295,7 +310,13 @@ fn ga_bp_html(
         &study.target.response,
         &all,
     ) {
-        row.push(svg);
+        row.push((
+            svg,
+            format!(
+            "the network's prediction of {} against the simulated value for every row (R² {:.3}).",
+            study.target.response, t.metrics_all.r2
+        ),
+        ));
     }
     let mut series = Vec::new();
     if !t.ga_history.is_empty() {
@@ -325,7 +346,7 @@ fn ga_bp_html(
         "best value",
         &series,
     ) {
-        row.push(svg);
+        row.push((svg, "convergence of the genetic algorithms: per generation, the training error of the best initial weights GA-BP found, and the distance of GA-BP-GA's best prediction from the lab value.".to_string()));
     }
     plots_row(h, figs, st, row);
 }
@@ -382,7 +403,9 @@ fn smc_html(
         let name = &study.parameters[pi].name;
         let xs: Vec<f64> = values.iter().map(|v| v[j]).collect();
         if let Ok(svg) = marginal_plot(name, &xs, &last.weights, p.mean[j], p.credible[j]) {
-            row.push(svg);
+            row.push((svg, format!(
+                "the posterior of {name} in the last iteration: its runs' weighted histogram, the posterior mean and the 95 % credible interval."
+            )));
         }
     }
     let k = st.active.len();
@@ -398,7 +421,11 @@ fn smc_html(
             &pts,
             (p.mean[a], p.mean[b]),
         ) {
-            row.push(svg);
+            row.push((svg, format!(
+                "the last iteration's runs over {} and {}, each dot sized by its posterior weight; the red ring is the posterior mean.",
+                study.parameters[st.active[a]].name,
+                study.parameters[st.active[b]].name
+            )));
         }
     }
     plots_row(h, figs, st, row);
@@ -406,6 +433,8 @@ fn smc_html(
 
 type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64)>);
 
+/// Lines of a quantity over rounds or generations: the x axis counts, so its ticks are whole
+/// numbers (an f64 axis labelled 0.0, 1.0 ... 10.0 read as if half a round existed).
 fn convergence_plot(
     title: &str,
     x_desc: &str,
@@ -415,27 +444,33 @@ fn convergence_plot(
     let all = series.iter().flat_map(|s| s.2.iter());
     let (x0, x1) = plots::min_max(all.clone().map(|p| p.0));
     let (y0, y1) = plots::min_max(all.map(|p| p.1));
-    if x0 > x1 {
+    if x0 > x1 || !x0.is_finite() || !x1.is_finite() {
         return Err("no points".into());
     }
+    let (first, last) = (x0.floor() as i64, x1.ceil() as i64);
+    // At most about ten labels, each a whole number.
+    let labels = ((last - first) as usize + 1).min(11);
     plots::render(|root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, (FONT, 24))
             .margin(12)
             .x_label_area_size(66)
             .y_label_area_size(92)
-            .build_cartesian_2d(padded(x0, x1), padded(y0, y1))
+            .build_cartesian_2d(first..last.max(first + 1), padded(y0, y1))
             .map_err(plots::err)?;
         chart
             .configure_mesh()
             .label_style((plots::FONT, plots::TEXT))
             .axis_desc_style((plots::FONT, plots::DESC))
+            .x_labels(labels)
+            .x_label_formatter(&|v| v.to_string())
             .x_desc(x_desc)
             .y_desc(y_desc)
             .draw()
             .map_err(plots::err)?;
         for (name, colour, pts) in series {
             let c = *colour;
+            let pts: Vec<(i64, f64)> = pts.iter().map(|p| (p.0.round() as i64, p.1)).collect();
             chart
                 .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
                 .map_err(plots::err)?
@@ -473,80 +508,48 @@ fn regression_plot(title: &str, response: &str, pts: &[(f64, f64)]) -> Result<St
     )
 }
 
-/// A heat map of `f` over two coded factors (-1 .. 1), the runs as dots, the chosen point ringed.
+/// A map of `f` over two coded factors (-1 .. 1) with its colour bar (`quantity` names what
+/// the colours are), the runs as dots, the chosen point ringed.
 fn heat_map(
-    title: &str,
     (fa, fb): (&doe::Factor, &doe::Factor),
+    quantity: &str,
     f: impl Fn(f64, f64) -> f64,
     points: &[(f64, f64)],
     chosen: Option<(f64, f64)>,
 ) -> Result<String, String> {
     const N: usize = 40;
     let cell = 2.0 / N as f64;
-    let mut grid = vec![0.0; N * N];
-    for i in 0..N {
-        for j in 0..N {
-            grid[i * N + j] = f(
-                -1.0 + (i as f64 + 0.5) * cell,
-                -1.0 + (j as f64 + 0.5) * cell,
-            );
-        }
-    }
-    let (lo, hi) = plots::min_max(grid.iter().copied());
-    let span = (hi - lo).max(1e-300);
-    plots::render(|root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 24))
-            .margin(12)
-            .x_label_area_size(66)
-            .y_label_area_size(92)
-            .build_cartesian_2d(-1.0..1.0, -1.0..1.0)
-            .map_err(plots::err)?;
-        chart
-            .configure_mesh()
-            .label_style((plots::FONT, plots::TEXT))
-            .axis_desc_style((plots::FONT, plots::DESC))
-            .disable_mesh()
-            .x_desc(format!(
-                "{} (coded; -1 = {}, +1 = {})",
-                fa.name,
-                sig(fa.low),
-                sig(fa.high)
-            ))
-            .y_desc(format!(
-                "{} (coded; -1 = {}, +1 = {})",
-                fb.name,
-                sig(fb.low),
-                sig(fb.high)
-            ))
-            .draw()
-            .map_err(plots::err)?;
-        chart
-            .draw_series((0..N * N).map(|k| {
-                let (i, j) = (k / N, k % N);
-                let x = -1.0 + i as f64 * cell;
-                let y = -1.0 + j as f64 * cell;
-                Rectangle::new(
-                    [(x, y), (x + cell, y + cell)],
-                    colour_map((grid[k] - lo) / span).filled(),
-                )
-            }))
-            .map_err(plots::err)?;
-        chart
-            .draw_series(points.iter().map(|p| Circle::new(*p, 3, BLACK.filled())))
-            .map_err(plots::err)?;
-        if let Some(c) = chosen {
-            chart
-                .draw_series([Circle::new(c, 9, WHITE.stroke_width(3))])
-                .map_err(plots::err)?;
-        }
-        root.draw(&Text::new(
-            format!("blue {} .. red {}", sig(lo), sig(hi)),
-            (80, 515),
-            (FONT, plots::TEXT).into_font(),
-        ))
-        .map_err(plots::err)?;
-        Ok(())
+    let values: Vec<Vec<f64>> = (0..N)
+        .map(|i| {
+            (0..N)
+                .map(|j| {
+                    f(
+                        -1.0 + (i as f64 + 0.5) * cell,
+                        -1.0 + (j as f64 + 0.5) * cell,
+                    )
+                })
+                .collect()
+        })
+        .collect();
+    let desc = |f: &doe::Factor| {
+        format!(
+            "{} (coded; -1 = {}, +1 = {})",
+            f.name,
+            sig(f.low),
+            sig(f.high)
+        )
+    };
+    let (xd, yd) = (desc(fa), desc(fb));
+    plots::map_with_colour_bar(&plots::FilledMap {
+        x_desc: &xd,
+        y_desc: &yd,
+        x_range: (-1.0, 1.0),
+        y_range: (-1.0, 1.0),
+        values: &values,
+        quantity,
+        points,
+        points_label: "runs",
+        chosen: chosen.map(|c| (c, "calibrated run")),
     })
 }
 

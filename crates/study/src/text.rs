@@ -32,6 +32,84 @@ pub fn sig(v: f64) -> String {
     doe::fit::fmt_sig(v)
 }
 
+/// A symbol as a study writes it in ASCII (`mu_s`, `tau_c`, `e`) as the report prints it: a Greek
+/// letter's name becomes the letter, `_x` a subscript where Unicode has one.
+pub fn symbol(ascii: &str) -> String {
+    const GREEK: &[(&str, &str)] = &[
+        ("alpha", "α"),
+        ("beta", "β"),
+        ("gamma", "γ"),
+        ("delta", "δ"),
+        ("epsilon", "ε"),
+        ("zeta", "ζ"),
+        ("eta", "η"),
+        ("theta", "θ"),
+        ("kappa", "κ"),
+        ("lambda", "λ"),
+        ("mu", "μ"),
+        ("nu", "ν"),
+        ("xi", "ξ"),
+        ("pi", "π"),
+        ("rho", "ρ"),
+        ("sigma", "σ"),
+        ("tau", "τ"),
+        ("phi", "φ"),
+        ("chi", "χ"),
+        ("psi", "ψ"),
+        ("omega", "ω"),
+    ];
+    const SUB: &[(char, char)] = &[
+        ('0', '₀'),
+        ('1', '₁'),
+        ('2', '₂'),
+        ('3', '₃'),
+        ('4', '₄'),
+        ('5', '₅'),
+        ('6', '₆'),
+        ('7', '₇'),
+        ('8', '₈'),
+        ('9', '₉'),
+        ('a', 'ₐ'),
+        ('e', 'ₑ'),
+        ('h', 'ₕ'),
+        ('i', 'ᵢ'),
+        ('j', 'ⱼ'),
+        ('k', 'ₖ'),
+        ('l', 'ₗ'),
+        ('m', 'ₘ'),
+        ('n', 'ₙ'),
+        ('o', 'ₒ'),
+        ('p', 'ₚ'),
+        ('r', 'ᵣ'),
+        ('s', 'ₛ'),
+        ('t', 'ₜ'),
+        ('u', 'ᵤ'),
+        ('v', 'ᵥ'),
+        ('x', 'ₓ'),
+    ];
+    let (base, sub) = match ascii.split_once('_') {
+        Some((b, s)) => (b, Some(s)),
+        None => (ascii, None),
+    };
+    let base = GREEK
+        .iter()
+        .find(|(n, _)| *n == base)
+        .map_or(base.to_string(), |(_, g)| g.to_string());
+    match sub {
+        Some(s) => {
+            let lowered: Option<String> = s
+                .chars()
+                .map(|c| SUB.iter().find(|(a, _)| *a == c).map(|(_, b)| *b))
+                .collect();
+            match lowered {
+                Some(l) => format!("{base}{l}"),
+                None => format!("{base}_{s}"),
+            }
+        }
+        None => base,
+    }
+}
+
 /// `name` with its first letter a capital, as a sentence names an executor (`slurm` → `Slurm`).
 pub fn capitalised(name: &str) -> String {
     let mut c = name.chars();

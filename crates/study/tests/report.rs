@@ -184,5 +184,41 @@ fn the_report_has_its_figures_as_files_its_settings_and_says_what_every_spread_i
         seen += 1;
     }
     assert!(seen >= 3, "{seen}");
+
+    // Issue 41: a table of contents; every calibrated value with its interval; the Sobol
+    // indices as a table and a figure; curvature in words; the validation against the lab.
+    assert!(html.contains("<nav class=\"toc\">"), "no contents");
+    for part in [
+        "Contents",
+        "Uncertainty and identifiability",
+        "inverse prediction from the response surface",
+        "Sobol indices of the fitted model of value",
+        "First order",
+        "Curvature is",
+        "Validation interval:",
+    ] {
+        assert!(text.contains(part), "the report lacks {part}");
+    }
+    assert!(
+        ids.iter().any(|id| id.ends_with("sobol-1")),
+        "no Sobol figure: {ids:?}"
+    );
+    let summary = test_support::summary(&dir);
+    for p in ["a", "b"] {
+        let u = &summary["uncertainty"]["parameters"][p];
+        let iv = u["interval_95"]
+            .as_array()
+            .unwrap_or_else(|| panic!("{p}: {u}"));
+        let (lo, hi) = (iv[0].as_f64().unwrap(), iv[1].as_f64().unwrap());
+        let truth = if p == "a" { 0.6 } else { 0.3 };
+        // The bowl's minimum is the lab value: the interval holds it and is narrow.
+        assert!(lo <= truth && truth <= hi && hi - lo < 0.3, "{p}: {u}");
+        assert_eq!(u["identified"], true, "{p}: {u}");
+    }
+    assert!(
+        summary["validation"]["statement"].as_str().is_some(),
+        "{}",
+        summary["validation"]
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

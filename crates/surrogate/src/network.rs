@@ -129,6 +129,29 @@ impl Network {
         self.n
     }
 
+    /// How many networks the prediction averages (1 without an ensemble).
+    pub fn members(&self) -> usize {
+        1 + self.members.len()
+    }
+
+    /// Each member's prediction at `x`, in the output's units: their spread is how much the
+    /// ensemble's answer depends on which rows and seeds each member was trained on. Empty when
+    /// `x` has the wrong length.
+    pub fn member_predictions(&self, x: &[f64]) -> Vec<f64> {
+        if x.len() != self.n {
+            return Vec::new();
+        }
+        let u: Vec<f64> = x
+            .iter()
+            .zip(&self.x_norm)
+            .map(|(&v, m)| m.normalise(v))
+            .collect();
+        std::iter::once(&self.weights)
+            .chain(&self.members)
+            .map(|w| self.y_norm.denormalise(forward(self.n, self.h, w, &u)))
+            .collect()
+    }
+
     pub fn hidden(&self) -> usize {
         self.h
     }

@@ -192,6 +192,7 @@ impl Stage for BayesOpt {
             .ok_or("no run gave a response")?;
         let i = idx[j];
         let point = st.runs[i].values.clone();
+        let uncertainty = crate::uncertainty_routes::from_gp(study, st, gp, x[j].clone());
         st.notes.push(format!(
             "{}; calibrated at run {} (GP mean of the objective {}, observed {}); the GP's predicted minimum {}",
             out.stop.clone().unwrap_or_default(),
@@ -200,6 +201,7 @@ impl Stage for BayesOpt {
             sig(y[j]),
             sig(out.history.last().map_or(f64::NAN, |h| h.predicted_minimum))
         ));
+        st.uncertainty = Some(uncertainty);
         calibrate(st, ctx, point);
         Ok(())
     }

@@ -278,6 +278,12 @@ impl Stage for GaBp {
             sig(predicted),
             study.target.unit
         ));
+        st.uncertainty = Some(crate::uncertainty_routes::from_network(
+            study,
+            st,
+            &trained.network,
+            search.best.clone(),
+        ));
         st.set_outcome(SurrogateOutcome::GaBp(Box::new(GaBpOutcome {
             source,
             x,

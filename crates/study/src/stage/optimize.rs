@@ -76,6 +76,7 @@ impl Stage for Optimize {
             .ok_or("no stage before it fitted a model (put a screening or rsm stage first)")?;
         let rows = fit.experiment.response.len();
         let bounds = search_bounds(&fit.experiment, &self.region)?;
+        let searched = bounds.clone();
         st.notes
             .push(format!("the search: each factor {}", self.region.describe()));
         if let SearchRegion::Limits(limits) = &self.region {
@@ -159,6 +160,15 @@ impl Stage for Optimize {
         }
         st.active = active;
         st.factors = fit.experiment.factors.clone().unwrap_or_default();
+        st.uncertainty = Some(crate::uncertainty_routes::from_response_model(
+            study,
+            st,
+            &fit,
+            &target_fits,
+            searched,
+            best.coded.clone(),
+            &equally_good,
+        ));
         st.set_outcome(OptimizeOutcome {
             solutions: found,
             equally_good,

@@ -202,6 +202,18 @@ impl Stage for Smc {
         for (j, &pi) in st.active.iter().enumerate() {
             point[pi] = tidy(last.posterior.mean[j]);
         }
+        let points: Vec<Vec<f64>> = last
+            .used
+            .iter()
+            .map(|&i| st.active.iter().map(|&pi| st.runs[i].values[pi]).collect())
+            .collect();
+        let uncertainty = crate::uncertainty_routes::from_posterior(
+            study,
+            st,
+            &last.posterior,
+            &points,
+            &last.weights,
+        );
         st.notes.push(format!(
             "{}; calibrated at the posterior mean (scale sigma {}, effective sample size {:.1} of {})",
             out.stop.clone().unwrap_or_default(),
@@ -209,6 +221,7 @@ impl Stage for Smc {
             last.posterior.ess,
             last.used.len()
         ));
+        st.uncertainty = Some(uncertainty);
         calibrate(st, ctx, point);
         Ok(())
     }

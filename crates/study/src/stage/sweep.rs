@@ -264,6 +264,12 @@ impl Stage for Sweep {
                     sig(study.target.value),
                     fit.r2
                 ));
+                st.uncertainty = Some(crate::uncertainty_routes::from_sweep(
+                    pi,
+                    &factor,
+                    inv.value,
+                    (inv.low, inv.high),
+                ));
                 ctx.values[pi] = tidy(inv.value);
                 ctx.active.retain(|&a| a != pi);
                 let point = ctx.values.clone();

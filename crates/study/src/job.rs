@@ -535,9 +535,28 @@ pub(crate) fn score(
 /// the runs and this gives each its new objective, exactly what simulating it again would.
 /// A run that failed in a test stays failed (its targets' rows are scored again); a run whose
 /// tests all finished is done or failed as its targets now score it. A run of a study with one
-/// target, or stored before its tests' outcomes were kept, comes back as it was.
+/// target takes its response from its test's outcome again (a target may now name another of
+/// the test's outcomes); a run stored before its tests' outcomes were kept comes back as it was.
 pub fn rescored(study: &Study, mut r: RunRecord) -> RunRecord {
     let Some(combine) = study.combine else {
+        // A failed run without an outcome failed in its test.
+        if r.outputs.is_object() {
+            let response = &study.target.response;
+            match r.outputs[response].as_f64().filter(|y| y.is_finite()) {
+                Some(y) => {
+                    r.status = Status::Done;
+                    r.response = Some(y);
+                    r.error = None;
+                    r.error_kind = None;
+                }
+                None => {
+                    r.status = Status::Failed;
+                    r.response = None;
+                    r.error = Some(format!("the test gave no finite number for {response}"));
+                    r.error_kind = Some(RunErrorKind::MeasurementFailed);
+                }
+            }
+        }
         return r;
     };
     let outcomes = match r.outputs.get_mut("tests") {

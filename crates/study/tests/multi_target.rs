@@ -758,3 +758,59 @@ normalisation = "none"
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// With one target the stored runs are read again too: a target that now names another outcome
+/// of the test (`exact` for `value`) takes it from each run's stored outcome, without simulating.
+#[test]
+fn a_single_target_that_names_another_outcome_reads_it_from_the_stored_runs() {
+    let dir = fresh_dir("one-target");
+    let text = r#"
+name = "one target"
+seed = 3
+plan = [{ stage = "rsm", design = "ccd", alpha = "face" }, "optimize"]
+
+[test]
+test = "function"
+[test.function]
+expression = "10 + 5*a + 3*b"
+variables = { a = 0.5, b = 0.5 }
+noise = 0.5
+
+[[parameter]]
+name = "a"
+path = "function.variables.a"
+min = 0.0
+max = 1.0
+
+[[parameter]]
+name = "b"
+path = "function.variables.b"
+min = 0.0
+max = 1.0
+
+[target]
+response = "value"
+value = 14.0
+"#;
+    run_study(&dir, text).unwrap();
+    let db = dir.join("study.db");
+    let before = study::Store::open(&db, false).unwrap().runs().unwrap();
+    run_study(
+        &dir,
+        &text.replace("response = \"value\"", "response = \"exact\""),
+    )
+    .unwrap();
+    let after = study::Store::open(&db, false).unwrap().runs().unwrap();
+    assert_eq!(after, before, "nothing simulated");
+    let (head, rows) = results_csv(&dir);
+    let exact = column(&head, "exact");
+    for (row, r) in rows.iter().zip(&after) {
+        let a = r.inputs["a"].as_f64().unwrap();
+        let b = r.inputs["b"].as_f64().unwrap();
+        let y: f64 = row[exact].parse().unwrap();
+        // The noise-free outcome, where `value` is 0.5 off on average.
+        assert!((y - (10.0 + 5.0 * a + 3.0 * b)).abs() < 1e-9, "{row:?}");
+        assert_eq!(Some(y), r.outputs["exact"].as_f64());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -110,6 +110,16 @@ def interval(value, low, high, fmt=sig):
     return f"{fmt(value)} ({fmt(low)} to {fmt(high)})"
 
 
+def rounded_interval(summary, name):
+    """A calibrated value as the binary rounds it with its 95 % interval, the ends to the same
+    decimal place: "0.115 (0.104 to 0.127)"."""
+    u = summary["uncertainty"]["parameters"][name]
+    value = u["rounded"]
+    decimals = len(value.split(".")[1]) if "." in value else 0
+    low, high = u["interval_95"]
+    return f"{value} ({low:.{decimals}f} to {high:.{decimals}f})"
+
+
 def words(names):
     """parameter names as prose: "static friction and rolling friction"."""
     names = [n.replace("_", " ") for n in names]
@@ -425,6 +435,10 @@ VALUES = {
     "qs.calibrated.rolling_friction": lambda c: c.qs.calibrated("rolling_friction"),
     "qs.calibrated.restitution": lambda c: c.qs.calibrated("restitution", "{:g}".format),
     "qs.calibrated.wall_friction": lambda c: c.qs.calibrated("wall_friction", "{:g}".format),
+    # each calibrated value's 95 % interval, to the digits the binary rounds it to
+    "qs.interval.rolling_friction": lambda c: rounded_interval(c.qs.summary, "rolling_friction"),
+    "qs.validation.interval": lambda c: " to ".join(sig(x) for x in c.qs.summary["validation"]["mean_interval_95"]),
+    "qs.validation.compatible": lambda c: c.qs.summary["validation"]["statement"].split(":")[0],
     "qs.undetermined": lambda c: words(
         [p["name"] for p in c.qs.summary["parameters"] if p["status"] == "undetermined"]
     ),

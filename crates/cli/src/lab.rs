@@ -115,7 +115,15 @@ pub fn run(action: LabCommand) -> Result<(), String> {
             json,
         } => {
             let find_plate = !no_plate;
-            return photo_angle(&image, &threshold, &background, crop, find_plate, debug, json);
+            return photo_angle(
+                &image,
+                &threshold,
+                &background,
+                crop,
+                find_plate,
+                debug,
+                json,
+            );
         }
         LabCommand::Friction { tilt_deg } => formulas::friction_from_tilt(tilt_deg),
         LabCommand::Modulus {

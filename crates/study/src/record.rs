@@ -388,6 +388,9 @@ pub struct Context {
     /// The optimisation's distinct solutions as every parameter's value, best first (the first
     /// is `calibrated`): what a validation with several candidates replicates.
     pub(crate) candidates: Vec<Vec<f64>>,
+    /// Each candidate's uncertainty, in the same order: a validation that chooses another
+    /// solution than the first reports that one's intervals.
+    pub(crate) candidate_uncertainties: Vec<crate::uncertainty::Uncertainty>,
     /// Which of the last optimisation's solutions `calibrated` is (0: the first).
     pub(crate) chosen_solution: usize,
     /// Every parameter's value in the finished run nearest the lab value so far.

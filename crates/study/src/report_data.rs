@@ -174,7 +174,7 @@ pub fn summary_json(study: &Study, r: &Replay, stored: &[RunRecord]) -> serde_js
                 "unit": crate::report_settings::parameter_unit(p),
                 "status": status,
                 "why": why,
-                "equally_good": range,
+                "interval_95": range,
             })
         }).collect::<Vec<_>>(),
         "calibrated": calibrated,

@@ -85,16 +85,6 @@ pub(crate) fn parameter_unit(p: &Parameter) -> String {
         .unwrap_or_default()
 }
 
-/// How the report names a parameter: its label (or name), and its symbol when the study gives
-/// one ("bead-bead rolling friction μᵣ").
-pub(crate) fn display_name(p: &Parameter) -> String {
-    let name = p.label.as_deref().unwrap_or(&p.name);
-    match &p.symbol {
-        Some(s) => format!("{name} {s}"),
-        None => name.to_string(),
-    }
-}
-
 /// `name (unit)` for a table's column heading, or the name alone.
 fn with_unit(name: &str, unit: &str) -> String {
     if unit.is_empty() {
@@ -157,6 +147,14 @@ pub(crate) fn fates(study: &Study, r: &Replay) -> Vec<Fate> {
                 .join("; ");
             fate[p.parameter] =
                 Fate::Undetermined(format!("{why} (stage {})", stage + 1), p.interval);
+        } else if p.interval.is_none() {
+            fate[p.parameter] = Fate::Undetermined(
+                format!(
+                    "no interval: no setting matches the lab value within the model's uncertainty (stage {})",
+                    stage + 1
+                ),
+                None,
+            );
         }
     }
     fate
@@ -195,14 +193,14 @@ pub(crate) fn parameters_table(h: &mut String, study: &Study, r: &Replay) {
             Fate::Held(why) => ("", format!("held at {value}: {why}")),
             Fate::Undetermined(why, _) => (
                 " class=\"flag\"",
-                format!("⚠ not identified, so not reported as calibrated: {why}; {value} is the value the optimiser picked"),
+                format!("⚠ not identified, so not reported as calibrated: {why}; {value} is the value the stage set"),
             ),
         };
         write!(
             h,
             "<tr{class}><td>{}</td><td class=\"l name\">{}<br><span class=\"mono path\">{}</span></td><td>{} to {}</td><td class=\"l\">{}</td><td>{value}</td><td>{}</td><td class=\"l wrap\">{}</td></tr>",
             letter(i),
-            with_unit(&display_name(p), &parameter_unit(p)),
+            with_unit(&p.display_name(), &parameter_unit(p)),
             esc(&p.paths.iter().map(|x| x.0.text.clone()).collect::<Vec<_>>().join(", ")),
             sig(p.min),
             sig(p.max),

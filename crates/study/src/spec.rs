@@ -39,6 +39,16 @@ pub struct Parameter {
 }
 
 impl Parameter {
+    /// How the report names it: its label (or name), and its symbol when the study gives one
+    /// ("bead-bead rolling friction μᵣ").
+    pub fn display_name(&self) -> String {
+        let name = self.label.as_deref().unwrap_or(&self.name);
+        match &self.symbol {
+            Some(s) => format!("{name} {s}"),
+            None => name.to_string(),
+        }
+    }
+
     /// The factor over `lo..hi` (actual units) in this parameter's scale. A stage can narrow a
     /// range until its ends meet (a steepest path through a tiny range); that is an error naming
     /// the parameter, for the stage to report.

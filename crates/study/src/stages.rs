@@ -59,6 +59,7 @@ pub fn replay(
         direction: Vec::new(),
         calibrated: None,
         candidates: Vec::new(),
+        candidate_uncertainties: Vec::new(),
         chosen_solution: 0,
         best: None,
         finished: Vec::new(),

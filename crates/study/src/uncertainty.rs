@@ -25,7 +25,7 @@ pub const LEVEL: f64 = 0.95;
 /// Points along one axis where the band is looked at before its edges are bisected.
 const AXIS_POINTS: usize = 201;
 /// Points along each axis of a pair's grid in the ridge search.
-const PAIR_POINTS: usize = 41;
+pub const PAIR_POINTS: usize = 41;
 /// Base samples of the Sobol estimates (each costs k + 2 evaluations of the surrogate).
 pub const SOBOL_SAMPLES: usize = 4096;
 /// A total Sobol index below this: the objective hardly depends on the parameter.
@@ -148,6 +148,9 @@ pub struct Band<'a> {
     /// The calibrated point, coded.
     pub best: Vec<f64>,
     pub measure: &'a dyn Fn(&[f64]) -> f64,
+    /// Columns of a pair's walk in the ridge search ([`PAIR_POINTS`] unless a costly measure
+    /// asks for fewer).
+    pub columns: usize,
 }
 
 /// Two factors (i, j) that trade off, and the ridge's two ends as coded (x_i, x_j).
@@ -233,19 +236,81 @@ impl Band<'_> {
         out
     }
 
+    /// The lowest measure along x_j at x_i = `xi` (the others held): a scan, then a golden
+    /// section around the scan's least point, so that a band thinner than the scan's step is
+    /// still found. Returns (x_j, measure).
+    fn column_min(&self, i: usize, j: usize, xi: f64) -> (f64, f64) {
+        let (lj, hj) = self.bounds[j];
+        let mut x = self.best.clone();
+        x[i] = xi;
+        let mut at = |v: f64| {
+            x[j] = v;
+            let m = (self.measure)(&x);
+            if m.is_nan() {
+                f64::INFINITY
+            } else {
+                m
+            }
+        };
+        let n = self.columns;
+        let step = (hj - lj) / (n - 1) as f64;
+        let (mut best_v, mut best_m) = (lj, f64::INFINITY);
+        for b in 0..n {
+            let v = lj + step * b as f64;
+            let m = at(v);
+            if m < best_m {
+                (best_v, best_m) = (v, m);
+            }
+        }
+        // Golden section over the two steps around it.
+        let (mut a, mut z) = ((best_v - step).max(lj), (best_v + step).min(hj));
+        let g = 0.618_033_988_749_895;
+        for _ in 0..30 {
+            let (c, d) = (z - g * (z - a), a + g * (z - a));
+            if at(c) < at(d) {
+                z = d;
+            } else {
+                a = c;
+            }
+        }
+        let v = 0.5 * (a + z);
+        let m = at(v);
+        if m < best_m {
+            (v, m)
+        } else {
+            (best_v, best_m)
+        }
+    }
+
+    /// Whether factors i and j trade off: walking x_i out from the calibrated point column by
+    /// column, each column holds a setting in the band (the lowest measure along x_j), and the
+    /// walk stops at the first column that has none, so separate islands are not joined. A ridge
+    /// reaches well past both conditional stretches.
     fn ridge(&self, i: usize, j: usize, si: Stretch, sj: Stretch) -> Option<[(f64, f64); 2]> {
         let (li, hi_) = self.bounds[i];
         let (lj, hj) = self.bounds[j];
-        let n = PAIR_POINTS;
+        let n = self.columns;
+        let step = (hi_ - li) / (n - 1) as f64;
+        let start = ((self.best[i] - li) / step)
+            .round()
+            .clamp(0.0, (n - 1) as f64) as usize;
+        let column = |c: usize| {
+            let xi = li + step * c as f64;
+            let (xj, m) = self.column_min(i, j, xi);
+            (m <= 1.0).then_some((xi, xj))
+        };
         let mut inside = Vec::new();
-        let mut x = self.best.clone();
-        for a in 0..n {
-            x[i] = li + (hi_ - li) * a as f64 / (n - 1) as f64;
-            for b in 0..n {
-                x[j] = lj + (hj - lj) * b as f64 / (n - 1) as f64;
-                if (self.measure)(&x) <= 1.0 {
-                    inside.push((x[i], x[j]));
-                }
+        for c in (0..=start).rev() {
+            match column(c) {
+                Some(p) => inside.push(p),
+                None if c != start => break,
+                None => {}
+            }
+        }
+        for c in start + 1..n {
+            match column(c) {
+                Some(p) => inside.push(p),
+                None => break,
             }
         }
         if inside.len() < 3 {
@@ -257,23 +322,16 @@ impl Band<'_> {
             hi - lo
         };
         let (wi, wj) = (span(&|p| p.0), span(&|p| p.1));
-        let grid_i = 2.0 * (hi_ - li) / (n - 1) as f64;
-        let grid_j = 2.0 * (hj - lj) / (n - 1) as f64;
         let far = |w: f64, s: Stretch, grid: f64, range: f64| {
             w > RIDGE_FACTOR * (s.high - s.low) + grid && w >= RIDGE_MIN_SHARE * range
         };
-        if !(far(wi, si, grid_i, hi_ - li) && far(wj, sj, grid_j, hj - lj)) {
+        if !(far(wi, si, 2.0 * step, hi_ - li)
+            && far(wj, sj, 2.0 * (hj - lj) / (n - 1) as f64, hj - lj))
+        {
             return None;
         }
-        // The ridge's ends: the set's points at its least and greatest x_i.
-        let first = inside
-            .iter()
-            .copied()
-            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)))?;
-        let last = inside
-            .iter()
-            .copied()
-            .max_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)))?;
+        let first = inside.iter().copied().min_by(|a, b| a.0.total_cmp(&b.0))?;
+        let last = inside.iter().copied().max_by(|a, b| a.0.total_cmp(&b.0))?;
         Some([first, last])
     }
 }
@@ -345,7 +403,8 @@ pub fn rounded(value: f64, low: f64, high: f64) -> (String, String, String) {
     }
     let mut e = half.log10().floor() as i32;
     let lead = half / 10f64.powi(e);
-    if lead < 3.0 {
+    // 0.3 / 0.1 is 2.9999999999999996: a lead of 3 is meant there.
+    if lead < 3.0 - 1e-9 {
         e -= 1;
     }
     // Never coarser than the value's own first digit, nor finer than 6 significant digits.
@@ -354,17 +413,19 @@ pub fn rounded(value: f64, low: f64, high: f64) -> (String, String, String) {
         let first = top.log10().floor() as i32;
         e = e.clamp(first - 5, first);
     }
+    let step = 10f64.powi(e);
     let fmt = |v: f64| -> String {
+        // Rounded to the place e first, whatever the notation.
+        let r = (v / step).round() * step;
+        let r = if r == 0.0 { 0.0 } else { r };
         if !(1e-3..1e5).contains(&top) {
-            // Powers of ten: as many mantissa digits as the place e leaves.
+            // Powers of ten: the mantissa relative to the largest number's exponent, with as
+            // many digits as the place e leaves.
             let first = top.log10().floor() as i32;
             let digits = (first - e).max(0) as usize;
-            format!("{:.*e}", digits, v)
+            format!("{:.*}e{first}", digits, r / 10f64.powi(first))
         } else {
             let decimals = (-e).max(0) as usize;
-            let step = 10f64.powi(e);
-            let r = (v / step).round() * step;
-            let r = if r == 0.0 { 0.0 } else { r };
             format!("{r:.decimals$}")
         }
     };
@@ -416,11 +477,17 @@ pub fn validation_check(mean: f64, std: Option<f64>, runs: usize, t: &Target) ->
         _ => None,
     }
     .map(|h| (difference - h, difference + h));
+    // The relative error is |sim - lab| / lab: its interval is that of the difference's
+    // absolute value (from 0 when the difference's interval holds 0).
     let relative_error_interval = difference_interval
         .filter(|_| !t.minimised() && lab_mean != 0.0)
         .map(|(lo, hi)| {
             let (a, b) = (100.0 * lo / lab_mean.abs(), 100.0 * hi / lab_mean.abs());
-            (a.min(b), a.max(b))
+            if a <= 0.0 && 0.0 <= b {
+                (0.0, a.abs().max(b.abs()))
+            } else {
+                (a.abs().min(b.abs()), a.abs().max(b.abs()))
+            }
         });
     let compatible = difference_interval.map(|(lo, hi)| lo <= 0.0 && 0.0 <= hi);
     let unit = if t.unit.is_empty() {
@@ -429,15 +496,20 @@ pub fn validation_check(mean: f64, std: Option<f64>, runs: usize, t: &Target) ->
         format!(" {}", t.unit)
     };
     let sig = crate::text::sig;
+    let lab_note = if vl.is_none() {
+        " (the lab's own spread is not known: fewer than 2 replicates, so only the runs' spread is counted)"
+    } else {
+        ""
+    };
     let statement = match (difference_interval, compatible) {
         (Some((lo, hi)), Some(true)) => format!(
-            "compatible with the lab: the difference {}{unit} has the 95 % interval {} to {}{unit}, which holds zero",
+            "compatible with the lab: the difference {}{unit} has the 95 % interval {} to {}{unit}, which holds zero{lab_note}",
             sig(difference),
             sig(lo),
             sig(hi)
         ),
         (Some((lo, hi)), _) => format!(
-            "not compatible with the lab: the difference {}{unit} has the 95 % interval {} to {}{unit}, which leaves out zero",
+            "not compatible with the lab: the difference {}{unit} has the 95 % interval {} to {}{unit}, which leaves out zero{lab_note}",
             sig(difference),
             sig(lo),
             sig(hi)
@@ -513,6 +585,23 @@ mod tests {
             rounded(4.2e7, 3.1e7, 5.3e7),
             ("4.2e7".into(), "3.1e7".into(), "5.3e7".into())
         );
+        // The place the interval supports, not each number's own digits.
+        assert_eq!(
+            rounded(1e-6, -4e-4, 6e-4),
+            ("0e-4".into(), "-4e-4".into(), "6e-4".into())
+        );
+        assert_eq!(
+            rounded(12.0, -3e5, 3e5),
+            ("0e5".into(), "-3e5".into(), "3e5".into())
+        );
+        assert_eq!(
+            rounded(0.2, 0.1, 0.7),
+            ("0.2".into(), "0.1".into(), "0.7".into())
+        );
+        assert_eq!(
+            rounded(-0.003, -0.01, 0.004),
+            ("-0.003".into(), "-0.010".into(), "0.004".into())
+        );
         assert_eq!(
             rounded(0.5, 0.0, 1.0),
             ("0.5".into(), "0.0".into(), "1.0".into())
@@ -528,6 +617,7 @@ mod tests {
             bounds: vec![(-1.0, 1.0); 2],
             best: vec![0.0, 0.0],
             measure: &f,
+            columns: PAIR_POINTS,
         };
         let s = band.stretch(0).unwrap();
         assert!(
@@ -547,9 +637,31 @@ mod tests {
             bounds: vec![(-1.0, 1.0); 2],
             best: vec![0.0, 0.0],
             measure: &g,
+            columns: PAIR_POINTS,
         };
         let s1 = band.stretch(1).unwrap();
         assert_eq!((s1.low, s1.high, s1.open), (-1.0, 1.0, (true, true)));
         assert!(band.ridges(&[band.stretch(0), Some(s1)]).is_empty());
+        // A ridge thinner than the grid's step, off its nodes, is still found.
+        let thin = |x: &[f64]| (x[0] + x[1] - 0.025).abs() / 0.01;
+        let band = Band {
+            bounds: vec![(-1.0, 1.0); 2],
+            best: vec![0.0125, 0.0125],
+            measure: &thin,
+            columns: PAIR_POINTS,
+        };
+        assert_eq!(band.ridges(&[band.stretch(0), band.stretch(1)]).len(), 1);
+        // Two separate islands are not a ridge.
+        let islands = |x: &[f64]| {
+            let d = |c: f64| ((x[0] - c).powi(2) + (x[1] - c).powi(2)).sqrt() / 0.1;
+            d(-0.8).min(d(0.8))
+        };
+        let band = Band {
+            bounds: vec![(-1.0, 1.0); 2],
+            best: vec![-0.8, -0.8],
+            measure: &islands,
+            columns: PAIR_POINTS,
+        };
+        assert!(band.ridges(&[band.stretch(0), band.stretch(1)]).is_empty());
     }
 }

@@ -232,7 +232,7 @@ pub(crate) fn section(
             h,
             "<tr{}><td class=\"l name\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{} ({})</td><td class=\"l wrap\">{}</td></tr>",
             if p.flags.is_empty() { "" } else { " class=\"flag\"" },
-            esc(&crate::report_settings::display_name(&study.parameters[p.parameter])),
+            esc(&study.parameters[p.parameter].display_name()),
             esc(&value_text(p)),
             esc(&interval),
             stage + 1,
@@ -266,7 +266,7 @@ pub(crate) fn section(
                     sobol_plot(study, s),
                     format!(
                         "Global sensitivity of {} (stage {}, {}): Sobol first-order index (blue: the share of its variance each parameter causes alone) and total index (orange: alone and with the others), each parameter uniform over the range searched; {} samples.",
-                        s.of,
+                        esc(&s.of),
                         st.index + 1,
                         st.kind,
                         s.samples
@@ -296,7 +296,7 @@ fn sobol_table(h: &mut String, study: &Study, s: &Sobol) {
         write!(
             h,
             "<tr><td class=\"l name\">{}</td><td>{first:.3}</td><td>{total:.3}</td><td class=\"l\">{reads}</td></tr>",
-            esc(&crate::report_settings::display_name(&study.parameters[pi]))
+            esc(&study.parameters[pi].display_name())
         )
         .unwrap();
     }
@@ -310,7 +310,7 @@ fn sobol_plot(study: &Study, s: &Sobol) -> Result<String, String> {
     let names: Vec<String> = s
         .parameters
         .iter()
-        .map(|&pi| crate::report_settings::display_name(&study.parameters[pi]))
+        .map(|&pi| study.parameters[pi].display_name())
         .collect();
     let k = names.len();
     if k == 0 {

@@ -26,7 +26,7 @@ use crate::spec::Study;
 use crate::target::Target;
 use crate::uncertainty::{
     at_end, lab_std_error, sobol_indices, Band, Flag, ParameterInterval, Sobol, Uncertainty,
-    INSENSITIVE_TOTAL, LEVEL, SOBOL_SAMPLES,
+    INSENSITIVE_TOTAL, LEVEL, PAIR_POINTS, SOBOL_SAMPLES,
 };
 
 /// A GP length scale (coded units, the box 2 wide) beyond which the objective is nearly flat
@@ -53,6 +53,8 @@ struct Parts<'a> {
     /// Flags a route knows of itself (a factor not in the reduced model), per factor.
     insensitive: Vec<Option<String>>,
     sobol: Vec<Sobol>,
+    /// Columns of the ridge search's walk (fewer for a costly measure).
+    columns: usize,
 }
 
 impl Parts<'_> {
@@ -61,6 +63,7 @@ impl Parts<'_> {
             bounds: self.bounds.clone(),
             best: self.best.clone(),
             measure,
+            columns: self.columns,
         };
         let k = self.best.len();
         let stretches: Vec<_> = (0..k).map(|j| band.stretch(j)).collect();
@@ -272,6 +275,7 @@ pub(crate) fn from_response_model(
         best: best.clone(),
         insensitive,
         sobol,
+        columns: PAIR_POINTS,
     };
     let Some(t) = doe::fit::t_critical(1.0 - LEVEL, df) else {
         // Without residual degrees of freedom the model has no variance to invert with.
@@ -295,15 +299,21 @@ pub(crate) fn from_response_model(
         })
         .collect();
     let measure = |x: &[f64]| bands.iter().map(|b| b(x)).fold(0.0, f64::max);
-    let lab = if study.target.minimised() && target_fits.is_empty() {
-        "the optimum's".to_string()
+    let within = if study.target.minimised() && target_fits.is_empty() {
+        "within t √(variance of the fitted mean there + at the optimum) of the optimum's fitted mean"
+    } else if target_fits
+        .iter()
+        .zip(&study.targets)
+        .any(|(_, t)| t.minimised())
+    {
+        "within t √(variance of the fitted mean + variance of the lab mean) of each matched target's lab value, and within t √(the two fitted means' variances) of each minimised target's optimum"
     } else {
-        "the lab value".to_string()
+        "within t √(variance of the fitted mean + variance of the lab mean) of the lab value"
     };
     parts.assemble(
         &measure,
         format!(
-            "inverse prediction from the response surface: each value's 95 % interval is the stretch, the other parameters held at their calibrated values, over which the model's fitted mean stays within t √(variance of the fitted mean + variance of the lab mean) of {lab} (t at {df} residual degrees of freedom)"
+            "inverse prediction from the response surface: each value's 95 % interval is the stretch, the other parameters held at their calibrated values, over which the model's fitted mean stays {within} (t at {df} residual degrees of freedom)"
         ),
     )
 }
@@ -352,6 +362,13 @@ pub(crate) fn from_gp(study: &Study, st: &StageResult, gp: &Gp, best: Vec<f64>) 
         })
         .collect();
     let factors = st.factors.clone();
+    // The GP's variance costs the square of its points per evaluation: a few thousand runs
+    // would make every `demcal status` slow, so the ridge search walks fewer columns then.
+    let columns = if gp.points().len() > 400 {
+        11
+    } else {
+        PAIR_POINTS
+    };
     Parts {
         st,
         factors: &factors,
@@ -359,6 +376,7 @@ pub(crate) fn from_gp(study: &Study, st: &StageResult, gp: &Gp, best: Vec<f64>) 
         best,
         insensitive,
         sobol,
+        columns,
     }
     .assemble(
         &measure,
@@ -407,6 +425,7 @@ pub(crate) fn from_network(
         best,
         insensitive: vec![None; k],
         sobol,
+        columns: PAIR_POINTS,
     }
     .assemble(
         &measure,
@@ -421,7 +440,6 @@ pub(crate) fn from_network(
 /// smc: the posterior's credible intervals; `points` (actual units) and `weights` the last
 /// iteration's weighted runs.
 pub(crate) fn from_posterior(
-    study: &Study,
     st: &StageResult,
     posterior: &Posterior,
     points: &[Vec<f64>],
@@ -459,15 +477,27 @@ pub(crate) fn from_posterior(
     let mut intervals = Vec::with_capacity(k);
     for j in 0..k {
         let pi = st.active[j];
-        let p = &study.parameters[pi];
         let (lo, hi) = posterior.credible[j];
         let mut flags = Vec::new();
         let value = posterior.mean[j];
-        let c = st.factors[j].to_coded(value);
+        // A posterior piled against an end of the range sampled: its credible interval
+        // reaches that end (its mean need not).
+        let f = &st.factors[j];
+        let (cl, ch) = (f.to_coded(lo), f.to_coded(hi));
+        let open = (
+            at_end(cl, (-1.0, 1.0)) == Some(false),
+            at_end(ch, (-1.0, 1.0)) == Some(true),
+        );
+        let c = f.to_coded(value);
         if let Some(high) = at_end(c, (-1.0, 1.0)) {
             flags.push(Flag::AtRangeEnd {
                 high,
-                end: if high { p.max } else { p.min },
+                end: if high { f.high } else { f.low },
+            });
+        } else if open.0 != open.1 {
+            flags.push(Flag::AtRangeEnd {
+                high: open.1,
+                end: if open.1 { f.high } else { f.low },
             });
         }
         let width = (st.factors[j].to_coded(hi) - st.factors[j].to_coded(lo)).abs();
@@ -502,7 +532,7 @@ pub(crate) fn from_posterior(
             parameter: pi,
             value,
             interval: Some((lo, hi)),
-            open: (false, false),
+            open,
             flags,
         });
     }

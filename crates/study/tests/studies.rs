@@ -289,7 +289,7 @@ fn invalid_study_files_name_the_key() {
         ),
         (
             BOWL.replace("min = 0.1\nmax = 0.9", "minimum = 0.1\nmax = 0.9"),
-            "parameter[1].minimum: unknown key (expected name, path, paths, min, max, scale, unit)",
+            "parameter[1].minimum: unknown key (expected name, path, paths, min, max, scale, unit, label, symbol)",
         ),
         (
             BOWL.replace("min = 0.1\nmax = 0.9", "max = 0.9"),

@@ -245,17 +245,19 @@ fn the_objective_is_mapped_over_every_pair_of_parameters() {
     );
     let out = run_study(&dir, &text).unwrap();
     assert!(out.contains("state: complete"), "{out}");
-    let mut maps: Vec<String> = std::fs::read_dir(dir.join("report/figures"))
-        .unwrap()
-        .flatten()
-        .filter(|e| e.file_name().to_string_lossy().ends_with(".svg"))
-        .filter_map(|e| {
-            let svg = std::fs::read_to_string(e.path()).unwrap();
-            let at = svg.find("GP predicted objective: ")?;
-            let title = &svg[at + 24..];
-            Some(title[..title.find('<').unwrap()].trim().to_string())
+    // Each map's caption names its pair: "... over a and b, the other parameters held ...".
+    let html = std::fs::read_to_string(dir.join("report/index.html")).unwrap();
+    let mut maps: Vec<String> = html
+        .split("the GP's predicted objective")
+        .skip(1)
+        .filter_map(|rest| {
+            let at = rest.find(" over ")?;
+            let pair = &rest[at + 6..rest.find(", the other parameters held")?];
+            let (a, b) = pair.split_once(" and ")?;
+            Some(format!("{a} x {b}"))
         })
         .collect();
+    maps.dedup();
     maps.sort();
     assert_eq!(
         maps,

@@ -160,15 +160,22 @@ impl Stage for Optimize {
         }
         st.active = active;
         st.factors = fit.experiment.factors.clone().unwrap_or_default();
-        st.uncertainty = Some(crate::uncertainty_routes::from_response_model(
-            study,
-            st,
-            &fit,
-            &target_fits,
-            searched,
-            best.coded.clone(),
-            &equally_good,
-        ));
+        // Each solution's intervals: a validation of several candidates may choose another.
+        ctx.candidate_uncertainties = found
+            .iter()
+            .map(|s| {
+                crate::uncertainty_routes::from_response_model(
+                    study,
+                    st,
+                    &fit,
+                    &target_fits,
+                    searched.clone(),
+                    s.coded.clone(),
+                    &equally_good,
+                )
+            })
+            .collect();
+        st.uncertainty = ctx.candidate_uncertainties.first().cloned();
         st.set_outcome(OptimizeOutcome {
             solutions: found,
             equally_good,

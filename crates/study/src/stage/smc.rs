@@ -208,7 +208,6 @@ impl Stage for Smc {
             .map(|&i| st.active.iter().map(|&pi| st.runs[i].values[pi]).collect())
             .collect();
         let uncertainty = crate::uncertainty_routes::from_posterior(
-            study,
             st,
             &last.posterior,
             &points,

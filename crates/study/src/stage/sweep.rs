@@ -275,6 +275,7 @@ impl Stage for Sweep {
                 let point = ctx.values.clone();
                 ctx.calibrated = Some(point.clone());
                 ctx.candidates.clear();
+                ctx.candidate_uncertainties.clear();
                 ctx.chosen_solution = 0;
                 st.calibrated = Some(point);
             }

@@ -149,6 +149,13 @@ impl Stage for Validate {
             ));
             st.notes.push("the runs that chose it also measure its error, which therefore reads a little low; a second validate stage replicates the chosen point with new seeds".into());
             st.calibrated = Some(st.runs[chosen * replicates].values.clone());
+            // The intervals follow the point chosen (the optimisation's were of its first).
+            if chosen > 0 {
+                st.uncertainty = ctx.candidate_uncertainties.get(chosen).cloned().map(|mut u| {
+                    u.method = format!("at the solution validation chose ({}): {}", chosen + 1, u.method);
+                    u
+                });
+            }
         }
         // A validation of one point replicates what the context calibrated.
         let chosen_solution = if candidates > 1 {
@@ -164,6 +171,7 @@ impl Stage for Validate {
         // A later stage (another validation) starts from the chosen point alone.
         ctx.calibrated = st.calibrated.clone();
         ctx.candidates.clear();
+        ctx.candidate_uncertainties.clear();
         Ok(())
     }
 

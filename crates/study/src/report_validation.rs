@@ -74,8 +74,9 @@ pub(crate) fn validation_html(
         write!(
             h,
             "<p>The model of the response surface predicted {}{unit} at the optimum, with a 95 % prediction interval for one new run of {} to {}{unit}: {inside} of the {} validation runs fall inside it.</p>",
-            sig(pi.predicted),
-            sig(pi.low),
+            sig(if t.minimised() { pi.predicted.max(0.0) } else { pi.predicted }),
+            // A minimised response (a curve MSE) is never negative: the interval starts at 0.
+            sig(if t.minimised() { pi.low.max(0.0) } else { pi.low }),
             sig(pi.high),
             ys.len()
         )

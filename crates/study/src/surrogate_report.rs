@@ -220,7 +220,9 @@ fn bo_html(
                 let mut c = centre.clone();
                 c[a] = x;
                 c[b] = y;
-                g.predict_mean(&c)
+                // Every objective (a relative error, a curve MSE, an undesirability) is >= 0; a
+                // GP mean that dips below 0 between runs is shown at 0, as the stages read it.
+                g.predict_mean(&c).max(0.0)
             };
             if let Ok(svg) = heat_map(
                 (&st.factors[a], &st.factors[b]),

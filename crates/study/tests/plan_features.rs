@@ -1,29 +1,14 @@
 //! The plans the papers use, as whole studies on the `function` test, each recovering a known
 //! answer: the search region of `optimize` (coded ±1, out to the axial points, given limits).
 
-use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
-use test_support::summary;
+mod common;
+use common::run_study;
 
-use study::RunOptions;
+use std::path::{Path, PathBuf};
+use test_support::summary;
 
 fn fresh_dir(name: &str) -> PathBuf {
     test_support::fresh_dir("plan", name)
-}
-
-fn run_study(dir: &Path, text: &str) -> Result<String, String> {
-    let p = dir.join("study.toml");
-    std::fs::write(&p, text).unwrap();
-    study::run(
-        &p,
-        &RunOptions {
-            jobs: 2,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .map_err(|e| e.to_string())
 }
 
 /// value = 30 + 20 a (+ a trace of b), a and b in 0 .. 1. The CCD keeps its axial points

@@ -4,11 +4,11 @@
 //! reported clamped at 0 (`target::non_negative`, which the optimise and ga_bp stages also apply
 //! to a minimised response).
 
-use std::path::Path;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+mod common;
 
-use study::{RunOptions, Study};
+use std::path::Path;
+
+use study::Study;
 
 fn study_text(plan: &str, objective: &str) -> String {
     format!(
@@ -61,17 +61,8 @@ value = 10.4
 }
 
 fn run(dir: &Path, text: &str) -> study::Replay {
+    common::run_study(dir, text).unwrap();
     let p = dir.join("study.toml");
-    std::fs::write(&p, text).unwrap();
-    study::run(
-        &p,
-        &RunOptions {
-            jobs: 2,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .unwrap();
     let s = Study::load(&p).unwrap();
     let stored = study::Store::open(&s.store_path(), false)
         .unwrap()

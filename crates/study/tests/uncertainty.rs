@@ -3,28 +3,12 @@
 //! each route (response surface, sweep, Bayesian optimisation, GA-BP, SMC); and the flags say
 //! which parameters are not identified.
 
-use std::path::Path;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+mod common;
+use common::run_study;
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use study::RunOptions;
 use test_support::summary;
-
-fn run_study(dir: &Path, text: &str) -> Result<String, String> {
-    let p = dir.join("study.toml");
-    std::fs::write(&p, text).unwrap();
-    study::run(
-        &p,
-        &RunOptions {
-            jobs: 2,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .map_err(|e| e.to_string())
-}
 
 /// `n` lab replicates around `mean` with standard deviation `sd` (Box-Muller), and their mean.
 fn replicates(seed: u64, mean: f64, sd: f64, n: usize) -> (Vec<f64>, f64) {

@@ -418,7 +418,16 @@ fn once_each(responses: &[String]) -> Result<(), String> {
 
 /// `demcal doe analyze`: the report (or JSON) of every response; plots when asked.
 pub fn analyze(req: &ModelRequest, json: bool, plots: Option<&Path>) -> Result<String, String> {
-    let table = DataTable::read(&req.data)?;
+    analyze_table(req, &DataTable::read(&req.data)?, json, plots)
+}
+
+/// [`analyze`] on a table already read (the Python API's data frames); `req.data` is not read.
+pub fn analyze_table(
+    req: &ModelRequest,
+    table: &DataTable,
+    json: bool,
+    plots: Option<&Path>,
+) -> Result<String, String> {
     if req.responses.is_empty() {
         return Err("--response: name the response column".into());
     }
@@ -426,7 +435,7 @@ pub fn analyze(req: &ModelRequest, json: bool, plots: Option<&Path>) -> Result<S
     let mut out = String::new();
     let mut docs = Vec::new();
     for r in &req.responses {
-        let fit = fit_response(req, &table, r)?;
+        let fit = fit_response(req, table, r)?;
         if let Some(dir) = plots {
             let dir = if req.responses.len() > 1 {
                 dir.join(r)
@@ -551,6 +560,16 @@ pub struct OptimizeRequest {
 
 /// `demcal doe optimize`: fits each response, then searches the desirability.
 pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result<String, String> {
+    optimize_table(req, &DataTable::read(&req.data)?, opt, json)
+}
+
+/// [`optimize`] on a table already read.
+pub fn optimize_table(
+    req: &ModelRequest,
+    table: &DataTable,
+    opt: &OptimizeRequest,
+    json: bool,
+) -> Result<String, String> {
     if opt.solutions == 0 {
         return Err("--solutions 0: expected at least 1".into());
     }
@@ -564,7 +583,6 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
             crate::optimize::MAX_STARTS
         ));
     }
-    let table = DataTable::read(&req.data)?;
     if req.responses.is_empty() {
         return Err("--response: name at least one response column".into());
     }
@@ -575,7 +593,7 @@ pub fn optimize(req: &ModelRequest, opt: &OptimizeRequest, json: bool) -> Result
     let fits: Vec<Fit> = req
         .responses
         .iter()
-        .map(|r| fit_response(req, &table, r))
+        .map(|r| fit_response(req, table, r))
         .collect::<Result<_, _>>()?;
     let exp = &fits[0].experiment;
     let k = exp.factor_names.len();

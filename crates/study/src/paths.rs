@@ -115,6 +115,13 @@ impl ParamPath {
         Ok(())
     }
 
+    /// Writes any TOML value at the path (a quantity with its unit, `"29 MPa"`, from the Python
+    /// API, where the test's reader checks the unit).
+    pub fn set_value(&self, root: &mut toml::Table, value: toml::Value) -> Result<(), String> {
+        *self.slot(root)? = value;
+        Ok(())
+    }
+
     fn slot<'a>(&self, root: &'a mut toml::Table) -> Result<&'a mut toml::Value, String> {
         let mut table = root;
         let last = self.segments.len() - 1;

@@ -143,6 +143,45 @@ impl Fitted {
         }
     }
 
+    /// The prediction at actual (uncoded) inputs with its variance: a GP's posterior variance
+    /// of the mean (noise not included), a network ensemble's variance across its members, and
+    /// `None` for a single network, which has none.
+    pub fn predict_actual(&self, actual: &[f64]) -> (f64, Option<f64>) {
+        let c = self.to_coded(actual);
+        match &self.predictor {
+            Predictor::Gp(g) => {
+                let (m, v) = g.predict(&c);
+                (m, Some(v))
+            }
+            Predictor::Network(n) => {
+                let members = n.member_predictions(&c);
+                let mean = n.predict(&c);
+                if members.len() < 2 {
+                    return (mean, None);
+                }
+                let k = members.len() as f64;
+                let mu = members.iter().sum::<f64>() / k;
+                let var = members.iter().map(|y| (y - mu).powi(2)).sum::<f64>() / (k - 1.0);
+                (mean, Some(var))
+            }
+        }
+    }
+
+    /// Actual inputs mapped onto the coded box (the observed minimum -1, maximum +1).
+    pub fn to_coded(&self, actual: &[f64]) -> Vec<f64> {
+        actual
+            .iter()
+            .zip(&self.ranges)
+            .map(|(v, (lo, hi))| {
+                if hi > lo {
+                    (v - 0.5 * (lo + hi)) / (0.5 * (hi - lo))
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
     pub fn to_actual(&self, c: &[f64]) -> Vec<f64> {
         c.iter()
             .zip(&self.ranges)
@@ -153,7 +192,13 @@ impl Fitted {
 
 /// Reads the table and fits the model.
 pub fn fit_model(req: &FitRequest) -> Result<Fitted, String> {
-    fit_on(req, &DataTable::read(&req.data)?, &[])
+    fit_table(req, &DataTable::read(&req.data)?)
+}
+
+/// Fits the model on a table already read (the Python API's data frames); `req.data` is not
+/// read.
+pub fn fit_table(req: &FitRequest, table: &DataTable) -> Result<Fitted, String> {
+    fit_on(req, table, &[])
 }
 
 /// Fits the model of `req.response` on `table`; `not_factors` are columns that are not factors
@@ -363,23 +408,14 @@ fn metrics_text(out: &mut String, f: &Fitted) {
 
 /// `demcal surrogate fit`.
 pub fn fit(req: &FitRequest, json_out: bool) -> Result<String, String> {
-    let f = fit_model(req)?;
+    fit_on_table(req, &DataTable::read(&req.data)?, json_out)
+}
+
+/// [`fit`] on a table already read.
+pub fn fit_on_table(req: &FitRequest, table: &DataTable, json_out: bool) -> Result<String, String> {
+    let f = fit_table(req, table)?;
     if json_out {
-        let mut m = metrics_json(&f);
-        m.insert("model".into(), json!(f.model.name()));
-        m.insert("response".into(), json!(req.response));
-        m.insert("factors".into(), json!(f.factors));
-        m.insert("seed".into(), json!(req.seed));
-        m.insert(
-            "train_rows".into(),
-            json!(f.train.iter().map(|i| i + 1).collect::<Vec<_>>()),
-        );
-        m.insert(
-            "test_rows".into(),
-            json!(f.test.iter().map(|i| i + 1).collect::<Vec<_>>()),
-        );
-        m.insert("details".into(), f.details.clone());
-        return Ok(serde_json::to_string_pretty(&serde_json::Value::Object(m)).unwrap() + "\n");
+        return Ok(serde_json::to_string_pretty(&fitted_json(&f, req)).unwrap() + "\n");
     }
     let mut out = String::new();
     writeln!(
@@ -398,6 +434,26 @@ pub fn fit(req: &FitRequest, json_out: bool) -> Result<String, String> {
     metrics_text(&mut out, &f);
     writeln!(out, "model: {}", f.details).unwrap();
     Ok(out)
+}
+
+/// What `surrogate fit --json` prints of a fitted model: its metrics on each share of the rows,
+/// the rows, and facts about the model.
+pub fn fitted_json(f: &Fitted, req: &FitRequest) -> serde_json::Value {
+    let mut m = metrics_json(f);
+    m.insert("model".into(), json!(f.model.name()));
+    m.insert("response".into(), json!(req.response));
+    m.insert("factors".into(), json!(f.factors));
+    m.insert("seed".into(), json!(req.seed));
+    m.insert(
+        "train_rows".into(),
+        json!(f.train.iter().map(|i| i + 1).collect::<Vec<_>>()),
+    );
+    m.insert(
+        "test_rows".into(),
+        json!(f.test.iter().map(|i| i + 1).collect::<Vec<_>>()),
+    );
+    m.insert("details".into(), f.details.clone());
+    serde_json::Value::Object(m)
 }
 
 /// A number as people write it: 38.65, but 1e308 rather than 309 digits.
@@ -432,10 +488,21 @@ pub fn optimize(
     error_of: Option<&ErrorOf>,
     json_out: bool,
 ) -> Result<String, String> {
+    optimize_table(req, &DataTable::read(&req.data)?, goal, error_of, json_out)
+}
+
+/// [`optimize`] on a table already read.
+pub fn optimize_table(
+    req: &FitRequest,
+    table: &DataTable,
+    goal: Goal,
+    error_of: Option<&ErrorOf>,
+    json_out: bool,
+) -> Result<String, String> {
     let opts = GaOptions::search_default(req.seed);
     let (f, answer, goal_text) = match error_of {
         None => {
-            let f = fit_model(req)?;
+            let f = fit_table(req, table)?;
             let answer = search_column(&f, req, goal, &opts)?;
             (f, answer, goal_name(goal))
         }
@@ -446,7 +513,7 @@ pub fn optimize(
                     e.response, e.response
                 ));
             }
-            let (f, answer) = search_error_of(req, e, &opts)?;
+            let (f, answer) = search_error_of(req, table, e, &opts)?;
             (f, answer, goal_name(goal))
         }
     };
@@ -578,6 +645,7 @@ fn search_column(
 /// response comes nearest the lab value; the error reported is computed from that prediction.
 fn search_error_of(
     req: &FitRequest,
+    table: &DataTable,
     e: &ErrorOf,
     opts: &GaOptions,
 ) -> Result<(Fitted, Answer), String> {
@@ -593,8 +661,7 @@ fn search_error_of(
             e.response
         ));
     }
-    let table = DataTable::read(&req.data)?;
-    let scale = error_scale(&table, &req.response, e)?;
+    let scale = error_scale(table, &req.response, e)?;
     if req
         .factors
         .as_ref()
@@ -609,7 +676,7 @@ fn search_error_of(
         response: e.response.clone(),
         ..req.clone()
     };
-    let f = fit_on(&modelled, &table, std::slice::from_ref(&req.response))?;
+    let f = fit_on(&modelled, table, std::slice::from_ref(&req.response))?;
     let bounds = vec![(-1.0, 1.0); f.factors.len()];
     let found = genetic::minimize(&bounds, |c| (f.predict_coded(c) - e.lab).abs(), opts)?;
     let response = f.predict_coded(&found.best);

@@ -1,0 +1,222 @@
+//! `demcal._demcal`: the native half of the Python package (PyO3, stable ABI 3.9).
+//!
+//! Thin on purpose: each function takes what a command-line call takes (file text, a folder,
+//! parameter values, options), runs the same library code as the `demcal` binary, and hands the
+//! answer back as JSON text, which the pure-Python half (`python/demcal/`) turns into typed
+//! objects and numpy arrays. So the Python API and the binary cannot drift apart, and no Rust
+//! type has to mirror a Python one.
+//!
+//! Every simulation runs on a thread of its own with the GIL released ([`interruptible`]); the
+//! calling thread wakes every 100 ms to let Python handle signals, so Ctrl-C stops the run
+//! (the same stop a study gets from `demcal run`) and raises `KeyboardInterrupt`.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::Arc;
+use std::time::Duration;
+
+use pyo3::create_exception;
+use pyo3::exceptions::{PyException, PyKeyboardInterrupt};
+use pyo3::prelude::*;
+
+mod design;
+mod scene;
+mod study;
+mod surrogate;
+mod test;
+
+create_exception!(
+    _demcal,
+    DemcalError,
+    PyException,
+    "Every error demcal raises."
+);
+create_exception!(
+    _demcal,
+    InputError,
+    DemcalError,
+    "A file, a key or an argument is wrong; the message names it and what was expected."
+);
+create_exception!(
+    _demcal,
+    RunError,
+    DemcalError,
+    "A simulation gave no result: `kind` says why (the kinds a study stores)."
+);
+create_exception!(
+    _demcal,
+    SettingsError,
+    RunError,
+    "The test's settings, with the parameter values, were refused."
+);
+create_exception!(
+    _demcal,
+    DivergedError,
+    RunError,
+    "The simulation blew up: positions or velocities not finite."
+);
+create_exception!(
+    _demcal,
+    EscapedError,
+    RunError,
+    "A particle left the simulation domain."
+);
+create_exception!(
+    _demcal,
+    MeasurementError,
+    RunError,
+    "The run finished but its measurement could not be made."
+);
+create_exception!(
+    _demcal,
+    NotQuasiStaticError,
+    RunError,
+    "A mechanical test whose specimen's kinetic energy exceeded its share of the work."
+);
+create_exception!(
+    _demcal,
+    OutputError,
+    RunError,
+    "The run's files could not be written."
+);
+create_exception!(
+    _demcal,
+    StudyError,
+    DemcalError,
+    "A study ended without finishing (its report says why)."
+);
+create_exception!(
+    _demcal,
+    StudyLockedError,
+    StudyError,
+    "Another process runs the study: try again when it has finished."
+);
+
+/// An input error with `message`.
+pub(crate) fn input(message: impl Into<String>) -> PyErr {
+    InputError::new_err(message.into())
+}
+
+/// A count given from Python (threads, jobs): at least 1 and at most what the CLI takes.
+pub(crate) fn check_count(what: &str, n: usize) -> PyResult<()> {
+    if n == 0 || n > 4096 {
+        return Err(input(format!("{what}={n}: expected 1 to 4096")));
+    }
+    Ok(())
+}
+
+/// Runs `work` on a thread of its own with the GIL released, on a pool of `threads` threads
+/// (rayon's global pool, one per core, when `None`). The calling thread checks Python's signals
+/// every 100 ms: on Ctrl-C it sets `stop`, waits for `work` to notice and return, and raises
+/// `KeyboardInterrupt`. `work` must poll `stop` (every simulation's progress callback does).
+pub(crate) fn interruptible<T, F>(
+    py: Python<'_>,
+    threads: Option<usize>,
+    stop: Arc<AtomicBool>,
+    work: F,
+) -> PyResult<T>
+where
+    T: Send + 'static,
+    F: FnOnce() -> T + Send + 'static,
+{
+    let pool = match threads {
+        Some(n) => {
+            check_count("threads", n)?;
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| DemcalError::new_err(format!("threads={n}: {e}")))?,
+            )
+        }
+        None => None,
+    };
+    let (tx, rx) = mpsc::channel();
+    std::thread::Builder::new()
+        .name("demcal".into())
+        .spawn(move || {
+            // One simulation works on its parallel stages itself with the pool's other threads
+            // joining in (as the binary's `on_pool`), rather than queueing each stage.
+            let run = move || {
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match &pool {
+                    Some(p) => p.install(work),
+                    None => rayon::scope(|_| work()),
+                }))
+            };
+            let _ = tx.send(run());
+        })
+        .map_err(|e| DemcalError::new_err(format!("cannot start a thread: {e}")))?;
+    let mut rx = rx;
+    loop {
+        let (got, back) = py.detach(move || {
+            let got = rx.recv_timeout(Duration::from_millis(100));
+            (got, rx)
+        });
+        rx = back;
+        match got {
+            Ok(Ok(value)) => return Ok(value),
+            Ok(Err(panic)) => {
+                let msg = panic
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_default();
+                return Err(DemcalError::new_err(format!(
+                    "demcal panicked (a bug; please report it): {msg}"
+                )));
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(DemcalError::new_err(
+                    "the simulation thread ended without an answer",
+                ))
+            }
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    stop.store(true, Ordering::SeqCst);
+                    // The run stops at its next progress report (every few hundred steps).
+                    let _ = py.detach(move || rx.recv());
+                    return Err(e);
+                }
+            }
+        }
+    }
+}
+
+/// `KeyboardInterrupt` with `message`, for a run that `stop` ended from elsewhere.
+pub(crate) fn interrupted(message: &str) -> PyErr {
+    PyKeyboardInterrupt::new_err(message.to_string())
+}
+
+/// JSON text for Python's `json.loads`.
+pub(crate) fn to_json(v: &serde_json::Value) -> String {
+    serde_json::to_string(v).expect("JSON values serialise")
+}
+
+/// The demcal version this extension was built from.
+#[pyfunction]
+fn version() -> &'static str {
+    env!("CARGO_PKG_VERSION")
+}
+
+#[pymodule]
+fn _demcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("DemcalError", py.get_type::<DemcalError>())?;
+    m.add("InputError", py.get_type::<InputError>())?;
+    m.add("RunError", py.get_type::<RunError>())?;
+    m.add("SettingsError", py.get_type::<SettingsError>())?;
+    m.add("DivergedError", py.get_type::<DivergedError>())?;
+    m.add("EscapedError", py.get_type::<EscapedError>())?;
+    m.add("MeasurementError", py.get_type::<MeasurementError>())?;
+    m.add("NotQuasiStaticError", py.get_type::<NotQuasiStaticError>())?;
+    m.add("OutputError", py.get_type::<OutputError>())?;
+    m.add("StudyError", py.get_type::<StudyError>())?;
+    m.add("StudyLockedError", py.get_type::<StudyLockedError>())?;
+    m.add_function(wrap_pyfunction!(version, m)?)?;
+    test::register(m)?;
+    scene::register(m)?;
+    study::register(m)?;
+    design::register(m)?;
+    surrogate::register(m)?;
+    Ok(())
+}

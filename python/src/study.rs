@@ -1,0 +1,123 @@
+//! Calibration studies from Python: what `demcal run`, `status` and `report` do, and the
+//! stored runs as data.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use pyo3::prelude::*;
+use serde_json::json;
+use study::{RunStudyError, Store, Study};
+
+use crate::{check_count, input, interruptible, to_json, DemcalError, StudyError};
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(study_info, m)?)?;
+    m.add_function(wrap_pyfunction!(study_run, m)?)?;
+    m.add_function(wrap_pyfunction!(study_status, m)?)?;
+    m.add_function(wrap_pyfunction!(study_results, m)?)?;
+    m.add_function(wrap_pyfunction!(study_report, m)?)?;
+    Ok(())
+}
+
+fn load(path: &Path) -> PyResult<Study> {
+    Study::load(path).map_err(input)
+}
+
+/// The study as read: its name, parameters with their ranges, plan, tests and where it keeps
+/// its results and report. Nothing is built or run.
+#[pyfunction]
+fn study_info(path: PathBuf) -> PyResult<String> {
+    let s = load(&path)?;
+    let parameters: Vec<_> = s
+        .parameters
+        .iter()
+        .map(|p| {
+            json!({
+                "name": p.name,
+                "display_name": p.display_name(),
+                "min": p.min,
+                "max": p.max,
+                "paths": p.paths.iter().map(|(path, _)| path.text.clone()).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    Ok(to_json(&json!({
+        "name": s.name,
+        "path": s.path,
+        "seed": s.seed,
+        "parameters": parameters,
+        "plan": s.plan.iter().map(|st| st.kind().to_string()).collect::<Vec<_>>(),
+        "tests": s.tests.iter().map(|t| t.name.clone()).collect::<Vec<_>>(),
+        "response": s.target.response,
+        "store": s.store_path(),
+        "report_dir": s.report_dir(),
+        "backend": s.backend,
+    })))
+}
+
+/// `demcal run`: runs (or resumes) the study on this machine with `jobs` runs at once, writes
+/// its report, and returns what the binary prints. Ctrl-C keeps every finished run and raises
+/// `KeyboardInterrupt`; the same call goes on from them.
+#[pyfunction]
+#[pyo3(signature = (path, jobs=1, restart=false, retry_failed=false, backend=None))]
+fn study_run(
+    py: Python<'_>,
+    path: PathBuf,
+    jobs: usize,
+    restart: bool,
+    retry_failed: bool,
+    backend: Option<String>,
+) -> PyResult<String> {
+    check_count("jobs", jobs)?;
+    load(&path)?;
+    // The runs are made in this process, on this machine's cores (a study written for Slurm is
+    // submitted with `demcal run`).
+    let opts = study::RunOptions {
+        jobs,
+        jobs_given: true,
+        restart,
+        retry_failed,
+        backend,
+        executor: Some("local".into()),
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    // The study's runs share the machine's cores, `jobs` at a time (as `demcal run --jobs`).
+    let result = interruptible(py, None, stop, move || study::run(&path, &opts, flag))?;
+    result.map_err(|e| match e {
+        RunStudyError::StudyFile(m) => input(m),
+        RunStudyError::Locked(m) => crate::StudyLockedError::new_err(m),
+        RunStudyError::Interrupted(m) => crate::interrupted(&m),
+        RunStudyError::Stopped(m) => StudyError::new_err(m),
+        RunStudyError::Other(m) => DemcalError::new_err(m),
+    })
+}
+
+/// `demcal status`.
+#[pyfunction]
+fn study_status(path: PathBuf) -> PyResult<String> {
+    study::status(&path).map_err(input)
+}
+
+/// Every stored run as JSON (a list of records: stage, kind, index, inputs, seed, status,
+/// response, outputs, error, error_kind, wall_s, ...), scored against the targets as the study
+/// is written now. An empty list when the study has not run.
+#[pyfunction]
+fn study_results(path: PathBuf) -> PyResult<String> {
+    let s = load(&path)?;
+    if !s.store_path().exists() {
+        return Ok("[]".into());
+    }
+    let store = Store::open(&s.store_path(), false).map_err(DemcalError::new_err)?;
+    let runs = study::job::rescored_all(&s, store.runs().map_err(DemcalError::new_err)?);
+    serde_json::to_string(&runs).map_err(|e| DemcalError::new_err(e.to_string()))
+}
+
+/// `demcal report`: writes the report (into `out`, or the study's `report/`) and returns its
+/// folder.
+#[pyfunction]
+#[pyo3(signature = (path, out=None))]
+fn study_report(path: PathBuf, out: Option<PathBuf>) -> PyResult<PathBuf> {
+    study::report(&path, out.as_deref()).map_err(DemcalError::new_err)
+}

@@ -105,13 +105,25 @@ pub(crate) fn check_count(what: &str, n: usize) -> PyResult<()> {
     Ok(())
 }
 
-/// Runs `work` on a thread of its own with the GIL released, on a pool of `threads` threads
-/// (rayon's global pool, one per core, when `None`). The calling thread checks Python's signals
+/// How a piece of work uses rayon's threads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Pool {
+    /// One simulation: it runs on a pool thread and works on its parallel stages itself, the
+    /// other threads joining in (as the binary's `on_pool`), on `threads` threads or the global
+    /// pool (one per core).
+    One(Option<usize>),
+    /// A study: it starts simulations from threads of its own, which would queue behind it if
+    /// it held a pool thread (as `demcal run`).
+    Own,
+}
+
+/// Runs `work` on a thread of its own with the GIL released, as `pool` says. The calling
+/// thread checks Python's signals
 /// every 100 ms: on Ctrl-C it sets `stop`, waits for `work` to notice and return, and raises
 /// `KeyboardInterrupt`. `work` must poll `stop` (every simulation's progress callback does).
 pub(crate) fn interruptible<T, F>(
     py: Python<'_>,
-    threads: Option<usize>,
+    pool: Pool,
     stop: Arc<AtomicBool>,
     work: F,
 ) -> PyResult<T>
@@ -119,6 +131,11 @@ where
     T: Send + 'static,
     F: FnOnce() -> T + Send + 'static,
 {
+    let threads = match pool {
+        Pool::One(t) => t,
+        Pool::Own => None,
+    };
+    let own = pool == Pool::Own;
     let pool = match threads {
         Some(n) => {
             check_count("threads", n)?;
@@ -139,6 +156,7 @@ where
             // joining in (as the binary's `on_pool`), rather than queueing each stage.
             let run = move || {
                 std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match &pool {
+                    _ if own => work(),
                     Some(p) => p.install(work),
                     None => rayon::scope(|_| work()),
                 }))

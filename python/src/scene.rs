@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use serde_json::json;
 
 use crate::test::table_from;
-use crate::{input, interruptible, to_json};
+use crate::{input, interruptible, to_json, Pool};
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene_info, m)?)?;
@@ -65,7 +65,7 @@ fn scene_run(
     let scene = build(table_json, name, folder).map_err(input)?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
-    let (answer, failure) = interruptible(py, threads, stop, move || {
+    let (answer, failure) = interruptible(py, Pool::One(threads), stop, move || {
         let mut sim = scene.simulation;
         let steps = steps.unwrap_or(scene.steps);
         let start = Instant::now();

@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use serde_json::json;
 use study::{RunStudyError, Store, Study};
 
-use crate::{check_count, input, interruptible, to_json, DemcalError, StudyError};
+use crate::{check_count, input, interruptible, to_json, DemcalError, Pool, StudyError};
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(study_info, m)?)?;
@@ -84,7 +84,7 @@ fn study_run(
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     // The study's runs share the machine's cores, `jobs` at a time (as `demcal run --jobs`).
-    let result = interruptible(py, None, stop, move || study::run(&path, &opts, flag))?;
+    let result = interruptible(py, Pool::Own, stop, move || study::run(&path, &opts, flag))?;
     result.map_err(|e| match e {
         RunStudyError::StudyFile(m) => input(m),
         RunStudyError::Locked(m) => crate::StudyLockedError::new_err(m),

@@ -12,7 +12,7 @@ use serde_json::{json, Value};
 use study::paths::ParamPath;
 use virtual_tests::{Response, TestError, TestFile};
 
-use crate::{input, interruptible, to_json};
+use crate::{input, interruptible, to_json, Pool};
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_table, m)?)?;
@@ -132,7 +132,7 @@ fn test_run(
     }
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
-    let result = interruptible(py, threads, stop.clone(), move || {
+    let result = interruptible(py, Pool::One(threads), stop.clone(), move || {
         let start = Instant::now();
         let mut progress = |_: &str, _: f64| -> Result<(), String> {
             if flag.load(Ordering::Relaxed) {

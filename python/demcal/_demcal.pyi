@@ -1,9 +1,41 @@
 # Type stubs of the native module (python/src/*.rs). The public API is the pure-Python one in
 # this package; these functions take and give JSON text.
 from os import PathLike
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union, final
 
 _Path = Union[str, PathLike[str]]
+
+__all__ = [
+    "DemcalError",
+    "InputError",
+    "RunError",
+    "SettingsError",
+    "DivergedError",
+    "EscapedError",
+    "MeasurementError",
+    "NotQuasiStaticError",
+    "OutputError",
+    "StudyError",
+    "StudyLockedError",
+    "version",
+    "read_table",
+    "test_info",
+    "test_run",
+    "scene_info",
+    "scene_run",
+    "study_info",
+    "study_run",
+    "study_status",
+    "study_results",
+    "study_report",
+    "doe_design",
+    "doe_analyze",
+    "doe_optimize",
+    "NativeSurrogate",
+    "surrogate_fit",
+    "surrogate_optimize",
+]
 
 class DemcalError(Exception): ...
 class InputError(DemcalError): ...
@@ -39,7 +71,7 @@ def study_run(
 ) -> str: ...
 def study_status(path: _Path) -> str: ...
 def study_results(path: _Path) -> str: ...
-def study_report(path: _Path, out: Optional[_Path] = None) -> str: ...
+def study_report(path: _Path, out: Optional[_Path] = None) -> Path: ...
 def doe_design(
     kind: str,
     factors: str,
@@ -82,6 +114,7 @@ def doe_optimize(
     seed: int = 1,
 ) -> str: ...
 
+@final
 class NativeSurrogate:
     @property
     def factors(self) -> List[str]: ...

@@ -7,7 +7,7 @@ from __future__ import annotations
 import csv
 import io
 import os
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 TableLike = Union[str, "os.PathLike[str]", Mapping[str, Sequence[Any]], Sequence[Mapping[str, Any]], Any]
 
@@ -30,13 +30,13 @@ def table_args(data: TableLike, name: str = "data") -> Tuple[Optional[str], Opti
         rows = list(zip(*values)) if values else []
         return None, _csv(columns, rows), name
     if isinstance(data, Sequence) and all(isinstance(r, Mapping) for r in data):
-        columns: List[str] = []
-        for r in data:
+        records: List[Mapping[str, Any]] = list(cast(Sequence[Mapping[str, Any]], data))
+        names: List[str] = []
+        for r in records:
             for k in r.keys():
-                if str(k) not in columns:
-                    columns.append(str(k))
-        rows = [[r.get(c, "") for c in columns] for r in data]
-        return None, _csv(columns, rows), name
+                if str(k) not in names:
+                    names.append(str(k))
+        return None, _csv(names, [[r.get(c, "") for c in names] for r in records]), name
     raise TypeError(
         f"{name}: expected a CSV file's path, a pandas DataFrame, a dict of columns or a list of row dicts, "
         f"got {type(data).__name__}")

@@ -18,6 +18,7 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 
 from . import _demcal
 from ._tables import TableLike, frame_or_rows, rows_from_csv, table_args
+from .errors import InputError
 
 KINDS = ("plackett-burman", "factorial", "fractional", "ccd", "box-behnken", "lhs", "random", "steepest")
 
@@ -140,14 +141,37 @@ def analyze(data: TableLike, response: Union[str, Sequence[str]], *, factors: Op
     """Fits `response` (or each of several) as `demcal doe analyze` does: `model` linear, 2fi,
     quadratic, cubic, mean or a term list (linear for two-level data, quadratic otherwise when
     None); `reduce` for backward elimination at `alpha_out`; `plots` a folder for the plots.
-    Returns an `Analysis` (a list of them for several responses)."""
+    Returns an `Analysis` for a response named by a str, a list of them for a list of names."""
     responses = [response] if isinstance(response, str) else list(response)
     path, csv, source = table_args(data)
     out = json.loads(_demcal.doe_analyze(responses, path, csv, source, factors, model, reduce, alpha_out,
                                          not hierarchy, not curvature, plots))
-    if isinstance(out, list):
-        return [_analysis(j) for j in out]
-    return _analysis(out)
+    fits = [_analysis(j) for j in out] if isinstance(out, list) else [_analysis(out)]
+    return fits[0] if isinstance(response, str) else fits
+
+
+_GOAL_WORDS = ("maximize", "max", "minimize", "min", "target", "range", "in_range")
+
+
+def _goal_responses(goals: Sequence[str], factors: Optional[str]) -> List[str]:
+    """The response columns the goals name, when `responses` is not given: every goal's column
+    but the factors'. A goal on a factor (`"D:range:lower=-0.5:upper=0.5"`) cannot be told from
+    one on a response without `factors`, so several goals need `factors` or `responses`."""
+    names = []
+    for g in goals:
+        head = g.split(":", 1)[0].strip()
+        if head.split("=", 1)[0] in _GOAL_WORDS:
+            raise InputError(f"goal '{g}' names no column: write it as NAME:GOAL, or give responses=[...]")
+        names.append(head)
+    factor_names = {f.split(":", 1)[0].strip() for f in factors.split(",")} if factors else set()
+    responses = [n for n in names if n not in factor_names]
+    if not responses:
+        raise InputError(f"goals {goals}: each names a factor ({factors}); give responses=[...] too")
+    if len(names) > 1 and not factors:
+        raise InputError(
+            f"goals on {', '.join(names)}: say which columns are responses (responses=[...]) or which are "
+            "factors (factors=...); a goal may be on either")
+    return responses
 
 
 def optimize(data: TableLike, goals: Union[str, Sequence[str], Dict[str, str]], *,
@@ -156,17 +180,19 @@ def optimize(data: TableLike, goals: Union[str, Sequence[str], Dict[str, str]], 
              solutions: int = 10, starts: int = 100, seed: int = 1) -> Dict[str, Any]:
     """Desirability optimisation over the fitted models, as `demcal doe optimize --json`.
 
-    `goals` as on the command line (`"angle_deg:target=38.65"`, `"error:minimize:upper=5"`), or
-    {response: goal} (`{"angle_deg": "target=38.65"}`). `responses` defaults to the goals'
-    columns. Returns the solutions (each factor's setting, each response's prediction and
-    desirability) as `demcal doe optimize --json` gives them."""
+    `goals` as on the command line (`"angle_deg:target=38.65"`, `"error:minimize:upper=5"`, a
+    factor's `"D:range:lower=-0.5:upper=0.5"`), or {column: goal} (`{"angle_deg": "target=38.65"}`).
+    `responses` (the CLI's `--response`) defaults to the goals' columns less those named in
+    `factors`; with several goals give `responses` or `factors`, since a goal may be on either
+    (`InputError` otherwise). Returns the solutions (each factor's setting, each response's
+    prediction and desirability) as `demcal doe optimize --json` gives them."""
     if isinstance(goals, str):
         goals = [goals]
     elif isinstance(goals, dict):
         goals = [f"{k}:{v}" for k, v in goals.items()]
     goals = list(goals)
     if responses is None:
-        responses = [g.split(":", 1)[0] for g in goals]
+        responses = _goal_responses(goals, factors)
     path, csv, source = table_args(data)
     return json.loads(_demcal.doe_optimize(list(responses), goals, path, csv, source, factors, model, reduce,
                                            alpha_out, solutions, starts, seed))

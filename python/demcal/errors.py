@@ -15,6 +15,14 @@ from ._demcal import (  # noqa: F401
     StudyLockedError,
 )
 
+# The native module makes its exceptions in a module it calls `_demcal`, which cannot be imported
+# by that name: tracebacks said `_demcal.InputError` and pickle (multiprocessing,
+# concurrent.futures) failed to find the class. They are all importable from `demcal`.
+for _cls in (DemcalError, InputError, RunError, SettingsError, DivergedError, EscapedError, MeasurementError,
+             NotQuasiStaticError, OutputError, StudyError, StudyLockedError):
+    _cls.__module__ = "demcal"
+del _cls
+
 #: The exception for each failure kind (`Result.error_kind`).
 BY_KIND = {
     "bad_settings": SettingsError,
@@ -29,3 +37,24 @@ BY_KIND = {
 def for_kind(kind: str) -> type:
     """The exception class for a failure kind (`RunError` for a kind without its own)."""
     return BY_KIND.get(kind, RunError)
+
+
+def whole(name: str, value, least: int):  # type: ignore[no-untyped-def]
+    """`value` when it is a whole number (not a bool) of at least `least`, or None; else an
+    `InputError` naming the argument (rather than the OverflowError a negative number gives on
+    its way into the native module)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        try:
+            import numpy as np
+
+            if isinstance(value, np.integer):
+                value = int(value)
+            else:
+                raise TypeError
+        except TypeError:
+            raise InputError(f"{name}={value!r}: expected a whole number >= {least}") from None
+    if value < least:
+        raise InputError(f"{name}={value}: expected a whole number >= {least}")
+    return value

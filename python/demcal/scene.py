@@ -18,6 +18,7 @@ from typing import Any, Dict, List, Mapping, Optional, Union
 import numpy as np
 
 from . import _demcal
+from .errors import whole
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -81,6 +82,8 @@ class Scene:
         """Builds the scene anew and runs it for `steps` (the file's run length when None) on
         `threads` cores (all when None), with the GIL released; Ctrl-C stops it
         (`KeyboardInterrupt`). A run that blows up raises `DivergedError`."""
+        steps = whole("steps", steps, 0)
+        threads = whole("threads", threads, 1)
         a = json.loads(_demcal.scene_run(json.dumps(self._table), self.name, self.folder, steps, threads))
         return SceneState(
             position=np.asarray(a["position"], dtype=float).reshape(-1, 3),

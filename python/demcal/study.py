@@ -14,6 +14,7 @@ from typing import Any, Dict, List, Optional, Union
 
 from . import _demcal
 from ._tables import frame_or_rows
+from .errors import whole
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -48,6 +49,7 @@ class Study:
         finished run and raises `KeyboardInterrupt` (the same call goes on from them). A study
         that stopped (too few runs finished) raises `StudyError`; one another process runs,
         `StudyLockedError`."""
+        jobs = whole("jobs", jobs, 1)
         return _demcal.study_run(self.path, jobs, restart, retry_failed, backend)
 
     def status(self) -> str:
@@ -70,7 +72,11 @@ class Study:
             }
             inputs = r.get("inputs") or {}
             if isinstance(inputs, dict):
-                row.update(inputs)
+                # In the study's order (the store keeps them by name).
+                for p in self.parameters:
+                    if p["name"] in inputs:
+                        row[p["name"]] = inputs[p["name"]]
+                row.update({k: v for k, v in inputs.items() if k not in row})
             row.update({"wall_s": r["wall_s"], "error": r.get("error"), "error_kind": r.get("error_kind"),
                         "outputs": r.get("outputs")})
             rows.append(row)

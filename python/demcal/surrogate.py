@@ -1,5 +1,5 @@
-"""Surrogate models, as `demcal surrogate fit | optimize`: a Gaussian process (Matern 5/2, 3/2
-or squared exponential), a BP network or a GA-BP network on a result table.
+"""Surrogate models, as `demcal surrogate fit | optimize`: a Gaussian process (Matern 5/2 or
+squared exponential), a BP network or a GA-BP network on a result table.
 
     gp = demcal.surrogate.fit(table, "angle_deg", factors=["mu_s", "mu_r"])
     mean, var = gp.predict([[0.5, 0.1], [0.6, 0.12]])
@@ -38,7 +38,8 @@ class Surrogate:
         factor columns). The variance is a GP's posterior variance of the mean (noise not
         included) or a network ensemble's spread; NaN for a single network."""
         if hasattr(x, "columns") or isinstance(x, dict):
-            x = np.column_stack([np.asarray(x[f], dtype=float) for f in self.factors])
+            table: Any = x
+            x = np.column_stack([np.asarray(table[f], dtype=float) for f in self.factors])
         arr = np.atleast_2d(np.asarray(x, dtype=float))
         pairs = self._native.predict(arr.tolist())
         mean = np.array([m for m, _ in pairs], dtype=float)
@@ -52,8 +53,8 @@ class Surrogate:
 def fit(data: TableLike, response: str, *, factors: Optional[Sequence[str]] = None, model: str = "gp",
         kernel: Optional[str] = None, seed: int = 1, train_fraction: float = 0.8) -> Surrogate:
     """Fits a surrogate of `response` on the other columns (or `factors`): `model` gp, bp or
-    ga-bp; `kernel` matern52, matern32 or rbf for a GP; `train_fraction` of the rows trained on,
-    the rest kept to test it (as the papers' 80/20)."""
+    ga-bp; `kernel` matern52 (the default) or squared_exponential (`rbf`) for a GP;
+    `train_fraction` of the rows trained on, the rest kept to test it (as the papers' 80/20)."""
     path, csv, source = table_args(data)
     native = _demcal.surrogate_fit(response, path, csv, source, None if factors is None else list(factors), model,
                                    kernel, seed, train_fraction)

@@ -16,7 +16,7 @@ from typing import Any, Dict, List, Mapping, Optional, Union
 import numpy as np
 
 from . import _demcal
-from .errors import for_kind
+from .errors import for_kind, whole
 
 Number = Union[float, int]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -168,6 +168,8 @@ class Test:
         wrong key or value raises `InputError` before anything runs.
         """
         params = dict(params or {})
+        seed = whole("seed", seed, 0)
+        threads = whole("threads", threads, 1)
         answer = json.loads(
             _demcal.test_run(
                 self._json(),

@@ -30,8 +30,10 @@ fn build(table_json: &str, name: &str, folder: &str) -> Result<Scene, String> {
 
 /// Builds the scene (nothing simulated) and says what it holds.
 #[pyfunction]
-fn scene_info(table_json: &str, name: &str, folder: &str) -> PyResult<String> {
-    let scene = build(table_json, name, folder).map_err(input)?;
+fn scene_info(py: Python<'_>, table_json: &str, name: &str, folder: &str) -> PyResult<String> {
+    let scene = py
+        .detach(|| build(table_json, name, folder))
+        .map_err(input)?;
     let sim = &scene.simulation;
     Ok(to_json(&json!({
         "particles": sim.particles.len(),
@@ -47,7 +49,8 @@ fn scene_info(table_json: &str, name: &str, folder: &str) -> PyResult<String> {
 
 /// Builds and runs the scene for `steps` (the file's own run length when `None`) and returns
 /// its end state as JSON: counts, times, kinetic energy, bonds, and each particle's position,
-/// velocity and radius. A run that blows up raises `DivergedError` with the engine's message.
+/// velocity and radius. A run that blows up raises `DivergedError`, one that loses a particle
+/// out of its domain `EscapedError`, with the engine's message.
 #[pyfunction]
 #[pyo3(signature = (table_json, name, folder, steps=None, threads=None))]
 fn scene_run(
@@ -62,7 +65,9 @@ fn scene_run(
         return Err(input(format!("steps={n}: at most {MAX_STEPS:e}")));
     }
     // Built here (errors are the input's), moved whole onto the simulation thread.
-    let scene = build(table_json, name, folder).map_err(input)?;
+    let scene = py
+        .detach(|| build(table_json, name, folder))
+        .map_err(input)?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     let (answer, failure) = interruptible(py, Pool::One(threads), stop, move || {
@@ -76,7 +81,12 @@ fn scene_run(
                 break;
             }
             if let Err(e) = sim.step() {
-                failure = Some(("diverged", e.to_string()));
+                let kind = match e {
+                    dem::sim::SimError::LeftDomain { .. } => "escaped",
+                    dem::sim::SimError::NotFinite { .. } => "diverged",
+                    _ => "stopped",
+                };
+                failure = Some((kind, e.to_string()));
                 break;
             }
         }
@@ -102,6 +112,8 @@ fn scene_run(
     match failure {
         None => Ok(to_json(&answer)),
         Some(("interrupted", _)) => Err(crate::interrupted("interrupted")),
-        Some((_, why)) => Err(crate::DivergedError::new_err(format!("{name}: {why}"))),
+        Some(("escaped", why)) => Err(crate::EscapedError::new_err(format!("{name}: {why}"))),
+        Some(("diverged", why)) => Err(crate::DivergedError::new_err(format!("{name}: {why}"))),
+        Some((_, why)) => Err(crate::RunError::new_err(format!("{name}: {why}"))),
     }
 }

@@ -119,5 +119,6 @@ fn study_results(path: PathBuf) -> PyResult<String> {
 #[pyfunction]
 #[pyo3(signature = (path, out=None))]
 fn study_report(path: PathBuf, out: Option<PathBuf>) -> PyResult<PathBuf> {
-    study::report(&path, out.as_deref()).map_err(DemcalError::new_err)
+    // As `status`: what stops a report is the study file or its store as they are now.
+    study::report(&path, out.as_deref()).map_err(input)
 }

@@ -382,7 +382,19 @@ pub fn fit_response(req: &ModelRequest, table: &DataTable, response: &str) -> Re
             req.alpha_out
         ));
     }
-    let exp = Experiment::from_table(table, response, &factor_columns(&req.factors)?)?;
+    // Without --factors, every column but the responses is a factor: with several responses,
+    // the others are not factors of this one (they would fit it exactly).
+    let columns = match factor_columns(&req.factors)? {
+        FactorColumns::Default => {
+            let mut responses = req.responses.clone();
+            if !responses.iter().any(|r| r == response) {
+                responses.push(response.to_string());
+            }
+            FactorColumns::Coded(table.default_factor_columns(&responses))
+        }
+        given => given,
+    };
+    let exp = Experiment::from_table(table, response, &columns)?;
     let mut terms = model_terms(req.model.as_deref(), &exp)?;
     // "Cubic where estimable": leave out the cubic terms the design aliases.
     let mut aliased = Vec::new();

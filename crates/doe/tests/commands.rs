@@ -500,3 +500,48 @@ fn nonsense_designs_and_tables_are_refused() {
     let e = DataTable::parse("d.csv", "A,B,A,y\n1,2,3,4\n").unwrap_err();
     assert_eq!(e, "d.csv: columns 1 and 3 are both named 'A'");
 }
+
+/// With several responses and no --factors, the other responses are not factors: a second
+/// response made from the first (y2 = 2 angle + D) once fitted exactly on it (R² 1 with the
+/// angle as a term).
+#[test]
+fn several_responses_are_not_each_others_factors() {
+    let mut csv = String::new();
+    for (i, line) in include_str!("data/silage-repose-ccd.csv")
+        .lines()
+        .enumerate()
+    {
+        if i == 0 {
+            csv.push_str(&format!("{line},y2\n"));
+            continue;
+        }
+        let cells: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+        csv.push_str(&format!("{line},{}\n", 2.0 * cells[4] + cells[1]));
+    }
+    let req = ModelRequest {
+        data: temp_file("two-responses.csv", &csv),
+        responses: vec!["angle_deg".into(), "y2".into()],
+        model: Some("linear".into()),
+        alpha_out: 0.1,
+        ..Default::default()
+    };
+    let out = commands::analyze(&req, true, None).unwrap();
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let fits = v.as_array().unwrap();
+    assert_eq!(fits.len(), 2);
+    for fit in fits {
+        let terms: Vec<&str> = fit["terms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["name"].as_str().unwrap())
+            .collect();
+        assert_eq!(terms, ["D", "E", "G"], "{}", fit["response"]);
+    }
+    // y2's linear fit is twice the angle's, plus D's coefficient 1: its R² is not 1.
+    let r2 = fits[1]["r2"].as_f64().unwrap();
+    assert!(r2 < 0.99, "R² {r2}");
+    let a = fits[0]["coefficients_coded"]["D"].as_f64().unwrap();
+    let b = fits[1]["coefficients_coded"]["D"].as_f64().unwrap();
+    assert!((b - (2.0 * a + 1.0)).abs() < 1e-9, "{a} {b}");
+}

@@ -31,8 +31,15 @@ class Study:
         self.parameters: List[Dict[str, Any]] = info["parameters"]
         #: The stages' kinds, in order (`screening`, `steepest`, `rsm`, `optimize`, ...).
         self.plan: List[str] = info["plan"]
+        #: The tests' names (a study of one test names it after its kind) and their files
+        #: (`"inline"` for a test written in the study).
         self.tests: List[str] = info["tests"]
+        self.test_files: List[str] = info["test_files"]
+        #: The response a run is scored by (the combined objective's with several targets).
         self.response: str = info["response"]
+        #: The lab targets: test, response, value (the replicates' mean), replicates, unit,
+        #: minimised, weight.
+        self.targets: List[Dict[str, Any]] = info["targets"]
         self.store: str = info["store"]
         self.report_dir: str = info["report_dir"]
         self.seed: int = info["seed"]

@@ -2,7 +2,7 @@
 
     t = demcal.Test.load("examples/quickstart/repose.toml")
     r = t.run({"interaction[bead,bead].rolling_friction": 0.12}, seed=1)
-    r.responses["angle_deg"], r.wall_s
+    r.responses["angle_of_repose_deg"], r.wall_s
 """
 
 from __future__ import annotations
@@ -66,8 +66,15 @@ class Result:
     error_kind: Optional[str] = None
 
     def __getitem__(self, name: str) -> float:
-        """The response `name` (`r["angle_deg"]`)."""
+        """The response `name` (`r["angle_of_repose_deg"]`)."""
         return self.responses[name]
+
+    @property
+    def warnings(self) -> List[str]:
+        """What the run warned about (a time step long for the bond stiffness, ...), as the
+        binary prints on standard error."""
+        w = self.outcome.get("warnings") if isinstance(self.outcome, dict) else None
+        return [str(x) for x in w] if isinstance(w, list) else []
 
     def raise_for_error(self) -> "Result":
         """Raises the failure's exception (a `RunError` subclass) when the run failed."""

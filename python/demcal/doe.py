@@ -18,7 +18,7 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 
 from . import _demcal
 from ._tables import TableLike, frame_or_rows, rows_from_csv, table_args
-from .errors import InputError
+from .errors import InputError, whole
 
 KINDS = ("plackett-burman", "factorial", "fractional", "ccd", "box-behnken", "lhs", "random", "steepest")
 
@@ -69,6 +69,9 @@ def design(kind: str, factors: Union[str, int, Sequence[Any], Dict[str, Sequence
     spec = _factor_spec(factors)
     if direction is not None and not isinstance(direction, str):
         direction = ",".join(str(float(v)) for v in direction)
+    center_points, runs = whole("center_points", center_points, 0), whole("runs", runs, 1)
+    resolution, fraction = whole("resolution", resolution, 1), whole("fraction", fraction, 1)
+    seed = whole("seed", seed, 0)
     a = json.loads(_demcal.doe_design(
         kind, spec, center_points, None if alpha is None else str(alpha), runs, resolution, fraction,
         half_fraction, lhs, direction, step, seed))
@@ -193,6 +196,7 @@ def optimize(data: TableLike, goals: Union[str, Sequence[str], Dict[str, str]], 
     goals = list(goals)
     if responses is None:
         responses = _goal_responses(goals, factors)
+    solutions, starts, seed = whole("solutions", solutions, 1), whole("starts", starts, 1), whole("seed", seed, 0)
     path, csv, source = table_args(data)
     return json.loads(_demcal.doe_optimize(list(responses), goals, path, csv, source, factors, model, reduce,
                                            alpha_out, solutions, starts, seed))

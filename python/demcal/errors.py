@@ -57,4 +57,6 @@ def whole(name: str, value, least: int):  # type: ignore[no-untyped-def]
             raise InputError(f"{name}={value!r}: expected a whole number >= {least}") from None
     if value < least:
         raise InputError(f"{name}={value}: expected a whole number >= {least}")
+    if value >= 2**63:
+        raise InputError(f"{name}={value}: expected a whole number below 2**63")
     return value

@@ -15,6 +15,7 @@ import numpy as np
 
 from . import _demcal
 from ._tables import TableLike, table_args
+from .errors import whole
 
 
 class Surrogate:
@@ -40,7 +41,12 @@ class Surrogate:
         if hasattr(x, "columns") or isinstance(x, dict):
             table: Any = x
             x = np.column_stack([np.asarray(table[f], dtype=float) for f in self.factors])
-        arr = np.atleast_2d(np.asarray(x, dtype=float))
+        arr = np.asarray(x, dtype=float)
+        if arr.size == 0:
+            return np.zeros(0), np.zeros(0)
+        if arr.ndim == 1:
+            # One row of factor values; for a one-factor model, a column of them.
+            arr = arr.reshape(-1, 1) if len(self.factors) == 1 else arr.reshape(1, -1)
         pairs = self._native.predict(arr.tolist())
         mean = np.array([m for m, _ in pairs], dtype=float)
         var = np.array([np.nan if v is None else v for _, v in pairs], dtype=float)
@@ -50,18 +56,29 @@ class Surrogate:
         return f"Surrogate({self.model!r} of {self.response!r} on {self.factors})"
 
 
-def fit(data: TableLike, response: str, *, factors: Optional[Sequence[str]] = None, model: str = "gp",
+def _factor_list(factors: Union[None, str, Sequence[str]]) -> Optional[List[str]]:
+    """Factor columns as a list: a list of names, or one string `"D,E,G"` as the command line
+    and `doe` take them."""
+    if factors is None:
+        return None
+    if isinstance(factors, str):
+        return [f.strip() for f in factors.split(",") if f.strip()]
+    return [str(f) for f in factors]
+
+
+def fit(data: TableLike, response: str, *, factors: Union[None, str, Sequence[str]] = None, model: str = "gp",
         kernel: Optional[str] = None, seed: int = 1, train_fraction: float = 0.8) -> Surrogate:
     """Fits a surrogate of `response` on the other columns (or `factors`): `model` gp, bp or
     ga-bp; `kernel` matern52 (the default) or squared_exponential (`rbf`) for a GP;
     `train_fraction` of the rows trained on, the rest kept to test it (as the papers' 80/20)."""
+    seed = whole("seed", seed, 0)
     path, csv, source = table_args(data)
-    native = _demcal.surrogate_fit(response, path, csv, source, None if factors is None else list(factors), model,
+    native = _demcal.surrogate_fit(response, path, csv, source, _factor_list(factors), model,
                                    kernel, seed, train_fraction)
     return Surrogate(native)
 
 
-def optimize(data: TableLike, response: str, goal: str = "minimize", *, factors: Optional[Sequence[str]] = None,
+def optimize(data: TableLike, response: str, goal: str = "minimize", *, factors: Union[None, str, Sequence[str]] = None,
              model: str = "gp", kernel: Optional[str] = None, seed: int = 1, train_fraction: float = 0.8,
              target_of: Optional[str] = None, value: Optional[float] = None) -> Dict[str, Any]:
     """Fits, then searches the model with a genetic algorithm inside the table's ranges
@@ -69,7 +86,8 @@ def optimize(data: TableLike, response: str, goal: str = "minimize", *, factors:
     maximize or `target=V`; `target_of` and `value` minimise the relative error of a response
     column against a lab value by modelling the response. Returns the `solution` (each factor's
     value), the `predicted` value and the model's metrics."""
+    seed = whole("seed", seed, 0)
     path, csv, source = table_args(data)
     return json.loads(_demcal.surrogate_optimize(response, goal, path, csv, source,
-                                                 None if factors is None else list(factors), model, kernel,
+                                                 _factor_list(factors), model, kernel,
                                                  seed, train_fraction, target_of, value))

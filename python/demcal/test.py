@@ -100,7 +100,8 @@ def _result(answer: Mapping[str, Any], params: Dict[str, Any], seed: Optional[in
     }
     return Result(
         ok=bool(answer["ok"]),
-        responses={k: float(v) for k, v in answer["responses"].items()},
+        # A response that is not finite (an infinite stiffness) comes through JSON as null.
+        responses={k: float("nan") if v is None else float(v) for k, v in answer["responses"].items()},
         curves=curves,
         outcome=answer["outcome"],
         summary=answer["summary"],

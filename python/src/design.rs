@@ -42,6 +42,7 @@ pub(crate) fn table(path: Option<PathBuf>, csv: Option<&str>, source: &str) -> P
                     fraction=None, half_fraction=None, lhs=None, direction=None, step=None, seed=1))]
 #[allow(clippy::too_many_arguments)]
 fn doe_design(
+    py: Python<'_>,
     kind: String,
     factors: String,
     center_points: Option<usize>,
@@ -69,7 +70,9 @@ fn doe_design(
         step,
         seed,
     };
-    let (d, f) = doe::commands::make_design(&req).map_err(input)?;
+    let (d, f) = py
+        .detach(|| doe::commands::make_design(&req))
+        .map_err(input)?;
     Ok(to_json(&json!({
         "csv": doe::commands::design_csv(&d, &f, seed),
         "summary": doe::commands::design_summary(&d, &f, seed),
@@ -106,6 +109,7 @@ fn model_request(
                     reduce=false, alpha_out=0.1, no_hierarchy=false, no_curvature=false, plots=None))]
 #[allow(clippy::too_many_arguments)]
 fn doe_analyze(
+    py: Python<'_>,
     responses: Vec<String>,
     path: Option<PathBuf>,
     csv: Option<&str>,
@@ -128,7 +132,8 @@ fn doe_analyze(
         no_hierarchy,
         no_curvature,
     );
-    doe::commands::analyze_table(&req, &t, true, plots.as_deref()).map_err(input)
+    py.detach(|| doe::commands::analyze_table(&req, &t, true, plots.as_deref()))
+        .map_err(input)
 }
 
 /// `demcal doe optimize --json`: the desirability search over the fitted models.
@@ -137,6 +142,7 @@ fn doe_analyze(
                     model=None, reduce=false, alpha_out=0.1, solutions=10, starts=100, seed=1))]
 #[allow(clippy::too_many_arguments)]
 fn doe_optimize(
+    py: Python<'_>,
     responses: Vec<String>,
     goals: Vec<String>,
     path: Option<PathBuf>,
@@ -158,5 +164,6 @@ fn doe_optimize(
         starts,
         seed,
     };
-    doe::commands::optimize_table(&req, &t, &opt, true).map_err(input)
+    py.detach(|| doe::commands::optimize_table(&req, &t, &opt, true))
+        .map_err(input)
 }

@@ -136,6 +136,24 @@ where
         Pool::Own => None,
     };
     let own = pool == Pool::Own;
+    // rayon's global pool does not survive fork(): its threads stay in the parent, and work
+    // handed to it from a forked child (multiprocessing's default start method on Linux) waits
+    // forever. A child gets a pool of its own for one simulation; a study, whose runs start
+    // simulations from threads of their own on the global pool, is refused.
+    let forked = std::process::id() != *IMPORTED_IN;
+    if forked && own {
+        return Err(input(
+            "a study cannot run in a process forked from one that imported demcal (rayon's threads do not survive fork): use multiprocessing's \"spawn\" start method, or demcal run",
+        ));
+    }
+    let threads = match threads {
+        None if forked => Some(
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1),
+        ),
+        t => t,
+    };
     let pool = match threads {
         Some(n) => {
             check_count("threads", n)?;
@@ -151,6 +169,9 @@ where
     let (tx, rx) = mpsc::channel();
     std::thread::Builder::new()
         .name("demcal".into())
+        // The binary runs a study on its main thread (8 MiB of stack); a report's figures
+        // recurse deeper than a spawned thread's default 2 MiB allows for.
+        .stack_size(8 << 20)
         .spawn(move || {
             // One simulation works on its parallel stages itself with the pool's other threads
             // joining in (as the binary's `on_pool`), rather than queueing each stage.
@@ -165,6 +186,10 @@ where
         })
         .map_err(|e| DemcalError::new_err(format!("cannot start a thread: {e}")))?;
     let mut rx = rx;
+    // The first Ctrl-C asks the run to stop (it looks every few hundred steps) and waits for
+    // it; a second one returns at once and leaves the thread to end on its own (a study's lock
+    // and store are released when it does).
+    let mut interrupt: Option<PyErr> = None;
     loop {
         let (got, back) = py.detach(move || {
             let got = rx.recv_timeout(Duration::from_millis(100));
@@ -172,6 +197,7 @@ where
         });
         rx = back;
         match got {
+            Ok(_) if interrupt.is_some() => return Err(interrupt.unwrap()),
             Ok(Ok(value)) => return Ok(value),
             Ok(Err(panic)) => {
                 let msg = panic
@@ -184,21 +210,25 @@ where
                 )));
             }
             Err(RecvTimeoutError::Disconnected) => {
-                return Err(DemcalError::new_err(
-                    "the simulation thread ended without an answer",
-                ))
+                return Err(interrupt.unwrap_or_else(|| {
+                    DemcalError::new_err("the simulation thread ended without an answer")
+                }))
             }
             Err(RecvTimeoutError::Timeout) => {
                 if let Err(e) = py.check_signals() {
+                    if interrupt.is_some() {
+                        return Err(e);
+                    }
                     stop.store(true, Ordering::SeqCst);
-                    // The run stops at its next progress report (every few hundred steps).
-                    let _ = py.detach(move || rx.recv());
-                    return Err(e);
+                    interrupt = Some(e);
                 }
             }
         }
     }
 }
+
+/// The process that imported the module: a different process id later means a fork.
+static IMPORTED_IN: std::sync::LazyLock<u32> = std::sync::LazyLock::new(std::process::id);
 
 /// `KeyboardInterrupt` with `message`, for a run that `stop` ended from elsewhere.
 pub(crate) fn interrupted(message: &str) -> PyErr {
@@ -219,6 +249,7 @@ fn version() -> &'static str {
 #[pymodule]
 fn _demcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    std::sync::LazyLock::force(&IMPORTED_IN);
     m.add("DemcalError", py.get_type::<DemcalError>())?;
     m.add("InputError", py.get_type::<InputError>())?;
     m.add("RunError", py.get_type::<RunError>())?;

@@ -106,29 +106,33 @@ fn study_run(
 
 /// `demcal status`.
 #[pyfunction]
-fn study_status(path: PathBuf) -> PyResult<String> {
-    study::status(&path).map_err(input)
+fn study_status(py: Python<'_>, path: PathBuf) -> PyResult<String> {
+    py.detach(|| study::status(&path)).map_err(input)
 }
 
 /// Every stored run as JSON (a list of records: stage, kind, index, inputs, seed, status,
 /// response, outputs, error, error_kind, wall_s, ...), scored against the targets as the study
 /// is written now. An empty list when the study has not run.
 #[pyfunction]
-fn study_results(path: PathBuf) -> PyResult<String> {
+fn study_results(py: Python<'_>, path: PathBuf) -> PyResult<String> {
     let s = load(&path)?;
     if !s.store_path().exists() {
         return Ok("[]".into());
     }
-    let store = Store::open(&s.store_path(), false).map_err(DemcalError::new_err)?;
-    let runs = study::job::rescored_all(&s, store.runs().map_err(DemcalError::new_err)?);
-    serde_json::to_string(&runs).map_err(|e| DemcalError::new_err(e.to_string()))
+    py.detach(|| {
+        let store = Store::open(&s.store_path(), false)?;
+        let runs = study::job::rescored_all(&s, store.runs()?);
+        serde_json::to_string(&runs).map_err(|e| e.to_string())
+    })
+    .map_err(DemcalError::new_err)
 }
 
 /// `demcal report`: writes the report (into `out`, or the study's `report/`) and returns its
 /// folder.
 #[pyfunction]
 #[pyo3(signature = (path, out=None))]
-fn study_report(path: PathBuf, out: Option<PathBuf>) -> PyResult<PathBuf> {
+fn study_report(py: Python<'_>, path: PathBuf, out: Option<PathBuf>) -> PyResult<PathBuf> {
     // As `status`: what stops a report is the study file or its store as they are now.
-    study::report(&path, out.as_deref()).map_err(input)
+    py.detach(|| study::report(&path, out.as_deref()))
+        .map_err(input)
 }

@@ -59,8 +59,10 @@ impl NativeSurrogate {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn request(
     path: Option<PathBuf>,
+    source: &str,
     response: String,
     factors: Option<Vec<String>>,
     model: &str,
@@ -74,7 +76,8 @@ fn request(
         )));
     }
     Ok(FitRequest {
-        data: path.unwrap_or_default(),
+        // Messages name the data: the file, or what the Python side calls the table.
+        data: path.unwrap_or_else(|| PathBuf::from(source)),
         response,
         factors,
         model: Model::parse(model, kernel).map_err(input)?,
@@ -101,7 +104,7 @@ fn surrogate_fit(
     train_fraction: f64,
 ) -> PyResult<NativeSurrogate> {
     let t = table(path.clone(), csv, source)?;
-    let req = request(path, response, factors, model, kernel, seed, train_fraction)?;
+    let req = request(path, source, response, factors, model, kernel, seed, train_fraction)?;
     let fitted = py
         .detach(|| surrogate::commands::fit_table(&req, &t))
         .map_err(input)?;
@@ -132,7 +135,7 @@ fn surrogate_optimize(
     value: Option<f64>,
 ) -> PyResult<String> {
     let t = table(path.clone(), csv, source)?;
-    let req = request(path, response, factors, model, kernel, seed, train_fraction)?;
+    let req = request(path, source, response, factors, model, kernel, seed, train_fraction)?;
     let goal = Goal::parse(goal).map_err(input)?;
     let error_of = match (target_of, value) {
         (Some(response), Some(lab)) => Some(ErrorOf { response, lab }),

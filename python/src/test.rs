@@ -70,11 +70,12 @@ fn test_file(
                 return Err(input(format!(
                     "{name}: params[\"{key}\"]: expected a number or a quantity such as \"29 MPa\", got a bool"
                 )));
-            } else if value.is_instance_of::<pyo3::types::PyInt>() {
-                // A whole number stays one: counts (`fill.count`) take no 150.0.
-                let i: i64 = value.extract().map_err(|_| {
-                    input(format!("{name}: params[\"{key}\"]: {value} is too large"))
-                })?;
+            } else if let Some(i) = (!value.is_instance_of::<pyo3::types::PyFloat>())
+                .then(|| value.extract::<i64>().ok())
+                .flatten()
+            {
+                // A whole number (a Python or numpy integer) stays one: counts (`fill.count`)
+                // take no 150.0.
                 toml::Value::Integer(i)
             } else if let Ok(x) = value.extract::<f64>() {
                 if !x.is_finite() {

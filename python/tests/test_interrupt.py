@@ -88,8 +88,9 @@ def test_the_measure_sees_a_call_that_keeps_the_gil(counting_rate):
 
 
 def test_the_gil_is_released_while_a_test_runs(tension, counting_rate):
-    n, longest, seconds, r = count_while(lambda: tension.run(threads=1))
-    assert r is not None and r.ok and r["peak_force_n"] > 0
+    # Three runs in a row: one is under a second on a quiet machine, too short to tell.
+    n, longest, seconds, rs = count_while(lambda: [tension.run(threads=1) for _ in range(3)])
+    assert rs is not None and all(r.ok and r["peak_force_n"] > 0 for r in rs)
     check_counting(n, longest, seconds, counting_rate)
 
 
@@ -101,7 +102,7 @@ def test_the_gil_is_released_while_a_scene_runs(box_scene_file, counting_rate):
 
 
 def test_the_gil_is_released_while_a_study_runs(tmp_path, counting_rate):
-    slow = BOWL.replace("noise = 0.02", "noise = 0.02\nduration_s = 0.05")
+    slow = BOWL.replace("noise = 0.02", "noise = 0.02\nduration_s = 0.15")
     study = demcal.Study.load(write_study(tmp_path, slow))
     n, longest, seconds, out = count_while(lambda: study.run(jobs=2))
     assert "state: complete" in out

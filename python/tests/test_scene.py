@@ -4,7 +4,10 @@ particles' end state as numpy arrays."""
 from __future__ import annotations
 
 import math
-import tomllib
+try:
+    import tomllib  # Python 3.11+
+except ModuleNotFoundError:  # 3.9 and 3.10: the test extra installs tomli
+    import tomli as tomllib
 
 import numpy as np
 import pytest

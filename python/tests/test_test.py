@@ -8,7 +8,10 @@ import csv
 import json
 import math
 import time
-import tomllib
+try:
+    import tomllib  # Python 3.11+
+except ModuleNotFoundError:  # 3.9 and 3.10: the test extra installs tomli
+    import tomli as tomllib
 
 import numpy as np
 import pytest

@@ -104,7 +104,16 @@ fn surrogate_fit(
     train_fraction: f64,
 ) -> PyResult<NativeSurrogate> {
     let t = table(path.clone(), csv, source)?;
-    let req = request(path, source, response, factors, model, kernel, seed, train_fraction)?;
+    let req = request(
+        path,
+        source,
+        response,
+        factors,
+        model,
+        kernel,
+        seed,
+        train_fraction,
+    )?;
     let fitted = py
         .detach(|| surrogate::commands::fit_table(&req, &t))
         .map_err(input)?;
@@ -135,7 +144,16 @@ fn surrogate_optimize(
     value: Option<f64>,
 ) -> PyResult<String> {
     let t = table(path.clone(), csv, source)?;
-    let req = request(path, source, response, factors, model, kernel, seed, train_fraction)?;
+    let req = request(
+        path,
+        source,
+        response,
+        factors,
+        model,
+        kernel,
+        seed,
+        train_fraction,
+    )?;
     let goal = Goal::parse(goal).map_err(input)?;
     let error_of = match (target_of, value) {
         (Some(response), Some(lab)) => Some(ErrorOf { response, lab }),

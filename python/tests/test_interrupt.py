@@ -188,3 +188,53 @@ def test_ctrl_c_keeps_a_studys_finished_runs_and_the_next_run_resumes(tmp_path, 
         assert f"stage 1/5 screening: {13 - len(first)} runs to make ({len(first)} stored)" in err
     else:
         assert "stage 1/5 screening" not in err
+
+
+# --- fork: rayon's threads stay in the parent ------------------------------------------------
+
+
+def _in_a_forked_child(work, timeout_s: float = 60.0) -> tuple:
+    """Runs `work()` in a child made by os.fork and returns (exit status, what it printed);
+    a child still running after `timeout_s` is killed (the hang this guards against)."""
+    import os
+    import signal as sig
+
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child
+        os.close(r)
+        try:
+            out = repr(work())
+            code = 0
+        except BaseException as e:  # noqa: BLE001 - the parent reads what happened
+            out = f"{type(e).__name__}: {e}"
+            code = 1
+        os.write(w, out.encode())
+        os._exit(code)
+    os.close(w)
+    deadline = time.monotonic() + timeout_s
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        if time.monotonic() > deadline:
+            os.kill(pid, sig.SIGKILL)
+            os.waitpid(pid, 0)
+            os.close(r)
+            pytest.fail(f"the forked child did not finish in {timeout_s} s")
+        time.sleep(0.05)
+    with os.fdopen(r) as f:
+        text = f.read()
+    return os.waitstatus_to_exitcode(status), text
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="no fork on this platform")
+def test_a_run_in_a_forked_child_finishes_with_the_parents_numbers(tension, tmp_path):
+    """With rayon's global pool used in the parent, a child's run once waited forever."""
+    parent = tension.run()  # uses the global pool here
+    code, text = _in_a_forked_child(lambda: tension.run()["peak_force_n"])
+    assert code == 0, text
+    assert float(text) == parent["peak_force_n"]
+    study = demcal.Study.load(write_study(tmp_path))
+    code, text = _in_a_forked_child(lambda: study.run(jobs=1))
+    assert code == 1 and text.startswith("InputError: ") and "spawn" in text, text

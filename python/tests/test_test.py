@@ -347,3 +347,15 @@ def test_wall_s_is_measured_for_a_slow_formula():
     assert 0.3 <= r.wall_s <= elapsed < 0.3 + 0.5
     assert r.outcome["wall_s"] == pytest.approx(0.3, abs=0.05)
     assert math.isfinite(r["value"])
+
+
+def test_whole_numbers_stay_whole(quickstart):
+    """A count is a parameter (an int, numpy's too); a float is refused where a count is read."""
+    import numpy as np
+
+    a = quickstart.run({"angle_of_repose.fill.count": 150}, threads=2)
+    b = quickstart.run({"angle_of_repose.fill.count": np.int64(150)}, threads=2)
+    assert a.responses == b.responses
+    assert a.outcome["particles"] == 150
+    with pytest.raises(demcal.InputError, match="floating point"):
+        quickstart.run({"angle_of_repose.fill.count": 150.0})

@@ -4,9 +4,11 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
-use study::{RunOptions, Study};
+use study::Study;
+
+mod common;
+use common::{run_path, write_study};
 
 /// The curve is linear in k and q, so the MSE is a quadratic bowl in them with its minimum at
 /// the lab's k = 5000 N/m, q = 2e5 N/m², which lie off the ranges' centres. d changes nothing
@@ -79,24 +81,6 @@ fn write_lab(dir: &Path, shift_mm: f64) {
     std::fs::write(dir.join("lab/b.csv"), b).unwrap();
 }
 
-fn write_study(dir: &Path, text: &str) -> PathBuf {
-    let p = dir.join("study.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn run(path: &Path) -> Result<String, String> {
-    study::run(
-        path,
-        &RunOptions {
-            jobs: 2,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .map_err(|e| e.to_string())
-}
-
 #[test]
 fn minimising_the_curve_mse_recovers_the_lab_parameters() {
     let dir = fresh_dir("plan");
@@ -109,7 +93,7 @@ fn minimising_the_curve_mse_recovers_the_lab_parameters() {
     let lab = &s.target.curve.as_ref().unwrap().lab;
     assert_eq!(lab.replicates.len(), 3);
     assert_eq!(lab.mean.range(), (0.0005, 0.0095));
-    let out = run(&path).unwrap();
+    let out = run_path(&path, 2).unwrap();
     assert!(out.contains("state: complete"), "{out}");
     assert!(out.contains("calibrated by minimising curve_mse"), "{out}");
     let summary: serde_json::Value =
@@ -210,7 +194,7 @@ fn a_derived_measure_is_matched_against_the_lab_replicates() {
         "{} vs {want}",
         s.target.value
     );
-    run(&path).unwrap();
+    run_path(&path, 2).unwrap();
     // At the middle values (k = 6000, q = 2.5e5) the peak is 60 - 25 N.
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
@@ -230,7 +214,7 @@ fn a_curve_that_misses_the_lab_range_fails_as_a_measurement() {
         "plan = [{ stage = \"validate\", replicates = 1 }]",
     );
     let path = write_study(&dir, &text);
-    let e = run(&path).unwrap_err();
+    let e = run_path(&path, 2).unwrap_err();
     assert!(e.contains("validation needs at least 1"), "{e}");
     let csv = std::fs::read_to_string(dir.join("report/results.csv")).unwrap();
     assert!(csv.contains("measurement_failed"), "{csv}");
@@ -290,7 +274,7 @@ fn the_twin_stalk_study_runs_end_to_end() {
         std::fs::copy(twin.join(f), dir.join(f)).unwrap();
     }
     let path = dir.join("study.toml");
-    let out = run(&path).unwrap();
+    let out = run_path(&path, 2).unwrap();
     assert!(out.contains("state: complete"), "{out}");
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report/summary.json")).unwrap())
@@ -326,7 +310,7 @@ fn the_design_curves_are_checked_to_bracket_the_lab_curve() {
     let dir = fresh_dir("bracket");
     write_lab(&dir, 0.0);
     let path = write_study(&dir, &screening(STUDY));
-    let out = run(&path).unwrap();
+    let out = run_path(&path, 2).unwrap();
     assert!(out.contains("state: complete"), "{out}");
     let notes = test_support::summary(&dir)["stages"][0]["notes"].to_string();
     assert!(
@@ -340,7 +324,7 @@ fn the_design_curves_are_checked_to_bracket_the_lab_curve() {
         .replace("max = 4e5", "max = 2e5");
     let path = write_study(&dir, &stiff);
     let _ = std::fs::remove_file(dir.join("study.db"));
-    let out = run(&path).unwrap();
+    let out = run_path(&path, 2).unwrap();
     assert!(out.contains("state: complete"), "{out}");
     let notes = test_support::summary(&dir)["stages"][0]["notes"].to_string();
     assert!(

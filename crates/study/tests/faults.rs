@@ -2,11 +2,10 @@
 //! as `output_failed`, the study's advice says to fix the machine (not to narrow the ranges),
 //! and the next `demcal run` makes those runs again without `--retry-failed`.
 
-use std::path::Path;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+use study::{RunErrorKind, Store, Study};
 
-use study::{RunErrorKind, RunOptions, Store, Study};
+mod common;
+use common::run_path;
 
 /// A fast study on the `function` test: one screening stage of 13 runs.
 const SCREEN: &str = r#"
@@ -36,18 +35,6 @@ max = 1.0
 value = 35.0
 "#;
 
-fn run(path: &Path) -> Result<String, String> {
-    study::run(
-        path,
-        &RunOptions {
-            jobs: 1,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .map_err(|e| e.to_string())
-}
-
 #[test]
 fn runs_whose_files_cannot_be_written_are_made_again_once_fixed() {
     let dir = test_support::fresh_dir("study", "unwritable");
@@ -62,7 +49,7 @@ fn runs_whose_files_cannot_be_written_are_made_again_once_fixed() {
     let blocker = runs.join("stage1-screening");
     std::fs::write(&blocker, "not a folder").unwrap();
 
-    let e = run(&path).unwrap_err();
+    let e = run_path(&path, 1).unwrap_err();
     assert!(e.contains("0 of "), "{e}");
     assert!(
         e.contains("The machine failed them, not their parameters") && !e.contains("narrow"),
@@ -95,7 +82,7 @@ fn runs_whose_files_cannot_be_written_are_made_again_once_fixed() {
 
     // Fixed: the next run makes every one of them again, without --retry-failed.
     std::fs::remove_file(&blocker).unwrap();
-    run(&path).unwrap();
+    run_path(&path, 1).unwrap();
     let stored = Store::open(&study.store_path(), false)
         .unwrap()
         .runs()
@@ -121,7 +108,7 @@ fn a_failure_of_the_parameters_is_kept_but_one_of_the_machine_is_not() {
     )
     .unwrap();
     let study = Study::load(&path).unwrap();
-    let _ = run(&path);
+    let _ = run_path(&path, 1);
     let mut store = Store::open(&study.store_path(), true).unwrap();
     let failed = |s: &Store| {
         s.runs()

@@ -7,10 +7,12 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 use test_support::summary;
 
-use study::{RunOptions, Study};
+use study::Study;
+
+mod common;
+use common::run_study;
 
 /// Test `stiff` gives 10 + 5a + 3b (lab 14), test `soft` 10 + 2a - 4b (lab 10.4): both match
 /// at a = 0.2 + 2b, 13b = 3, so b = 3/13 and a = 0.2 + 6/13.
@@ -71,20 +73,6 @@ value = 10.4
 
 fn fresh_dir(name: &str) -> PathBuf {
     test_support::fresh_dir("multi", name)
-}
-
-fn run_study(dir: &Path, text: &str) -> Result<String, String> {
-    let p = dir.join("study.toml");
-    std::fs::write(&p, text).unwrap();
-    study::run(
-        &p,
-        &RunOptions {
-            jobs: 2,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .map_err(|e| e.to_string())
 }
 
 #[test]

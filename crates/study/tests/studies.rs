@@ -9,6 +9,9 @@ use test_support::summary;
 
 use study::{RunOptions, Study};
 
+mod common;
+use common::{run_path as run, write_study};
+
 /// A bowl with its only minimum, 30, at a = 0.6, b = 0.3; c and d barely matter. The runs with
 /// c + d > 1.7 fail, as a simulation that explodes would.
 pub const BOWL: &str = r#"
@@ -54,24 +57,6 @@ value = 30.0
 
 fn fresh_dir(name: &str) -> PathBuf {
     test_support::fresh_dir("study", name)
-}
-
-fn write_study(dir: &Path, text: &str) -> PathBuf {
-    let p = dir.join("study.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn run(path: &Path, jobs: usize) -> Result<String, String> {
-    study::run(
-        path,
-        &RunOptions {
-            jobs,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .map_err(|e| e.to_string())
 }
 
 #[test]

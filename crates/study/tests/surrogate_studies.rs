@@ -3,11 +3,10 @@
 //! resumes to the same runs and the same result.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 use test_support::summary;
 
-use study::RunOptions;
+mod common;
+use common::run_study;
 
 /// A bowl whose lowest value, 30, is at a = 0.6, b = 0.3, c = 0 (the end of c's range).
 fn bowl(plan: &str, extra_target: &str) -> String {
@@ -50,20 +49,6 @@ max = 1.0
 
 fn fresh_dir(name: &str) -> PathBuf {
     test_support::fresh_dir("surrogate", name)
-}
-
-fn run_study(dir: &Path, text: &str) -> Result<String, String> {
-    let p = dir.join("study.toml");
-    std::fs::write(&p, text).unwrap();
-    study::run(
-        &p,
-        &RunOptions {
-            jobs: 2,
-            ..Default::default()
-        },
-        Arc::new(AtomicBool::new(false)),
-    )
-    .map_err(|e| e.to_string())
 }
 
 fn calibrated(s: &serde_json::Value, name: &str) -> f64 {

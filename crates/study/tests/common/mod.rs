@@ -1,6 +1,9 @@
 //! What the study crate's integration tests share: writing a study file into a folder and
 //! running it on this machine with two jobs, as `demcal run` does.
 
+// Each test file uses what it needs of these.
+#![allow(dead_code)]
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -16,11 +19,15 @@ pub fn write_study(dir: &Path, text: &str) -> PathBuf {
 
 /// Writes `text` as `dir/study.toml` and runs it with two jobs; the terminal text, or the error.
 pub fn run_study(dir: &Path, text: &str) -> Result<String, String> {
-    let p = write_study(dir, text);
+    run_path(&write_study(dir, text), 2)
+}
+
+/// Runs the study file at `path` with `jobs` runs at once; the terminal text, or the error.
+pub fn run_path(path: &Path, jobs: usize) -> Result<String, String> {
     study::run(
-        &p,
+        path,
         &RunOptions {
-            jobs: 2,
+            jobs,
             ..Default::default()
         },
         Arc::new(AtomicBool::new(false)),

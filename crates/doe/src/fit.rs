@@ -241,6 +241,220 @@ fn aliasing_message(x: &DMatrix<f64>, names: &[String]) -> Option<String> {
     None
 }
 
+/// The response's mean and total sum of squares, or why there is nothing to fit: a value or a
+/// factor setting that is not a finite number (simulated responses can be anything; the tables
+/// must be numbers), sums that overflow, a constant response.
+fn check_response(exp: &Experiment) -> Result<(f64, f64), String> {
+    let n = exp.runs();
+    let y = &exp.response;
+    if let Some(i) = y.iter().position(|v| !v.is_finite()) {
+        return Err(format!(
+            "response '{}': run {} is {}, not a finite number",
+            exp.response_name,
+            i + 1,
+            y[i]
+        ));
+    }
+    if let Some(i) = exp
+        .coded
+        .iter()
+        .position(|r| r.iter().any(|v| !v.is_finite()))
+    {
+        return Err(format!(
+            "response '{}': run {} has a factor setting that is not a finite number",
+            exp.response_name,
+            i + 1
+        ));
+    }
+    let mean = y.iter().sum::<f64>() / n as f64;
+    let total_sum_sq: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+    if !total_sum_sq.is_finite() {
+        return Err(overflow_message(exp));
+    }
+    let spread = y.iter().fold(0.0f64, |m, v| m.max((v - mean).abs()));
+    if spread <= 1e-12 * mean.abs().max(1e-300) {
+        return Err(format!(
+            "response '{}' is constant ({}) in all {n} runs; there is nothing to model",
+            exp.response_name,
+            fmt_sig(mean)
+        ));
+    }
+    Ok((mean, total_sum_sq))
+}
+
+/// Lack of fit and pure error rows, the pure error from runs at identical settings; none
+/// without replicated settings or without residual degrees of freedom beyond them.
+fn pure_error_rows(
+    exp: &Experiment,
+    ss_res: f64,
+    df_res: usize,
+) -> (Option<AnovaRow>, Option<AnovaRow>) {
+    let y = &exp.response;
+    let mut groups: BTreeMap<Vec<i64>, Vec<f64>> = BTreeMap::new();
+    for (xi, &yi) in exp.coded.iter().zip(y) {
+        groups.entry(key(xi)).or_default().push(yi);
+    }
+    let (mut ss_pe, mut df_pe) = (0.0, 0usize);
+    for g in groups.values() {
+        let m = g.iter().sum::<f64>() / g.len() as f64;
+        ss_pe += g.iter().map(|v| (v - m).powi(2)).sum::<f64>();
+        df_pe += g.len() - 1;
+    }
+    if df_pe > 0 && df_res > df_pe {
+        let pe_ms = ss_pe / df_pe as f64;
+        (
+            Some(row(
+                "Lack of Fit",
+                (ss_res - ss_pe).max(0.0),
+                df_res - df_pe,
+                (pe_ms > 0.0).then_some(pe_ms),
+                df_pe,
+            )),
+            Some(row("Pure Error", ss_pe, df_pe, None, 0)),
+        )
+    } else {
+        (None, None)
+    }
+}
+
+/// Each run's leverage (the diagonal of the hat matrix) and PRESS, the sum of the squared
+/// deleted residuals; no PRESS when a run has leverage 1 (Design-Expert's N/A).
+fn leverage_and_press(
+    x: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    residuals: &[f64],
+) -> (Vec<f64>, Option<f64>) {
+    let n = x.nrows();
+    let leverage: Vec<f64> = (0..n)
+        .map(|i| {
+            let xi = x.row(i);
+            (xi * c * xi.transpose())[(0, 0)]
+        })
+        .collect();
+    let press = if leverage.iter().any(|&h| h > LEVERAGE_ONE) {
+        None
+    } else {
+        Some(
+            residuals
+                .iter()
+                .zip(&leverage)
+                .map(|(e, h)| (e / (1.0 - h)).powi(2))
+                .sum::<f64>(),
+        )
+    };
+    (leverage, press)
+}
+
+/// Each run's externally studentized residual and Cook's distance (NaN where they do not
+/// exist: leverage 1, too few residual degrees of freedom, an exact fit).
+fn case_diagnostics(
+    residuals: &[f64],
+    leverage: &[f64],
+    ss_res: f64,
+    df_res: usize,
+    error_ms: Option<f64>,
+    p: usize,
+) -> (Vec<f64>, Vec<f64>) {
+    let n = residuals.len();
+    let ms_res = ss_res / df_res as f64;
+    let studentized: Vec<f64> = (0..n)
+        .map(|i| {
+            let h = leverage[i];
+            if h > LEVERAGE_ONE || df_res < 2 {
+                return f64::NAN;
+            }
+            // Residual variance without run i.
+            let s2_i = (ss_res - residuals[i].powi(2) / (1.0 - h)) / (df_res - 1) as f64;
+            if s2_i <= 0.0 {
+                return f64::NAN;
+            }
+            residuals[i] / (s2_i * (1.0 - h)).sqrt()
+        })
+        .collect();
+
+    let cooks_distance: Vec<f64> = (0..n)
+        .map(|i| {
+            let h = leverage[i];
+            if h > LEVERAGE_ONE || error_ms.is_none() {
+                return f64::NAN;
+            }
+            residuals[i].powi(2) / (p as f64 * ms_res) * h / (1.0 - h).powi(2)
+        })
+        .collect();
+    (studentized, cooks_distance)
+}
+
+/// Each coefficient of the coded equation with its standard error, 95 % interval and VIF.
+fn coefficient_table(
+    x: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    b: &DVector<f64>,
+    names: &[String],
+    ms_res: f64,
+    df_res: usize,
+) -> Vec<Coefficient> {
+    let n = x.nrows();
+    let t_crit = t_critical(0.05, df_res).unwrap_or(f64::NAN);
+    (0..names.len())
+        .map(|j| {
+            let se = (c[(j, j)] * ms_res).sqrt();
+            let vif = (j > 0).then(|| {
+                let col = x.column(j);
+                let m = col.sum() / n as f64;
+                let sxx: f64 = col.iter().map(|v| (v - m).powi(2)).sum();
+                c[(j, j)] * sxx
+            });
+            Coefficient {
+                name: names[j].clone(),
+                estimate: b[j],
+                std_error: se,
+                ci_low: b[j] - t_crit * se,
+                ci_high: b[j] + t_crit * se,
+                vif,
+            }
+        })
+        .collect()
+}
+
+/// The two-level effects (mean at +1 minus mean at -1 over the factorial runs) of the terms
+/// without squares, with their t values and shares of the total sum of squares.
+fn two_level_effects(
+    exp: &Experiment,
+    terms: &[Term],
+    names: &[String],
+    x: &DMatrix<f64>,
+    centre: &[bool],
+    coefficients: &[Coefficient],
+    total_sum_sq: f64,
+) -> Vec<Effect> {
+    let (n, y) = (exp.runs(), &exp.response);
+    (1..terms.len())
+        .filter(|&j| terms[j].powers.iter().all(|&p| p <= 1))
+        .map(|j| {
+            let (mut hi, mut nhi, mut lo, mut nlo) = (0.0, 0, 0.0, 0);
+            for i in 0..n {
+                if centre[i] {
+                    continue;
+                }
+                if x[(i, j)] > 0.0 {
+                    hi += y[i];
+                    nhi += 1;
+                } else {
+                    lo += y[i];
+                    nlo += 1;
+                }
+            }
+            let contrast = (hi - lo).powi(2) / (nhi + nlo).max(1) as f64;
+            Effect {
+                name: names[j].clone(),
+                effect: hi / nhi.max(1) as f64 - lo / nlo.max(1) as f64,
+                t: coefficients[j].estimate / coefficients[j].std_error,
+                contribution_percent: 100.0 * contrast / total_sum_sq,
+            }
+        })
+        .collect()
+}
+
 /// Why a fit of finite data came out non-finite: the values are too large to square and sum.
 fn overflow_message(exp: &Experiment) -> String {
     let biggest = exp.response.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -265,39 +479,7 @@ impl Fit {
             terms.first().is_some_and(Term::is_intercept),
             "intercept first"
         );
-        // Simulated responses can be anything; the tables below must be numbers.
-        if let Some(i) = y.iter().position(|v| !v.is_finite()) {
-            return Err(format!(
-                "response '{}': run {} is {}, not a finite number",
-                exp.response_name,
-                i + 1,
-                y[i]
-            ));
-        }
-        if let Some(i) = exp
-            .coded
-            .iter()
-            .position(|r| r.iter().any(|v| !v.is_finite()))
-        {
-            return Err(format!(
-                "response '{}': run {} has a factor setting that is not a finite number",
-                exp.response_name,
-                i + 1
-            ));
-        }
-        let mean = y.iter().sum::<f64>() / n as f64;
-        let total_sum_sq: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
-        if !total_sum_sq.is_finite() {
-            return Err(overflow_message(exp));
-        }
-        let spread = y.iter().fold(0.0f64, |m, v| m.max((v - mean).abs()));
-        if spread <= 1e-12 * mean.abs().max(1e-300) {
-            return Err(format!(
-                "response '{}' is constant ({}) in all {n} runs; there is nothing to model",
-                exp.response_name,
-                fmt_sig(mean)
-            ));
-        }
+        let (mean, total_sum_sq) = check_response(exp)?;
         let (two_level, centre) = two_level_runs(&exp.coded);
         let has_squares = terms.iter().any(|t| t.powers.iter().any(|&p| p >= 2));
         let use_curvature = curvature == Curvature::Auto
@@ -366,55 +548,14 @@ impl Fit {
         );
         let residual = row("Residual", ss_res, df_res, None, 0);
 
-        // Pure error from runs at identical settings.
-        let mut groups: BTreeMap<Vec<i64>, Vec<f64>> = BTreeMap::new();
-        for (xi, &yi) in exp.coded.iter().zip(y) {
-            groups.entry(key(xi)).or_default().push(yi);
-        }
-        let (mut ss_pe, mut df_pe) = (0.0, 0usize);
-        for g in groups.values() {
-            let m = g.iter().sum::<f64>() / g.len() as f64;
-            ss_pe += g.iter().map(|v| (v - m).powi(2)).sum::<f64>();
-            df_pe += g.len() - 1;
-        }
-        let (lack_of_fit, pure_error) = if df_pe > 0 && df_res > df_pe {
-            let pe_ms = ss_pe / df_pe as f64;
-            (
-                Some(row(
-                    "Lack of Fit",
-                    (ss_res - ss_pe).max(0.0),
-                    df_res - df_pe,
-                    (pe_ms > 0.0).then_some(pe_ms),
-                    df_pe,
-                )),
-                Some(row("Pure Error", ss_pe, df_pe, None, 0)),
-            )
-        } else {
-            (None, None)
-        };
+        let (lack_of_fit, pure_error) = pure_error_rows(exp, ss_res, df_res);
 
         // Statistics on the total without curvature, as Design-Expert reports them.
         let ss_t = model.sum_sq + ss_res;
         let df_t = model_df + df_res;
         let r2 = 1.0 - ss_res / ss_t;
         let adj_r2 = 1.0 - ms_res / (ss_t / df_t as f64);
-        let leverage: Vec<f64> = (0..n)
-            .map(|i| {
-                let xi = x.row(i);
-                (xi * &c * xi.transpose())[(0, 0)]
-            })
-            .collect();
-        let press = if leverage.iter().any(|&h| h > LEVERAGE_ONE) {
-            None
-        } else {
-            Some(
-                residuals
-                    .iter()
-                    .zip(&leverage)
-                    .map(|(e, h)| (e / (1.0 - h)).powi(2))
-                    .sum::<f64>(),
-            )
-        };
+        let (leverage, press) = leverage_and_press(&x, &c, &residuals);
         let pred_r2 = press.map(|pr| 1.0 - pr / ss_t);
         let std_dev = ms_res.sqrt();
         let predicted: Vec<f64> = (0..n)
@@ -425,78 +566,13 @@ impl Fit {
             let lo = predicted.iter().cloned().fold(f64::MAX, f64::min);
             (hi - lo) / (terms.len() as f64 * ms / n as f64).sqrt()
         });
-        let studentized = (0..n)
-            .map(|i| {
-                let h = leverage[i];
-                if h > LEVERAGE_ONE || df_res < 2 {
-                    return f64::NAN;
-                }
-                // Residual variance without run i.
-                let s2_i = (ss_res - residuals[i].powi(2) / (1.0 - h)) / (df_res - 1) as f64;
-                if s2_i <= 0.0 {
-                    return f64::NAN;
-                }
-                residuals[i] / (s2_i * (1.0 - h)).sqrt()
-            })
-            .collect();
+        let (studentized, cooks_distance) =
+            case_diagnostics(&residuals, &leverage, ss_res, df_res, error_ms, p);
 
-        let cooks_distance = (0..n)
-            .map(|i| {
-                let h = leverage[i];
-                if h > LEVERAGE_ONE || error_ms.is_none() {
-                    return f64::NAN;
-                }
-                residuals[i].powi(2) / (p as f64 * ms_res) * h / (1.0 - h).powi(2)
-            })
-            .collect();
-
-        let t_crit = t_critical(0.05, df_res).unwrap_or(f64::NAN);
-        let coefficients: Vec<Coefficient> = (0..terms.len())
-            .map(|j| {
-                let se = (c[(j, j)] * ms_res).sqrt();
-                let vif = (j > 0).then(|| {
-                    let col = x.column(j);
-                    let m = col.sum() / n as f64;
-                    let sxx: f64 = col.iter().map(|v| (v - m).powi(2)).sum();
-                    c[(j, j)] * sxx
-                });
-                Coefficient {
-                    name: names[j].clone(),
-                    estimate: b[j],
-                    std_error: se,
-                    ci_low: b[j] - t_crit * se,
-                    ci_high: b[j] + t_crit * se,
-                    vif,
-                }
-            })
-            .collect();
+        let coefficients = coefficient_table(&x, &c, &b, &names, ms_res, df_res);
 
         let effects = if two_level {
-            (1..terms.len())
-                .filter(|&j| terms[j].powers.iter().all(|&p| p <= 1))
-                .map(|j| {
-                    let (mut hi, mut nhi, mut lo, mut nlo) = (0.0, 0, 0.0, 0);
-                    for i in 0..n {
-                        if centre[i] {
-                            continue;
-                        }
-                        if x[(i, j)] > 0.0 {
-                            hi += y[i];
-                            nhi += 1;
-                        } else {
-                            lo += y[i];
-                            nlo += 1;
-                        }
-                    }
-                    let contrast = (hi - lo).powi(2) / (nhi + nlo).max(1) as f64;
-                    Effect {
-                        name: names[j].clone(),
-                        effect: hi / nhi.max(1) as f64 - lo / nlo.max(1) as f64,
-                        t: coefficients[j].estimate / coefficients[j].std_error,
-                        contribution_percent: 100.0 * contrast / total_sum_sq,
-                    }
-                })
-                .collect()
+            two_level_effects(exp, terms, &names, &x, &centre, &coefficients, total_sum_sq)
         } else {
             Vec::new()
         };

@@ -700,8 +700,24 @@ pub fn optimize_table(
         });
         return Ok(format!("{}\n", serde_json::to_string(&v).unwrap()));
     }
+    Ok(solutions_text(
+        &fits,
+        &req.responses,
+        &problem.criteria,
+        &solutions,
+    ))
+}
+
+/// `doe optimize`'s text: each response's model, each goal, and the solutions as a table.
+fn solutions_text(
+    fits: &[Fit],
+    responses: &[String],
+    criteria: &[(Subject, Criterion)],
+    solutions: &[crate::optimize::Solution],
+) -> String {
+    let exp = &fits[0].experiment;
     let mut s = String::new();
-    for (f, r) in fits.iter().zip(&req.responses) {
+    for (f, r) in fits.iter().zip(responses) {
         writeln!(
             s,
             "{r}: {} model, {} terms, R² {:.4}",
@@ -711,7 +727,7 @@ pub fn optimize_table(
         )
         .unwrap();
     }
-    for (_, c) in &problem.criteria {
+    for (_, c) in criteria {
         let goal = match c.goal {
             Goal::Maximize => "maximize".to_string(),
             Goal::Minimize => "minimize".into(),
@@ -738,7 +754,7 @@ pub fn optimize_table(
     // Columns as wide as their names: "restitution (actual)" is wider than its numbers.
     let mut header = vec!["#".to_string()];
     header.extend(exp.factor_names.iter().map(|f| format!("{f} ({unit})")));
-    header.extend(req.responses.iter().cloned());
+    header.extend(responses.iter().cloned());
     header.push("desirability".into());
     let titles: Vec<&str> = header.iter().map(String::as_str).collect();
     let mut table = TextTable::new(&titles, &vec![Align::Right; titles.len()]);
@@ -758,5 +774,5 @@ pub fn optimize_table(
         )
         .unwrap();
     }
-    Ok(s)
+    s
 }

@@ -136,6 +136,70 @@ fn word_length_pattern(words: &[Word], k: usize) -> Vec<usize> {
 /// rotatable alpha of 24 factors is 16.
 pub const MAX_ALPHA: f64 = 100.0;
 
+/// Generators chosen one at a time, each the candidate that keeps the word-length pattern
+/// smallest (for fractions with too many combinations to try them all).
+fn greedy_generators(
+    candidates: &[Word],
+    p: usize,
+    m: usize,
+    k: usize,
+) -> Result<Vec<Word>, String> {
+    let mut chosen: Vec<Word> = Vec::new();
+    for _ in 0..p {
+        let mut pick = None;
+        let mut pick_pattern: Option<Vec<usize>> = None;
+        for &c in candidates {
+            if chosen.contains(&c) {
+                continue;
+            }
+            let mut trial = chosen.clone();
+            trial.push(c);
+            let gens: Vec<Word> = trial
+                .iter()
+                .enumerate()
+                .map(|(g, &c)| c | 1 << (m + g))
+                .collect();
+            let words = defining_words(&gens);
+            if words.iter().any(|w| w.count_ones() < 3) {
+                continue;
+            }
+            let pattern = word_length_pattern(&words, k);
+            if pick_pattern.as_ref().is_none_or(|bp| pattern < *bp) {
+                pick = Some(c);
+                pick_pattern = Some(pattern);
+            }
+        }
+        chosen.push(pick.ok_or_else(|| {
+            format!("fractional factorial 2^({k}-{p}): no fraction of resolution III or more")
+        })?);
+    }
+    Ok(chosen)
+}
+
+/// Alias chains for main effects and two-factor interactions, up to three-factor terms.
+fn alias_chains(words: &[Word], k: usize) -> Vec<String> {
+    let mut aliases = Vec::new();
+    let mut effects: Vec<Word> = (0..k).map(|j| 1 << j).collect();
+    for a in 0..k {
+        for b in a + 1..k {
+            effects.push(1 << a | 1 << b);
+        }
+    }
+    for e in effects {
+        let mut chain: Vec<Word> = words
+            .iter()
+            .map(|w| w ^ e)
+            .filter(|a| a.count_ones() <= 3)
+            .collect();
+        chain.sort_by_key(|w| (w.count_ones(), *w));
+        if !chain.is_empty() {
+            let names: Vec<String> = chain.iter().map(|&w| word_name(w)).collect();
+            aliases.push(format!("{} = {}", word_name(e), names.join(" = ")));
+        }
+    }
+    aliases
+}
+
 /// Regular two-level fractional factorial 2^(k-p), with minimum-aberration generators found by
 /// search over the interactions of the k - p base factors (exhaustive while that stays small).
 /// Returns an error when no fraction reaches `min_resolution`.
@@ -210,35 +274,7 @@ pub fn fractional_factorial(k: usize, p: usize, min_resolution: usize) -> Result
             }
         }
     } else {
-        let mut chosen: Vec<Word> = Vec::new();
-        for _ in 0..p {
-            let mut pick = None;
-            let mut pick_pattern: Option<Vec<usize>> = None;
-            for &c in &candidates {
-                if chosen.contains(&c) {
-                    continue;
-                }
-                let mut trial = chosen.clone();
-                trial.push(c);
-                let gens: Vec<Word> = trial
-                    .iter()
-                    .enumerate()
-                    .map(|(g, &c)| c | 1 << (m + g))
-                    .collect();
-                let words = defining_words(&gens);
-                if words.iter().any(|w| w.count_ones() < 3) {
-                    continue;
-                }
-                let pattern = word_length_pattern(&words, k);
-                if pick_pattern.as_ref().is_none_or(|bp| pattern < *bp) {
-                    pick = Some(c);
-                    pick_pattern = Some(pattern);
-                }
-            }
-            chosen.push(pick.ok_or_else(|| {
-                format!("fractional factorial 2^({k}-{p}): no fraction of resolution III or more")
-            })?);
-        }
+        let chosen = greedy_generators(&candidates, p, m, k)?;
         consider(&chosen);
     }
     let (_, gens) = best.ok_or_else(|| {
@@ -295,26 +331,7 @@ pub fn fractional_factorial(k: usize, p: usize, min_resolution: usize) -> Result
         })
         .collect();
     d.defining_relation = words.iter().map(|&w| word_name(w)).collect();
-    // Alias chains for main effects and two-factor interactions, up to three-factor terms.
-    let mut effects: Vec<Word> = (0..k).map(|j| 1 << j).collect();
-    for a in 0..k {
-        for b in a + 1..k {
-            effects.push(1 << a | 1 << b);
-        }
-    }
-    for e in effects {
-        let mut chain: Vec<Word> = words
-            .iter()
-            .map(|w| w ^ e)
-            .filter(|a| a.count_ones() <= 3)
-            .collect();
-        chain.sort_by_key(|w| (w.count_ones(), *w));
-        if !chain.is_empty() {
-            let names: Vec<String> = chain.iter().map(|&w| word_name(w)).collect();
-            d.aliases
-                .push(format!("{} = {}", word_name(e), names.join(" = ")));
-        }
-    }
+    d.aliases = alias_chains(&words, k);
     Ok(d)
 }
 

@@ -59,9 +59,11 @@ impl NativeSurrogate {
     }
 }
 
+/// The table (a file, or CSV text named `source`) and the fit asked of it, both checked.
 #[allow(clippy::too_many_arguments)]
-fn request(
+fn table_and_request(
     path: Option<PathBuf>,
+    csv: Option<&str>,
     source: &str,
     response: String,
     factors: Option<Vec<String>>,
@@ -69,13 +71,14 @@ fn request(
     kernel: Option<&str>,
     seed: u64,
     train_fraction: f64,
-) -> PyResult<FitRequest> {
+) -> PyResult<(doe::DataTable, FitRequest)> {
     if !(train_fraction > 0.0 && train_fraction < 1.0) {
         return Err(input(format!(
             "train_fraction={train_fraction}: expected a share between 0 and 1 (0.8 trains on 80 % of the rows)"
         )));
     }
-    Ok(FitRequest {
+    let t = table(path.clone(), csv, source)?;
+    let req = FitRequest {
         // Messages name the data: the file, or what the Python side calls the table.
         data: path.unwrap_or_else(|| PathBuf::from(source)),
         response,
@@ -83,7 +86,8 @@ fn request(
         model: Model::parse(model, kernel).map_err(input)?,
         seed,
         train_fraction,
-    })
+    };
+    Ok((t, req))
 }
 
 /// Fits a surrogate of `response` (a GP, a BP or a GA-BP network).
@@ -103,9 +107,9 @@ fn surrogate_fit(
     seed: u64,
     train_fraction: f64,
 ) -> PyResult<NativeSurrogate> {
-    let t = table(path.clone(), csv, source)?;
-    let req = request(
+    let (t, req) = table_and_request(
         path,
+        csv,
         source,
         response,
         factors,
@@ -143,9 +147,9 @@ fn surrogate_optimize(
     target_of: Option<String>,
     value: Option<f64>,
 ) -> PyResult<String> {
-    let t = table(path.clone(), csv, source)?;
-    let req = request(
+    let (t, req) = table_and_request(
         path,
+        csv,
         source,
         response,
         factors,

@@ -46,37 +46,50 @@
 //!   errors yet.
 //! - **Kernels** are WGSL files in `src/wgsl/` (the segment kernels in `src/wgsl/resident/`),
 //!   each put together with the shared parts it uses (`vector.wgsl`, vector helpers;
-//!   `common.wgsl`, the params and counts layout; `spin.wgsl`, the spin kick; `contact.wgsl`,
-//!   the contact law that pairs and walls share; `elements.wgsl`, the closest point of a wall
-//!   element; `world.wgsl`, the places in a world's params block). Clumps, bonds and geometry motion stay in the pipeline on the host.
+//!   `common.wgsl`, the accessors of `state`, `props`, `params` and `counts`; `spin.wgsl`, the
+//!   spin kick; `contact.wgsl`, the contact law that pairs and walls share; `elements.wgsl`, the
+//!   closest point of a wall element; `resident/shared.wgsl`, the segment's cell hash). One
+//!   function, `kernels::kernel_sources`, composes every kernel; the context compiles what it
+//!   returns, and the crate's tests parse and validate the same text with naga, so a kernel that
+//!   does not compile fails `cargo test` on any machine. Clumps, bonds and geometry motion stay
+//!   in the pipeline on the host.
+//! - **The data contract.** Every buffer the host and the kernels share (a world's params block,
+//!   the material pair table, element and geometry rows, contact histories, the force kernels'
+//!   outputs, the particles' blocks of N in `state`, `loads`, `props`, `ints` and `rows`, the
+//!   `counts` words, and the segment's `dims`, `search` and `ctrl` words with the overflow codes)
+//!   is laid out once, in the `layout` module: named places that the host's writers and readers
+//!   index with, and from which every kernel's source gets the same places as WGSL constants
+//!   with one prefix per buffer (`P_STEPPING`, `H_ROLLING`, `S_VELOCITY * n + 3u * i`). No
+//!   kernel reads a laid-out buffer by number: a test scans the WGSL files for numbered places,
+//!   so a moved field cannot be half moved.
 
 pub mod batch;
+mod kernels;
+mod layout;
+mod pack;
 mod resident;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
-use dem::contact::{ContactHistory, ContactModel, RollingModel};
-use dem::geometry::Element;
+use dem::contact::ContactModel;
 use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
 use dem::sim::walls::WallLists;
 use dem::sim::{
     Anchors, Backend, CpuBackend, Moved, Segment, SegmentEnd, SimulationParams, StepInputs,
 };
-use glam::DVec3;
 use wgpu::util::DeviceExt;
 
-const COMMON: &str = include_str!("wgsl/common.wgsl");
-const WORLD: &str = include_str!("wgsl/world.wgsl");
-const VECTOR: &str = include_str!("wgsl/vector.wgsl");
-const SPIN: &str = include_str!("wgsl/spin.wgsl");
-const CONTACT: &str = include_str!("wgsl/contact.wgsl");
-const INTEGRATE: &str = include_str!("wgsl/integrate.wgsl");
-const PAIR_FORCES: &str = include_str!("wgsl/pair_forces.wgsl");
-const PARTICLE_SUMS: &str = include_str!("wgsl/particle_sums.wgsl");
-const WALL_FORCES: &str = include_str!("wgsl/wall_forces.wgsl");
-const ELEMENTS: &str = include_str!("wgsl/elements.wgsl");
+use layout::{element, geometry, pair_output, wall_output};
+use pack::{
+    block3, element_row, f64s, flat, geometry_row, history_at, history_of, ints_of, loads_of,
+    pair_output_at, pair_output_of, pair_table, params_of, props_of, rows_of, state_of,
+    wall_output_at, wall_output_of, Counts,
+};
+
+/// Bytes of `state` per particle, the largest of the per-particle buffers.
+const STATE_BYTES: usize = 8 * layout::state::LEN;
 
 /// Threads per workgroup, as the kernels declare.
 const WORKGROUP: u32 = 64;
@@ -140,38 +153,38 @@ impl GpuContext {
         .map_err(|e| format!("the GPU {} refused a device: {e}", info.name))?;
         // A kernel the driver refuses is an error, not a panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        // Each kernel is its file after the shared parts it uses.
-        let compile = |name: &str, parts: &[&str], with_common: bool| {
-            let common: &[&str] = if with_common {
-                &[VECTOR, WORLD, COMMON]
-            } else {
-                &[VECTOR, WORLD]
-            };
-            let source = common
-                .iter()
-                .chain(parts)
-                .copied()
-                .collect::<Vec<_>>()
-                .join("\n");
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(name),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(name),
-                layout: None,
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+        // Every kernel as `kernels::kernel_sources` composes it (the sources naga checks in the
+        // crate's tests).
+        let mut pipelines: std::collections::HashMap<&str, wgpu::ComputePipeline> =
+            kernels::kernel_sources()
+                .into_iter()
+                .map(|(name, source)| {
+                    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(name),
+                        source: wgpu::ShaderSource::Wgsl(source.into()),
+                    });
+                    let pipeline =
+                        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some(name),
+                            layout: None,
+                            module: &module,
+                            entry_point: Some("main"),
+                            compilation_options: Default::default(),
+                            cache: None,
+                        });
+                    (name, pipeline)
+                })
+                .collect();
+        let mut take = |name: &str| {
+            pipelines
+                .remove(name)
+                .unwrap_or_else(|| panic!("no kernel {name} in kernels::kernel_sources"))
         };
-        let pipeline = |name: &str, parts: &[&str]| compile(name, parts, true);
-        let integrate = pipeline("integrate", &[SPIN, INTEGRATE]);
-        let pair_forces = pipeline("pair_forces", &[CONTACT, PAIR_FORCES]);
-        let particle_sums = pipeline("particle_sums", &[SPIN, PARTICLE_SUMS]);
-        let wall_forces = pipeline("wall_forces", &[CONTACT, ELEMENTS, WALL_FORCES]);
-        let resident = resident::ResidentKernels::new(&compile, ELEMENTS);
+        let integrate = take("integrate");
+        let pair_forces = take("pair_forces");
+        let particle_sums = take("particle_sums");
+        let wall_forces = take("wall_forces");
+        let resident = resident::ResidentKernels::new(&mut take);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!(
                 "the GPU {} refused the kernels: {}",
@@ -199,7 +212,7 @@ impl GpuContext {
     }
 
     /// Whether arrays of `bytes` (the largest of a stage) fit one binding, and the stage's
-    /// indices fit u32 (`11 q` for a pair's output slot).
+    /// indices fit u32 (`PO_LEN * q` for a pair's output row).
     fn fits(&self, bytes: usize) -> bool {
         (bytes as u64) <= self.max_binding && bytes / 8 < u32::MAX as usize
     }
@@ -262,215 +275,6 @@ fn groups(threads: u32) -> (u32, u32) {
 /// Row width of a dispatch in threads (what `thread_index` multiplies y by).
 fn row_width(threads: u32) -> u32 {
     groups(threads).0 * WORKGROUP
-}
-
-fn flat(parts: &[&[DVec3]]) -> Vec<f64> {
-    parts
-        .iter()
-        .flat_map(|p| p.iter().flat_map(|v| [v.x, v.y, v.z]))
-        .collect()
-}
-
-/// `state` of the kernels: position, velocity and angular velocity, 3N each.
-fn state_of(p: &Particles) -> Vec<f64> {
-    flat(&[&p.position, &p.velocity, &p.angular_velocity])
-}
-
-/// `props` of the kernels: radius, mass, inverse mass, inverse inertia, and the world of a batch
-/// (all 0 here), N each.
-fn props_of(p: &Particles) -> Vec<f64> {
-    let mut props: Vec<f64> = [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
-        .into_iter()
-        .flat_map(|v| v.iter().copied())
-        .collect();
-    props.resize(5 * p.len(), 0.0);
-    props
-}
-
-/// `ints` of the kernels: material, then body, N each.
-fn ints_of(p: &Particles) -> Vec<u32> {
-    let mut ints: Vec<u32> = p.material.iter().map(|&m| m as u32).collect();
-    ints.extend(&p.body);
-    ints
-}
-
-/// `rows` of the kernels (`particle_sums.wgsl` describes them) from the CSR rows of the lists:
-/// pair, reverse and wall rows as begin and end, then the reverse entries. Without pair lists the
-/// pair and reverse rows are empty.
-fn rows_of(lists: Option<&NeighbourList>, wall_start: &[u32], n: usize) -> Vec<u32> {
-    let mut rows = Vec::with_capacity(6 * n + lists.map_or(0, |l| l.reverse.len()));
-    let mut csr = |start: Option<&[u32]>| match start {
-        Some(s) => {
-            rows.extend(&s[..n]);
-            rows.extend(&s[1..=n]);
-        }
-        None => rows.extend(std::iter::repeat_n(0, 2 * n)),
-    };
-    csr(lists.map(|l| &l.row_start[..]));
-    csr(lists.map(|l| &l.reverse_start[..]));
-    csr(Some(wall_start));
-    if let Some(l) = lists {
-        rows.extend(&l.reverse);
-    }
-    rows
-}
-
-/// Contact histories, 6 numbers each: tangential spring, rolling moment.
-fn history_of<'a>(h: impl Iterator<Item = &'a ContactHistory>) -> Vec<f64> {
-    h.flat_map(|h| {
-        let (t, r) = (h.tangential, h.rolling);
-        [t.x, t.y, t.z, r.x, r.y, r.z]
-    })
-    .collect()
-}
-
-fn f64s(bytes: &[u8]) -> Vec<f64> {
-    bytemuck::pod_collect_to_vec(bytes)
-}
-
-fn vec3_at(v: &[f64], k: usize) -> DVec3 {
-    DVec3::new(v[k], v[k + 1], v[k + 2])
-}
-
-/// The material pair table, 7 numbers a pair (`pair_forces.wgsl` names them).
-fn pair_table(inputs: &StepInputs) -> Vec<f64> {
-    inputs
-        .materials
-        .pairs()
-        .iter()
-        .flat_map(|q| {
-            [
-                q.e_star,
-                q.g_star,
-                q.tangential_damping_ratio,
-                q.hertz_damping,
-                q.static_friction,
-                q.rolling_friction,
-                q.surface_energy,
-            ]
-        })
-        .collect()
-}
-
-/// An element as `wall_forces.wgsl` reads it: its kind, then its numbers, 16 in all.
-fn element_row(e: &Element) -> [f64; 16] {
-    let mut row = [0.0; 16];
-    let mut put = |k: usize, v: DVec3| row[k..k + 3].copy_from_slice(&[v.x, v.y, v.z]);
-    let (kind, scalars): (f64, Vec<(usize, f64)>) = match *e {
-        Element::Plane { point, normal } => {
-            put(1, point);
-            put(4, normal);
-            (0.0, vec![])
-        }
-        Element::Rect {
-            center,
-            normal,
-            u,
-            v,
-            half_u,
-            half_v,
-        } => {
-            put(1, center);
-            put(4, normal);
-            put(7, u);
-            put(10, v);
-            (1.0, vec![(13, half_u), (14, half_v)])
-        }
-        Element::Disc {
-            center,
-            normal,
-            radius,
-        } => {
-            put(1, center);
-            put(4, normal);
-            (2.0, vec![(7, radius)])
-        }
-        Element::CylinderShell {
-            base,
-            axis,
-            radius,
-            length,
-        } => {
-            put(1, base);
-            put(4, axis);
-            (3.0, vec![(7, radius), (8, length)])
-        }
-        Element::Triangle { a, b, c } => {
-            put(1, a);
-            put(4, b);
-            put(7, c);
-            (4.0, vec![])
-        }
-    };
-    row[0] = kind;
-    for (k, v) in scalars {
-        row[k] = v;
-    }
-    row
-}
-
-/// Numbers in a world's block of the params buffer (`wgsl/world.wgsl` names the same places).
-const PARAMS: usize = 24;
-
-/// Places in a world's params block that a batch sets (`params_of` fills the rest).
-mod block {
-    pub const STEPPING: usize = 17;
-    pub const STEPS: usize = 18;
-    pub const FIRST_GEOMETRY: usize = 19;
-    pub const END_GEOMETRY: usize = 20;
-    pub const FIRST_PARTICLE: usize = 21;
-    pub const END_PARTICLE: usize = 22;
-    pub const TABLE: usize = 23;
-}
-
-/// The params buffer `common.wgsl` describes.
-fn params_of(
-    params: &SimulationParams,
-    clumps: bool,
-    kick: bool,
-    materials: usize,
-    cohesive: bool,
-) -> Vec<f64> {
-    let (has, lo, hi) = match params.domain {
-        Some((lo, hi)) => (1.0, lo, hi),
-        None => (0.0, DVec3::ZERO, DVec3::ZERO),
-    };
-    let (rolling, viscous) = match params.rolling_model {
-        RollingModel::ConstantDirectionalTorque => (0.0, 0.0),
-        RollingModel::Epsd { viscous_damping } => (1.0, viscous_damping),
-    };
-    let g = params.gravity;
-    let block = vec![
-        params.time_step,
-        g.x,
-        g.y,
-        g.z,
-        has,
-        lo.x,
-        lo.y,
-        lo.z,
-        hi.x,
-        hi.y,
-        hi.z,
-        if clumps { 1.0 } else { 0.0 },
-        if kick { 1.0 } else { 0.0 },
-        rolling,
-        viscous,
-        materials as f64,
-        if cohesive { 1.0 } else { 0.0 },
-        // Stepping; the world's steps, geometries and particles are set where a segment needs
-        // them.
-        1.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-    ];
-    debug_assert_eq!(block.len(), PARAMS);
-    debug_assert_eq!(block[block::STEPPING], 1.0);
-    block
 }
 
 /// The process's GPU context, made on first use: compiling the kernels takes a moment, and every
@@ -620,19 +424,23 @@ impl Backend for GpuStages {
             "positions at the last build, one per particle"
         );
         let c = &self.ctx;
-        if !c.fits(72 * n) {
+        if !c.fits(STATE_BYTES * n) {
             return self.to_cpu().integrate(p, anchors, params, clumps);
         }
         let threads = n as u32;
         let state = c.storage(&state_of(p));
-        let mut loads = flat(&[&p.force, &p.torque]);
-        loads.extend(&p.rolling_torque_limit);
-        let loads = c.storage(&loads);
+        let loads = c.storage(&loads_of(p));
         let props = c.storage(&props_of(p));
         let body = c.storage(&p.body);
-        let built = c.storage(&flat(&[built_at]));
+        let built = c.storage(&flat(built_at));
         let par = c.storage(&params_of(params, clumps, false, 0, false));
-        let counts = c.storage(&[threads, 0, 0, 0, row_width(threads)]);
+        let counts = c.storage(
+            &Counts {
+                particles: n,
+                ..Default::default()
+            }
+            .words(threads),
+        );
         let moved = c.storage(&vec![0.0f64; n]);
         let outside = c.storage(&vec![0u32; n]);
         let out = c.run(
@@ -645,9 +453,9 @@ impl Backend for GpuStages {
         );
         let s = f64s(&out[0]);
         for i in 0..n {
-            p.position[i] = vec3_at(&s, 3 * i);
-            p.velocity[i] = vec3_at(&s, 3 * (n + i));
-            p.angular_velocity[i] = vec3_at(&s, 3 * (2 * n + i));
+            p.position[i] = block3(&s, layout::state::POSITION, n, i);
+            p.velocity[i] = block3(&s, layout::state::VELOCITY, n, i);
+            p.angular_velocity[i] = block3(&s, layout::state::ANGULAR_VELOCITY, n, i);
         }
         let moved = f64s(&out[1]);
         let outside: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
@@ -669,17 +477,21 @@ impl Backend for GpuStages {
         }
         let n = p.len();
         let c = &self.ctx;
-        if !c.fits((72 * n).max(88 * pairs)) {
+        if !c.fits((STATE_BYTES * n).max(8 * pair_output::LEN * pairs)) {
             return self.to_cpu().pair_forces(p, lists, inputs);
         }
         let threads = pairs as u32;
         let state = c.storage(&state_of(p));
         let props = c.storage(&props_of(p));
         let ints = c.storage(&ints_of(p));
-        let ij: Vec<u32> = lists.pairs.iter().flat_map(|q| [q.i, q.j]).collect();
+        let mut ij = vec![0; layout::pair_ij::LEN * pairs];
+        for (q, pair) in lists.pairs.iter().enumerate() {
+            ij[layout::pair_ij::LEN * q + layout::pair_ij::I] = pair.i;
+            ij[layout::pair_ij::LEN * q + layout::pair_ij::J] = pair.j;
+        }
         let ij = c.storage(&ij);
         let history = c.storage(&history_of(lists.pairs.iter().map(|q| &q.history)));
-        let output = c.storage(&vec![0.0f64; 11 * pairs]);
+        let output = c.storage(&vec![0.0f64; pair_output::LEN * pairs]);
         let table = c.storage(&pair_table(inputs));
         let par = c.storage(&params_of(
             inputs.params,
@@ -688,7 +500,14 @@ impl Backend for GpuStages {
             inputs.materials.len(),
             inputs.cohesive,
         ));
-        let counts = c.storage(&[n as u32, threads, 0, 0, row_width(threads)]);
+        let counts = c.storage(
+            &Counts {
+                particles: n,
+                pairs,
+                ..Default::default()
+            }
+            .words(threads),
+        );
         let out = c.run(
             &c.pair_forces,
             &[
@@ -700,14 +519,8 @@ impl Backend for GpuStages {
         let h = f64s(&out[0]);
         let o = f64s(&out[1]);
         for (q, pair) in lists.pairs.iter_mut().enumerate() {
-            pair.history.tangential = vec3_at(&h, 6 * q);
-            pair.history.rolling = vec3_at(&h, 6 * q + 3);
-            let slot = &mut lists.output[q];
-            slot.force = vec3_at(&o, 11 * q);
-            slot.torque_i = vec3_at(&o, 11 * q + 3);
-            slot.torque_j = vec3_at(&o, 11 * q + 6);
-            slot.rolling_i = o[11 * q + 9];
-            slot.rolling_j = o[11 * q + 10];
+            pair.history = history_at(&h, q);
+            lists.output[q] = pair_output_at(&o, q);
         }
         lists.mark_all_active();
     }
@@ -720,7 +533,10 @@ impl Backend for GpuStages {
         let n = p.len();
         let c = &self.ctx;
         let elements: usize = inputs.geometries.iter().map(|g| g.elements.len()).sum();
-        if !Self::runs_pairs(inputs) || !c.fits((72 * n).max(80 * count).max(128 * elements)) {
+        let largest = (STATE_BYTES * n)
+            .max(8 * wall_output::LEN * count)
+            .max(8 * element::LEN * elements);
+        if !Self::runs_pairs(inputs) || !c.fits(largest) {
             return self.to_cpu().wall_forces(p, walls, inputs);
         }
         assert_eq!(
@@ -729,20 +545,15 @@ impl Backend for GpuStages {
             "wall row starts: one per particle and one more"
         );
         let threads = n as u32;
-        let mut flat_elements: Vec<f64> = Vec::with_capacity(16 * elements);
-        let mut geoms: Vec<f64> = Vec::with_capacity(8 * inputs.geometries.len());
+        let mut flat_elements: Vec<f64> = Vec::with_capacity(element::LEN * elements);
+        let mut geoms: Vec<f64> = Vec::with_capacity(geometry::LEN * inputs.geometries.len());
         for g in inputs.geometries {
             let (lin, ang) = (g.velocity.linear, g.velocity.angular);
-            geoms.extend([
+            geoms.extend(geometry_row(
                 g.material as f64,
-                (flat_elements.len() / 16) as f64,
-                lin.x,
-                lin.y,
-                lin.z,
-                ang.x,
-                ang.y,
-                ang.z,
-            ]);
+                (flat_elements.len() / element::LEN) as f64,
+                [lin.x, lin.y, lin.z, ang.x, ang.y, ang.z],
+            ));
             for e in &g.elements {
                 flat_elements.extend(element_row(e));
             }
@@ -752,15 +563,15 @@ impl Backend for GpuStages {
         let ints = c.storage(&ints_of(p));
         let flat_elements = c.storage(&flat_elements);
         let geoms = c.storage(&geoms);
-        let cands: Vec<u32> = walls
-            .candidates()
-            .iter()
-            .flat_map(|w| [w.geometry as u32, w.element])
-            .collect();
+        let mut cands = vec![0; layout::cands::LEN * count];
+        for (k, w) in walls.candidates().iter().enumerate() {
+            cands[layout::cands::LEN * k + layout::cands::GEOMETRY] = w.geometry as u32;
+            cands[layout::cands::LEN * k + layout::cands::ELEMENT] = w.element;
+        }
         let cands = c.storage(&cands);
         let rows = c.storage(&rows_of(None, walls.start(), n));
         let history = c.storage(&history_of(walls.candidates().iter().map(|w| &w.history)));
-        let output = c.storage(&vec![0.0f64; 10 * count]);
+        let output = c.storage(&vec![0.0f64; wall_output::LEN * count]);
         let table = c.storage(&pair_table(inputs));
         let par = c.storage(&params_of(
             inputs.params,
@@ -769,7 +580,14 @@ impl Backend for GpuStages {
             inputs.materials.len(),
             inputs.cohesive,
         ));
-        let counts = c.storage(&[threads, 0, 0, count as u32, row_width(threads)]);
+        let counts = c.storage(
+            &Counts {
+                particles: n,
+                walls: count,
+                ..Default::default()
+            }
+            .words(threads),
+        );
         let status = c.storage(&vec![0u32; n]);
         let out = c.run(
             &c.wall_forces,
@@ -799,14 +617,10 @@ impl Backend for GpuStages {
         let h = f64s(&out[0]);
         let o = f64s(&out[1]);
         for (k, w) in walls.candidates_mut().iter_mut().enumerate() {
-            w.history.tangential = vec3_at(&h, 6 * k);
-            w.history.rolling = vec3_at(&h, 6 * k + 3);
+            w.history = history_at(&h, k);
         }
         for (k, slot) in walls.output_mut().iter_mut().enumerate() {
-            slot.force = vec3_at(&o, 10 * k);
-            slot.torque = vec3_at(&o, 10 * k + 3);
-            slot.particle_torque = vec3_at(&o, 10 * k + 6);
-            slot.rolling = o[10 * k + 9];
+            *slot = wall_output_at(&o, k);
         }
     }
 
@@ -823,41 +637,21 @@ impl Backend for GpuStages {
             return;
         }
         let c = &self.ctx;
-        let csr_len = 6 * n + lists.reverse.len();
+        let csr_len = layout::rows::REVERSE_ENTRIES * n + lists.reverse.len();
         if !c.fits(
-            (72 * n)
-                .max(88 * lists.output.len())
-                .max(80 * walls.output().len())
+            (STATE_BYTES * n)
+                .max(8 * pair_output::LEN * lists.output.len())
+                .max(8 * wall_output::LEN * walls.output().len())
                 .max(4 * csr_len),
         ) {
             return self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
         }
         let threads = n as u32;
         let state = c.storage(&state_of(p));
-        let loads = c.storage(&vec![0.0f64; 7 * n]);
+        let loads = c.storage(&vec![0.0f64; layout::loads::LEN * n]);
         let props = c.storage(&props_of(p));
         let body = c.storage(&p.body);
-        let pair_out: Vec<f64> = lists
-            .output
-            .iter()
-            .flat_map(|o| {
-                let (f, a, b) = (o.force, o.torque_i, o.torque_j);
-                [
-                    f.x,
-                    f.y,
-                    f.z,
-                    a.x,
-                    a.y,
-                    a.z,
-                    b.x,
-                    b.y,
-                    b.z,
-                    o.rolling_i,
-                    o.rolling_j,
-                ]
-            })
-            .collect();
-        let pair_out = c.storage(&pair_out);
+        let pair_out = c.storage(&pair_output_of(&lists.output));
         // The CPU stage indexes these rows for every particle; they must be there.
         for (what, r) in [
             ("pair row starts", &lists.row_start),
@@ -871,15 +665,7 @@ impl Backend for GpuStages {
             "wall row starts: one per particle and one more"
         );
         let rows = c.storage(&rows_of(Some(lists), walls.start(), n));
-        let wall_out: Vec<f64> = walls
-            .output()
-            .iter()
-            .flat_map(|o| {
-                let (f, g, t) = (o.force, o.torque, o.particle_torque);
-                [f.x, f.y, f.z, g.x, g.y, g.z, t.x, t.y, t.z, o.rolling]
-            })
-            .collect();
-        let wall_out = c.storage(&wall_out);
+        let wall_out = c.storage(&wall_output_of(walls.output()));
         let par = c.storage(&params_of(
             inputs.params,
             inputs.clumps,
@@ -887,13 +673,15 @@ impl Backend for GpuStages {
             inputs.materials.len(),
             inputs.cohesive,
         ));
-        let counts = c.storage(&[
-            threads,
-            lists.pairs.len() as u32,
-            lists.reverse.len() as u32,
-            walls.output().len() as u32,
-            row_width(threads),
-        ]);
+        let counts = c.storage(
+            &Counts {
+                particles: n,
+                pairs: lists.pairs.len(),
+                reverse: lists.reverse.len(),
+                walls: walls.output().len(),
+            }
+            .words(threads),
+        );
         let out = c.run(
             &c.particle_sums,
             &[
@@ -904,12 +692,13 @@ impl Backend for GpuStages {
         );
         let s = f64s(&out[0]);
         let l = f64s(&out[1]);
+        use layout::{loads, state};
         for i in 0..n {
-            p.velocity[i] = vec3_at(&s, 3 * (n + i));
-            p.angular_velocity[i] = vec3_at(&s, 3 * (2 * n + i));
-            p.force[i] = vec3_at(&l, 3 * i);
-            p.torque[i] = vec3_at(&l, 3 * (n + i));
-            p.rolling_torque_limit[i] = l[6 * n + i];
+            p.velocity[i] = block3(&s, state::VELOCITY, n, i);
+            p.angular_velocity[i] = block3(&s, state::ANGULAR_VELOCITY, n, i);
+            p.force[i] = block3(&l, loads::FORCE, n, i);
+            p.torque[i] = block3(&l, loads::TORQUE, n, i);
+            p.rolling_torque_limit[i] = l[loads::ROLLING_LIMIT * n + i];
         }
     }
 }

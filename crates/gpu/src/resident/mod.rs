@@ -17,10 +17,10 @@
 //! The host reads a few control words every [`CHUNK`] steps (to stop a failed run early), and
 //! the state once at the end of the segment.
 
-use dem::contact::ContactHistory;
 use dem::sim::{Segment, SegmentEnd};
 
-use crate::{groups, vec3_at, GpuContext, GpuStages};
+use crate::layout::{ctrl, overflow};
+use crate::{groups, GpuContext, GpuStages};
 
 mod run;
 pub(crate) mod world;
@@ -42,7 +42,7 @@ pub(crate) struct Capacity {
 
 /// Why a try stopped short.
 enum Retry {
-    /// A capacity was too small (`ctrl[3]`'s code).
+    /// A capacity was too small (an `overflow` code).
     Overflow(u32),
     /// The segment cannot run here (why: too large for a binding, a particle with too many
     /// walls).
@@ -63,62 +63,19 @@ pub(crate) struct ResidentKernels {
 }
 
 impl ResidentKernels {
-    /// `pipeline(name, parts, with_common)` compiles a kernel from its parts.
-    pub(crate) fn new(
-        pipeline: &dyn Fn(&str, &[&str], bool) -> wgpu::ComputePipeline,
-        elements: &str,
-    ) -> ResidentKernels {
-        const SHARED: &str = include_str!("../wgsl/resident/shared.wgsl");
+    /// The pipelines from `take(name)`, which hands over a compiled kernel of
+    /// `kernels::kernel_sources`.
+    pub(crate) fn new(take: &mut dyn FnMut(&str) -> wgpu::ComputePipeline) -> ResidentKernels {
         ResidentKernels {
-            begin: pipeline(
-                "begin",
-                &[include_str!("../wgsl/resident/begin.wgsl")],
-                false,
-            ),
-            check: pipeline(
-                "check",
-                &[include_str!("../wgsl/resident/check.wgsl")],
-                false,
-            ),
-            clear: pipeline(
-                "clear",
-                &[include_str!("../wgsl/resident/clear.wgsl")],
-                false,
-            ),
-            bin: pipeline(
-                "bin",
-                &[SHARED, include_str!("../wgsl/resident/bin.wgsl")],
-                false,
-            ),
-            build_pairs: pipeline(
-                "build_pairs",
-                &[SHARED, include_str!("../wgsl/resident/build_pairs.wgsl")],
-                false,
-            ),
-            build_walls: pipeline(
-                "build_walls",
-                &[
-                    SHARED,
-                    elements,
-                    include_str!("../wgsl/resident/build_walls.wgsl"),
-                ],
-                false,
-            ),
-            sort_reverse: pipeline(
-                "sort_reverse",
-                &[include_str!("../wgsl/resident/sort_reverse.wgsl")],
-                false,
-            ),
-            commit: pipeline(
-                "commit",
-                &[include_str!("../wgsl/resident/commit.wgsl")],
-                false,
-            ),
-            geometry_loads: pipeline(
-                "geometry_loads",
-                &[include_str!("../wgsl/resident/geometry_loads.wgsl")],
-                false,
-            ),
+            begin: take("begin"),
+            check: take("check"),
+            clear: take("clear"),
+            bin: take("bin"),
+            build_pairs: take("build_pairs"),
+            build_walls: take("build_walls"),
+            sort_reverse: take("sort_reverse"),
+            commit: take("commit"),
+            geometry_loads: take("geometry_loads"),
         }
     }
 }
@@ -225,9 +182,10 @@ impl GpuStages {
             }
             match tried {
                 Ok(ends) => return Ok(ends),
-                Err(Retry::Overflow(1)) => cap.bucket *= 2,
-                Err(Retry::Overflow(2 | 3)) => cap.pair *= 2,
-                Err(Retry::Overflow(4)) => cap.wall *= 2,
+                Err(Retry::Overflow(overflow::BUCKET)) => cap.bucket *= 2,
+                // A reverse row has the pair rows' capacity.
+                Err(Retry::Overflow(overflow::PAIR_ROW | overflow::REVERSE_ROW)) => cap.pair *= 2,
+                Err(Retry::Overflow(overflow::WALL_ROW)) => cap.wall *= 2,
                 Err(Retry::Overflow(code)) => {
                     return Err(format!("an unknown overflow code {code}"))
                 }
@@ -265,25 +223,13 @@ fn encode(encoder: &mut wgpu::CommandEncoder, launches: &[&Launch]) {
 }
 
 /// The overflow word of `ctrl`: a capacity to raise, or a particle the wall kernel cannot take.
-fn check_overflow(ctrl: &[u8]) -> Result<(), Retry> {
-    let w: Vec<u32> = bytemuck::pod_collect_to_vec(ctrl);
-    match w[3] {
-        0 => Ok(()),
-        5 => Err(Retry::Decline(
+fn check_overflow(words: &[u8]) -> Result<(), Retry> {
+    let w: Vec<u32> = bytemuck::pod_collect_to_vec(words);
+    match w[ctrl::OVERFLOW] {
+        overflow::NONE => Ok(()),
+        overflow::WALLS_KEPT => Err(Retry::Decline(
             "a particle touched more walls at once than the wall kernel keeps".to_string(),
         )),
         code => Err(Retry::Overflow(code)),
-    }
-}
-
-pub(crate) fn put_history(out: &mut [f64], q: usize, h: &ContactHistory) {
-    let (t, r) = (h.tangential, h.rolling);
-    out[6 * q..6 * q + 6].copy_from_slice(&[t.x, t.y, t.z, r.x, r.y, r.z]);
-}
-
-pub(crate) fn history_at(h: &[f64], q: usize) -> ContactHistory {
-    ContactHistory {
-        tangential: vec3_at(h, 6 * q),
-        rolling: vec3_at(h, 6 * q + 3),
     }
 }

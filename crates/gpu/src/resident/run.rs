@@ -5,7 +5,425 @@ use dem::sim::SegmentEnd;
 
 use super::world::{Merged, World};
 use super::{check_overflow, encode, Capacity, Launch, Retry, BUCKETS_PER_PARTICLE, CHUNK, EMPTY};
-use crate::{row_width, GpuStages};
+use crate::layout;
+use crate::pack::Counts;
+use crate::{GpuContext, GpuStages, STATE_BYTES};
+
+/// The sizes of one try.
+struct Sizes {
+    /// Particles, pair slots, wall candidate slots and cell buckets of all the worlds.
+    n: usize,
+    pairs: usize,
+    walls: usize,
+    buckets: usize,
+    /// The longest world's steps.
+    steps: usize,
+    geometries: usize,
+    elements: usize,
+}
+
+impl Sizes {
+    fn of(worlds: &[World], cap: Capacity) -> Sizes {
+        let n: usize = worlds.iter().map(|w| w.n).sum();
+        Sizes {
+            n,
+            pairs: n * cap.pair,
+            walls: n * cap.wall,
+            buckets: (BUCKETS_PER_PARTICLE * n).next_power_of_two().max(64),
+            steps: worlds.iter().map(|w| w.steps).max().unwrap_or(0) as usize,
+            geometries: worlds.iter().map(|w| w.geometry_first.len()).sum(),
+            elements: worlds
+                .iter()
+                .map(|w| w.elements.len() / layout::element::LEN)
+                .sum(),
+        }
+    }
+
+    /// The largest buffer of the run, in bytes (each must fit one binding).
+    fn largest(&self, m: &Merged, cap: Capacity) -> usize {
+        [
+            STATE_BYTES * self.n,
+            4 * (self.steps + 1),
+            8 * m.element_track.len(),
+            8 * m.geoms_track.len(),
+            8 * m.table.len(),
+            8 * layout::pair_output::LEN * self.pairs,
+            8 * layout::wall_output::LEN * self.walls,
+            4 * (layout::rows::REVERSE_ENTRIES * self.n + self.pairs),
+            4 * self.buckets * cap.bucket,
+            8 * layout::element::LEN * self.elements,
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0)
+    }
+}
+
+/// The device buffers of one try, named as the kernels bind them.
+struct Buffers {
+    state: wgpu::Buffer,
+    loads: wgpu::Buffer,
+    props: wgpu::Buffer,
+    body: wgpu::Buffer,
+    ints: wgpu::Buffer,
+    built: wgpu::Buffer,
+    params: wgpu::Buffer,
+    /// `counts` for launches over the particles, the pair slots and the buckets.
+    counts_n: wgpu::Buffer,
+    counts_pairs: wgpu::Buffer,
+    counts_buckets: wgpu::Buffer,
+    moved: wgpu::Buffer,
+    outside: wgpu::Buffer,
+    status: wgpu::Buffer,
+    pair_ij: wgpu::Buffer,
+    pair_history: wgpu::Buffer,
+    pair_output: wgpu::Buffer,
+    new_ij: wgpu::Buffer,
+    new_pair_history: wgpu::Buffer,
+    rows: wgpu::Buffer,
+    cands: wgpu::Buffer,
+    wall_history: wgpu::Buffer,
+    wall_output: wgpu::Buffer,
+    new_cands: wgpu::Buffer,
+    new_wall_history: wgpu::Buffer,
+    table: wgpu::Buffer,
+    elements: wgpu::Buffer,
+    geoms: wgpu::Buffer,
+    element_track: wgpu::Buffer,
+    geoms_track: wgpu::Buffer,
+    forced: wgpu::Buffer,
+    ctrl: wgpu::Buffer,
+    dims: wgpu::Buffer,
+    search: wgpu::Buffer,
+    bucket_count: wgpu::Buffer,
+    bucket_items: wgpu::Buffer,
+    reverse_count: wgpu::Buffer,
+    geometry_loads: wgpu::Buffer,
+}
+
+impl Buffers {
+    fn new(c: &GpuContext, m: &Merged, worlds: usize, s: &Sizes, cap: Capacity) -> Buffers {
+        let (n, pairs, walls) = (s.n, s.pairs, s.walls);
+        let storage_rw = |data: &[u8]| c.storage_with(data, wgpu::BufferUsages::COPY_DST);
+        let counts = |threads: usize| {
+            let counts = Counts {
+                particles: n,
+                pairs,
+                reverse: pairs,
+                walls,
+            };
+            c.storage(&counts.words(threads as u32))
+        };
+        // Tracks only where geometries move (a binding cannot be empty).
+        let track = |v: &[f64]| {
+            let v: &[f64] = if m.moving.is_empty() { &[0.0] } else { v };
+            c.storage(v)
+        };
+        // The lists are built before the first step; no world has failed.
+        let mut words = vec![0u32; layout::ctrl::LEN];
+        words[layout::ctrl::REBUILD] = 1;
+        words[layout::ctrl::WORLDS] = worlds as u32;
+        words.extend(std::iter::repeat_n(EMPTY, worlds));
+        let mut dims = [0u32; layout::dims::LEN];
+        dims[layout::dims::PARTICLES] = n as u32;
+        dims[layout::dims::PAIR_CAPACITY] = cap.pair as u32;
+        dims[layout::dims::WALL_CAPACITY] = cap.wall as u32;
+        dims[layout::dims::BUCKETS] = s.buckets as u32;
+        dims[layout::dims::BUCKET_CAPACITY] = cap.bucket as u32;
+        dims[layout::dims::GEOMETRIES] = s.geometries as u32;
+        dims[layout::dims::ELEMENTS] = s.elements as u32;
+        let body = layout::ints::BODY * n..(layout::ints::BODY + 1) * n;
+        Buffers {
+            state: c.storage(&m.state),
+            loads: c.storage(&m.loads),
+            props: c.storage(&m.props),
+            body: c.storage(&m.ints[body]),
+            ints: c.storage(&m.ints),
+            built: c.storage(&vec![0.0f64; 3 * n]),
+            params: c.storage(&m.params),
+            counts_n: counts(n),
+            counts_pairs: counts(pairs),
+            counts_buckets: counts(s.buckets),
+            moved: c.storage(&vec![0.0f64; n]),
+            outside: c.storage(&vec![0u32; n]),
+            status: c.storage(&vec![0u32; n]),
+            pair_ij: c.storage(&m.pair_ij),
+            pair_history: c.storage(&m.pair_history),
+            pair_output: c.storage(&vec![0.0f64; layout::pair_output::LEN * pairs]),
+            new_ij: c.storage(&vec![EMPTY; layout::pair_ij::LEN * pairs]),
+            new_pair_history: c.storage(&vec![0.0f64; layout::history::LEN * pairs]),
+            rows: c.storage(&m.rows),
+            cands: c.storage(&m.cands),
+            wall_history: c.storage(&m.wall_history),
+            wall_output: c.storage(&vec![0.0f64; layout::wall_output::LEN * walls]),
+            new_cands: c.storage(&vec![EMPTY; layout::cands::LEN * walls]),
+            new_wall_history: c.storage(&vec![0.0f64; layout::history::LEN * walls]),
+            table: c.storage(&m.table),
+            elements: storage_rw(bytemuck::cast_slice(&m.elements)),
+            geoms: storage_rw(bytemuck::cast_slice(&m.geoms)),
+            element_track: track(&m.element_track),
+            geoms_track: track(&m.geoms_track),
+            forced: c.storage(&m.forced),
+            ctrl: c.storage(&words),
+            dims: c.storage(&dims),
+            search: c.storage(&m.search),
+            bucket_count: c.storage(&vec![0u32; s.buckets]),
+            bucket_items: c.storage(&vec![0u32; s.buckets * cap.bucket]),
+            reverse_count: c.storage(&vec![0u32; n]),
+            geometry_loads: c.storage(&vec![
+                0.0f64;
+                layout::geometry_loads::LEN * s.geometries.max(1)
+            ]),
+        }
+    }
+}
+
+/// The launches of one try: a step runs `begin`, `integrate`, `check`, the rebuild and the
+/// forces in that order; the end runs `begin`, `check` and the geometry loads.
+struct Launches<'a> {
+    begin: Launch<'a>,
+    integrate: Launch<'a>,
+    check: Launch<'a>,
+    rebuild: [Launch<'a>; 6],
+    forces: [Launch<'a>; 3],
+    geometry_loads: Launch<'a>,
+}
+
+/// A launch of `pipeline` over `threads` threads with `buffers` bound in order.
+fn launch<'a>(
+    c: &GpuContext,
+    pipeline: &'a wgpu::ComputePipeline,
+    buffers: &[&wgpu::Buffer],
+    threads: usize,
+) -> Launch<'a> {
+    Launch {
+        pipeline,
+        group: c.bind(pipeline, buffers),
+        threads: threads as u32,
+    }
+}
+
+impl<'a> Launches<'a> {
+    fn new(c: &'a GpuContext, b: &Buffers, s: &Sizes) -> Launches<'a> {
+        let k = &c.resident;
+        let n = s.n;
+        Launches {
+            begin: launch(c, &k.begin, &[&b.ctrl, &b.forced, &b.params], 0),
+            integrate: launch(
+                c,
+                &c.integrate,
+                &[
+                    &b.state,
+                    &b.loads,
+                    &b.props,
+                    &b.body,
+                    &b.built,
+                    &b.params,
+                    &b.counts_n,
+                    &b.moved,
+                    &b.outside,
+                ],
+                n,
+            ),
+            check: launch(
+                c,
+                &k.check,
+                &[
+                    &b.state,
+                    &b.counts_n,
+                    &b.moved,
+                    &b.outside,
+                    &b.status,
+                    &b.ctrl,
+                    &b.search,
+                    &b.props,
+                    &b.params,
+                ],
+                n,
+            ),
+            rebuild: Self::rebuild(c, b, s),
+            forces: Self::forces(c, b, s),
+            // Once at the end: a world that stopped earlier kept its rows and wall output.
+            geometry_loads: launch(
+                c,
+                &k.geometry_loads,
+                &[
+                    &b.dims,
+                    &b.rows,
+                    &b.cands,
+                    &b.wall_output,
+                    &b.geometry_loads,
+                    &b.params,
+                ],
+                s.geometries.max(1),
+            ),
+        }
+    }
+
+    /// The list rebuild (each kernel returns at once in a step without one).
+    fn rebuild(c: &'a GpuContext, b: &Buffers, s: &Sizes) -> [Launch<'a>; 6] {
+        let k = &c.resident;
+        let n = s.n;
+        [
+            launch(
+                c,
+                &k.clear,
+                &[
+                    &b.counts_buckets,
+                    &b.ctrl,
+                    &b.bucket_count,
+                    &b.reverse_count,
+                    &b.dims,
+                ],
+                s.buckets,
+            ),
+            launch(
+                c,
+                &k.bin,
+                &[
+                    &b.state,
+                    &b.counts_n,
+                    &b.ctrl,
+                    &b.bucket_count,
+                    &b.bucket_items,
+                    &b.dims,
+                    &b.search,
+                    &b.props,
+                    &b.params,
+                ],
+                n,
+            ),
+            launch(
+                c,
+                &k.build_pairs,
+                &[
+                    &b.state,
+                    &b.props,
+                    &b.counts_n,
+                    &b.ctrl,
+                    &b.bucket_count,
+                    &b.bucket_items,
+                    &b.dims,
+                    &b.search,
+                    &b.pair_ij,
+                    &b.pair_history,
+                    &b.new_ij,
+                    &b.new_pair_history,
+                    &b.rows,
+                    &b.reverse_count,
+                    &b.built,
+                    &b.params,
+                ],
+                n,
+            ),
+            launch(
+                c,
+                &k.build_walls,
+                &[
+                    &b.state,
+                    &b.counts_n,
+                    &b.props,
+                    &b.ctrl,
+                    &b.dims,
+                    &b.search,
+                    &b.elements,
+                    &b.geoms,
+                    &b.cands,
+                    &b.wall_history,
+                    &b.new_cands,
+                    &b.new_wall_history,
+                    &b.rows,
+                    &b.params,
+                ],
+                n,
+            ),
+            launch(
+                c,
+                &k.sort_reverse,
+                &[&b.counts_n, &b.ctrl, &b.rows, &b.reverse_count, &b.dims],
+                n,
+            ),
+            launch(
+                c,
+                &k.commit,
+                &[
+                    &b.counts_n,
+                    &b.ctrl,
+                    &b.dims,
+                    &b.pair_ij,
+                    &b.pair_history,
+                    &b.new_ij,
+                    &b.new_pair_history,
+                    &b.cands,
+                    &b.wall_history,
+                    &b.new_cands,
+                    &b.new_wall_history,
+                    &b.props,
+                    &b.params,
+                ],
+                n,
+            ),
+        ]
+    }
+
+    /// The stage kernels, as the check path runs them.
+    fn forces(c: &'a GpuContext, b: &Buffers, s: &Sizes) -> [Launch<'a>; 3] {
+        [
+            launch(
+                c,
+                &c.pair_forces,
+                &[
+                    &b.state,
+                    &b.props,
+                    &b.ints,
+                    &b.pair_ij,
+                    &b.pair_history,
+                    &b.pair_output,
+                    &b.table,
+                    &b.params,
+                    &b.counts_pairs,
+                ],
+                s.pairs,
+            ),
+            launch(
+                c,
+                &c.wall_forces,
+                &[
+                    &b.state,
+                    &b.props,
+                    &b.ints,
+                    &b.elements,
+                    &b.geoms,
+                    &b.cands,
+                    &b.rows,
+                    &b.wall_history,
+                    &b.wall_output,
+                    &b.table,
+                    &b.params,
+                    &b.counts_n,
+                    &b.status,
+                ],
+                s.n,
+            ),
+            launch(
+                c,
+                &c.particle_sums,
+                &[
+                    &b.state,
+                    &b.loads,
+                    &b.props,
+                    &b.body,
+                    &b.pair_output,
+                    &b.rows,
+                    &b.wall_output,
+                    &b.params,
+                    &b.counts_n,
+                ],
+                s.n,
+            ),
+        ]
+    }
+}
 
 impl GpuStages {
     pub(super) fn try_run(
@@ -14,31 +432,10 @@ impl GpuStages {
         cap: Capacity,
     ) -> Result<Vec<SegmentEnd>, Retry> {
         let c = &*self.ctx;
-        let n: usize = worlds.iter().map(|w| w.n).sum();
-        let pairs = n * cap.pair;
-        let walls = n * cap.wall;
-        let buckets = (BUCKETS_PER_PARTICLE * n).next_power_of_two().max(64);
-        let steps = worlds.iter().map(|w| w.steps).max().unwrap_or(0) as usize;
-        let geometries: usize = worlds.iter().map(|w| w.geometry_first.len()).sum();
-        let elements: usize = worlds.iter().map(|w| w.elements.len() / 16).sum();
+        let sizes = Sizes::of(worlds, cap);
         let m = Merged::new(worlds, cap).map_err(Retry::Overflow)?;
-        // Every buffer of the run, in bytes, against one binding.
-        let largest = [
-            72 * n,
-            4 * (steps + 1),
-            8 * m.element_track.len(),
-            8 * m.geoms_track.len(),
-            8 * m.table.len(),
-            88 * pairs,
-            80 * walls,
-            4 * (6 * n + pairs),
-            4 * buckets * cap.bucket,
-            128 * elements,
-        ]
-        .into_iter()
-        .max()
-        .unwrap_or(0);
-        if !c.fits(largest) || pairs >= u32::MAX as usize / 11 {
+        let largest = sizes.largest(&m, cap);
+        if !c.fits(largest) || sizes.pairs >= u32::MAX as usize / layout::pair_output::LEN {
             return Err(Retry::Decline(format!(
                 "its largest list ({:.2} GB) does not fit one binding of {} ({:.2} GB)",
                 largest as f64 * 1e-9,
@@ -46,289 +443,38 @@ impl GpuStages {
                 c.max_binding as f64 * 1e-9
             )));
         }
-        let moving = !m.moving.is_empty();
-        let moving_rows = m.moving_rows();
-
-        // Buffers.
-        let storage_rw = |data: &[u8]| c.storage_with(data, wgpu::BufferUsages::COPY_DST);
-        let state = c.storage(&m.state);
-        let loads = c.storage(&m.loads);
-        let props = c.storage(&m.props);
-        let body = c.storage(&m.ints[n..]);
-        let ints = c.storage(&m.ints);
-        let built = c.storage(&vec![0.0f64; 3 * n]);
-        let par = c.storage(&m.params);
-        let counts = |threads: usize| {
-            c.storage(&[
-                n as u32,
-                pairs as u32,
-                pairs as u32,
-                walls as u32,
-                row_width(threads as u32),
-            ])
-        };
-        let counts_n = counts(n);
-        let counts_pairs = counts(pairs);
-        let counts_buckets = counts(buckets);
-        let moved = c.storage(&vec![0.0f64; n]);
-        let outside = c.storage(&vec![0u32; n]);
-        let status = c.storage(&vec![0u32; n]);
-        let pair_ij = c.storage(&m.pair_ij);
-        let pair_history = c.storage(&m.pair_history);
-        let pair_output = c.storage(&vec![0.0f64; 11 * pairs]);
-        let new_ij = c.storage(&vec![EMPTY; 2 * pairs]);
-        let new_pair_history = c.storage(&vec![0.0f64; 6 * pairs]);
-        let rows = c.storage(&m.rows);
-        let cands = c.storage(&m.cands);
-        let wall_history = c.storage(&m.wall_history);
-        let wall_output = c.storage(&vec![0.0f64; 10 * walls]);
-        let new_cands = c.storage(&vec![EMPTY; 2 * walls]);
-        let new_wall_history = c.storage(&vec![0.0f64; 6 * walls]);
-        let table = c.storage(&m.table);
-        let element_buf = storage_rw(bytemuck::cast_slice(&m.elements));
-        let geoms = storage_rw(bytemuck::cast_slice(&m.geoms));
-        let (element_track, geoms_track) = if moving {
-            (c.storage(&m.element_track), c.storage(&m.geoms_track))
-        } else {
-            (c.storage(&[0.0f64]), c.storage(&[0.0f64]))
-        };
-        let forced = c.storage(&m.forced);
-        let mut words = vec![0u32, 1, 0, 0, 0, worlds.len() as u32, 0, 0];
-        words.extend(std::iter::repeat_n(EMPTY, worlds.len()));
-        let ctrl = c.storage(&words);
-        let dims = c.storage(&[
-            n as u32,
-            cap.pair as u32,
-            cap.wall as u32,
-            buckets as u32,
-            cap.bucket as u32,
-            geometries as u32,
-            elements as u32,
-            0,
-        ]);
-        let search = c.storage(&m.search);
-        let bucket_count = c.storage(&vec![0u32; buckets]);
-        let bucket_items = c.storage(&vec![0u32; buckets * cap.bucket]);
-        let reverse_count = c.storage(&vec![0u32; n]);
-        let geometry_loads = c.storage(&vec![0.0f64; 6 * geometries.max(1)]);
-
-        let k = &c.resident;
-        let launch = |pipeline, buffers: &[&wgpu::Buffer], threads: usize| Launch {
-            pipeline,
-            group: c.bind(pipeline, buffers),
-            threads: threads as u32,
-        };
-        let rebuild = [
-            launch(
-                &k.clear,
-                &[&counts_buckets, &ctrl, &bucket_count, &reverse_count, &dims],
-                buckets,
-            ),
-            launch(
-                &k.bin,
-                &[
-                    &state,
-                    &counts_n,
-                    &ctrl,
-                    &bucket_count,
-                    &bucket_items,
-                    &dims,
-                    &search,
-                    &props,
-                    &par,
-                ],
-                n,
-            ),
-            launch(
-                &k.build_pairs,
-                &[
-                    &state,
-                    &props,
-                    &counts_n,
-                    &ctrl,
-                    &bucket_count,
-                    &bucket_items,
-                    &dims,
-                    &search,
-                    &pair_ij,
-                    &pair_history,
-                    &new_ij,
-                    &new_pair_history,
-                    &rows,
-                    &reverse_count,
-                    &built,
-                    &par,
-                ],
-                n,
-            ),
-            launch(
-                &k.build_walls,
-                &[
-                    &state,
-                    &counts_n,
-                    &props,
-                    &ctrl,
-                    &dims,
-                    &search,
-                    &element_buf,
-                    &geoms,
-                    &cands,
-                    &wall_history,
-                    &new_cands,
-                    &new_wall_history,
-                    &rows,
-                    &par,
-                ],
-                n,
-            ),
-            launch(
-                &k.sort_reverse,
-                &[&counts_n, &ctrl, &rows, &reverse_count, &dims],
-                n,
-            ),
-            launch(
-                &k.commit,
-                &[
-                    &counts_n,
-                    &ctrl,
-                    &dims,
-                    &pair_ij,
-                    &pair_history,
-                    &new_ij,
-                    &new_pair_history,
-                    &cands,
-                    &wall_history,
-                    &new_cands,
-                    &new_wall_history,
-                    &props,
-                    &par,
-                ],
-                n,
-            ),
-        ];
-        let check = launch(
-            &k.check,
-            &[
-                &state, &counts_n, &moved, &outside, &status, &ctrl, &search, &props, &par,
-            ],
-            n,
-        );
-        let begin = launch(&k.begin, &[&ctrl, &forced, &par], 0);
-        let integrate = launch(
-            &c.integrate,
-            &[
-                &state, &loads, &props, &body, &built, &par, &counts_n, &moved, &outside,
-            ],
-            n,
-        );
-        let forces = [
-            launch(
-                &c.pair_forces,
-                &[
-                    &state,
-                    &props,
-                    &ints,
-                    &pair_ij,
-                    &pair_history,
-                    &pair_output,
-                    &table,
-                    &par,
-                    &counts_pairs,
-                ],
-                pairs,
-            ),
-            launch(
-                &c.wall_forces,
-                &[
-                    &state,
-                    &props,
-                    &ints,
-                    &element_buf,
-                    &geoms,
-                    &cands,
-                    &rows,
-                    &wall_history,
-                    &wall_output,
-                    &table,
-                    &par,
-                    &counts_n,
-                    &status,
-                ],
-                n,
-            ),
-            launch(
-                &c.particle_sums,
-                &[
-                    &state,
-                    &loads,
-                    &props,
-                    &body,
-                    &pair_output,
-                    &rows,
-                    &wall_output,
-                    &par,
-                    &counts_n,
-                ],
-                n,
-            ),
-        ];
-        // Once at the end: a world that stopped earlier kept its rows and wall output.
-        let loads_launch = launch(
-            &k.geometry_loads,
-            &[&dims, &rows, &cands, &wall_output, &geometry_loads, &par],
-            geometries.max(1),
-        );
-
+        let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
+        let l = Launches::new(c, &b, &sizes);
         // One step's launches, in order (the same every step).
-        let step: Vec<&Launch> = [&begin, &integrate, &check]
+        let step: Vec<&Launch> = [&l.begin, &l.integrate, &l.check]
             .into_iter()
-            .chain(rebuild.iter())
-            .chain(forces.iter())
+            .chain(l.rebuild.iter())
+            .chain(l.forces.iter())
             .collect();
 
         // The lists for the state at the start (their histories from the host's lists).
         let mut encoder = c.device.create_command_encoder(&Default::default());
-        encode(&mut encoder, &rebuild.iter().collect::<Vec<_>>());
-        let mut done = 0usize;
-        let mut out = c.read_back(encoder, &[&ctrl]);
+        encode(&mut encoder, &l.rebuild.iter().collect::<Vec<_>>());
+        let out = c.read_back(encoder, &[&b.ctrl]);
         check_overflow(&out[0])?;
         // A world is over once its steps are run or it failed; the run stops when all are.
         let over = |words: &[u32], done: usize| {
-            worlds
-                .iter()
-                .enumerate()
-                .all(|(w, world)| done >= world.steps as usize || words[8 + w] != EMPTY)
+            worlds.iter().enumerate().all(|(w, world)| {
+                done >= world.steps as usize || words[layout::ctrl::FAILED + w] != EMPTY
+            })
         };
-        while done < steps {
-            let chunk = (steps - done).min(CHUNK as usize);
+        let mut done = 0usize;
+        while done < sizes.steps {
+            let chunk = (sizes.steps - done).min(CHUNK as usize);
             let mut encoder = c.device.create_command_encoder(&Default::default());
             for s in done..done + chunk {
-                if moving {
-                    let mut from = 16 * moving_rows * s;
-                    for &(g, count) in &m.moving {
-                        let first = m.geoms[8 * g + 1] as usize;
-                        encoder.copy_buffer_to_buffer(
-                            &element_track,
-                            8 * from as u64,
-                            &element_buf,
-                            8 * (16 * first) as u64,
-                            8 * 16 * count as u64,
-                        );
-                        from += 16 * count;
-                    }
-                    let row = 8 * geometries;
-                    encoder.copy_buffer_to_buffer(
-                        &geoms_track,
-                        8 * (row * s) as u64,
-                        &geoms,
-                        0,
-                        8 * row as u64,
-                    );
+                if !m.moving.is_empty() {
+                    move_geometries(&mut encoder, &b, &m, &sizes, s);
                 }
                 encode(&mut encoder, &step);
             }
             done += chunk;
-            out = c.read_back(encoder, &[&ctrl]);
+            let out = c.read_back(encoder, &[&b.ctrl]);
             check_overflow(&out[0])?;
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
             if over(&words, done) {
@@ -338,26 +484,63 @@ impl GpuStages {
         // The last step's kick, checked as every step's are: the worlds whose steps ran to the
         // end are still stepping, so `begin` marks them for the check alone.
         let mut encoder = c.device.create_command_encoder(&Default::default());
-        encode(&mut encoder, &[&begin, &check, &loads_launch]);
+        encode(&mut encoder, &[&l.begin, &l.check, &l.geometry_loads]);
         let out = c.read_back(
             encoder,
             &[
-                &ctrl,
-                &state,
-                &loads,
-                &pair_ij,
-                &pair_history,
-                &rows,
-                &cands,
-                &wall_history,
-                &geometry_loads,
+                &b.ctrl,
+                &b.state,
+                &b.loads,
+                &b.pair_ij,
+                &b.pair_history,
+                &b.rows,
+                &b.cands,
+                &b.wall_history,
+                &b.geometry_loads,
             ],
         );
         check_overflow(&out[0])?;
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
-        let failed: Vec<Option<u64>> = (0..worlds.len())
-            .map(|w| (words[8 + w] != EMPTY).then_some(words[8 + w] as u64))
+        let failed: Vec<Option<u64>> = words
+            [layout::ctrl::FAILED..layout::ctrl::FAILED + worlds.len()]
+            .iter()
+            .map(|&f| (f != EMPTY).then_some(f as u64))
             .collect();
-        Ok(m.split(worlds, &out, words[4].saturating_sub(1) as u64, &failed))
+        // The first rebuild, before the first step, is not the simulation's.
+        let rebuilds = words[layout::ctrl::REBUILDS].saturating_sub(1) as u64;
+        Ok(m.split(worlds, &out, rebuilds, &failed))
     }
+}
+
+/// Step `s`'s poses of the moving elements and every geometry's velocity, copied from the
+/// tracks into the rows the kernels read.
+fn move_geometries(
+    encoder: &mut wgpu::CommandEncoder,
+    b: &Buffers,
+    m: &Merged,
+    sizes: &Sizes,
+    s: usize,
+) {
+    use layout::{element, geometry};
+    // Numbers, not bytes, until the copy.
+    let mut from = element::LEN * m.moving_rows() * s;
+    for &(g, count) in &m.moving {
+        let first = m.geoms[geometry::LEN * g + geometry::FIRST_ELEMENT] as usize;
+        encoder.copy_buffer_to_buffer(
+            &b.element_track,
+            8 * from as u64,
+            &b.elements,
+            8 * (element::LEN * first) as u64,
+            8 * (element::LEN * count) as u64,
+        );
+        from += element::LEN * count;
+    }
+    let row = geometry::LEN * sizes.geometries;
+    encoder.copy_buffer_to_buffer(
+        &b.geoms_track,
+        8 * (row * s) as u64,
+        &b.geoms,
+        0,
+        8 * row as u64,
+    );
 }

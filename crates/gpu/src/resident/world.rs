@@ -17,17 +17,19 @@ use dem::neighbour::Pair;
 use dem::sim::walls::WallCandidate;
 use dem::sim::{Segment, SegmentEnd};
 
-use super::{history_at, put_history, Capacity, EMPTY};
-use crate::{block, element_row, flat, pair_table, params_of, vec3_at, PARAMS};
+use super::{Capacity, EMPTY};
+use crate::layout::{self, element, geometry, overflow};
+use crate::pack::{
+    block3, element_row, geometry_row, history_at, loads_of, pair_table, params_of, props_of,
+    put_history, state_of, vec3_at,
+};
 
 /// One simulation's segment, packed for the device.
 pub(crate) struct World {
     pub n: usize,
-    /// Position, velocity, angular velocity (3n each).
+    /// `state`, `loads` and `props` in blocks of n (`layout`; the world block is 0 here).
     pub state: Vec<f64>,
-    /// Force, torque (3n each), rolling torque limit (n).
     pub loads: Vec<f64>,
-    /// Radius, mass, inverse mass, inverse inertia (n each).
     pub props: Vec<f64>,
     pub material: Vec<u32>,
     pub body: Vec<u32>,
@@ -37,22 +39,22 @@ pub(crate) struct World {
     /// Wall rows (CSR): geometry, element, history.
     pub wall_start: Vec<u32>,
     pub walls: Vec<(u32, u32, ContactHistory)>,
-    /// The material pair table (7 numbers a pair).
+    /// The material pair table (`layout::table`).
     pub table: Vec<f64>,
     /// Per geometry: its material, its first element, its velocity field at the start.
     pub geometry_material: Vec<u32>,
     pub geometry_first: Vec<usize>,
     pub geometry_velocity: Vec<[f64; 6]>,
-    /// Every element at the segment's start, 16 numbers each.
+    /// Every element's row at the segment's start (`layout::element`).
     pub elements: Vec<f64>,
-    /// Geometries that move, their elements after each step (16 numbers each, `steps` rows of
-    /// all the moving elements) and every geometry's velocity in each step.
+    /// Geometries that move, their element rows after each step (`steps` times the rows of all
+    /// the moving elements) and every geometry's velocity in each step.
     pub moving: Vec<usize>,
     pub element_track: Vec<f64>,
     pub velocity_track: Vec<[f64; 6]>,
     /// Whether geometry motion forces a rebuild at each step.
     pub forced: Vec<bool>,
-    /// The parameter block (PARAMS numbers; a batch sets where its geometries, particles and
+    /// The parameter block (`layout::params`; a batch sets where its geometries, particles and
     /// table are).
     pub params: Vec<f64>,
     pub steps: u64,
@@ -93,7 +95,7 @@ impl World {
         let mut elements: Vec<f64> = Vec::new();
         let mut geometry_first = Vec::with_capacity(geometries.len());
         for g in geometries {
-            geometry_first.push(elements.len() / 16);
+            geometry_first.push(elements.len() / element::LEN);
             for e in &g.elements {
                 elements.extend(element_row(e));
             }
@@ -104,7 +106,7 @@ impl World {
             for k in 0..geometries[g].elements.len() {
                 let row = element_row(&track.elements[0][at + k]);
                 let e = geometry_first[g] + k;
-                elements[16 * e..16 * e + 16].copy_from_slice(&row);
+                elements[element::LEN * e..element::LEN * (e + 1)].copy_from_slice(&row);
             }
             at += geometries[g].elements.len();
         }
@@ -137,19 +139,12 @@ impl World {
         let params = inputs.params;
         let mut params_block =
             params_of(params, false, true, inputs.materials.len(), inputs.cohesive);
-        params_block[block::STEPS] = seg.steps as f64;
+        params_block[layout::params::STEPS] = seg.steps as f64;
         Some(World {
             n,
-            state: flat(&[&p.position, &p.velocity, &p.angular_velocity]),
-            loads: {
-                let mut l = flat(&[&p.force, &p.torque]);
-                l.extend(&p.rolling_torque_limit);
-                l
-            },
-            props: [&p.radius, &p.mass, &p.inv_mass, &p.inv_inertia]
-                .into_iter()
-                .flat_map(|v| v.iter().copied())
-                .collect(),
+            state: state_of(p),
+            loads: loads_of(p),
+            props: props_of(p),
             material: p.material.iter().map(|&m| m as u32).collect(),
             body: p.body.clone(),
             pair_start: lists.row_start.clone(),
@@ -189,7 +184,7 @@ impl World {
             .geometry_first
             .get(g + 1)
             .copied()
-            .unwrap_or(self.elements.len() / 16);
+            .unwrap_or(self.elements.len() / element::LEN);
         end - self.geometry_first[g]
     }
 }
@@ -219,15 +214,15 @@ pub(crate) struct Merged {
     pub table: Vec<f64>,
     pub params: Vec<f64>,
     pub elements: Vec<f64>,
-    /// 8 numbers a geometry: material, first element, velocity field.
+    /// The geometry rows (`layout::geometry`).
     pub geoms: Vec<f64>,
     /// Moving geometries (merged indices) and, per step, their elements and every geometry row.
     pub moving: Vec<(usize, usize)>,
     pub element_track: Vec<f64>,
     pub geoms_track: Vec<f64>,
     pub forced: Vec<u32>,
-    /// Inverse cell size, pair reach, wall reach, (half the skin) squared.
-    pub search: [f64; 4],
+    /// The reaches of the list rebuilds (`layout::search`).
+    pub search: [f64; layout::search::LEN],
 }
 
 /// An index shifted by a world's offset.
@@ -237,8 +232,9 @@ fn shift(v: usize, by: usize) -> u32 {
 
 impl Merged {
     /// Lays `worlds` side by side with rows of `cap`; Err(code) when a row is longer than its
-    /// capacity (the overflow codes of `ctrl[3]`).
+    /// capacity (an `overflow` code).
     pub fn new(worlds: &[World], cap: Capacity) -> Result<Merged, u32> {
+        use layout::{cands, history, ints, loads, pair_ij, props, rows, search, state};
         let n: usize = worlds.iter().map(|w| w.n).sum();
         let steps = worlds.iter().map(|w| w.steps).max().unwrap_or(0) as usize;
         let mut offsets = Vec::with_capacity(worlds.len());
@@ -248,7 +244,7 @@ impl Merged {
             offsets.push(o);
             o.particle += w.n;
             o.geometry += w.geometry_first.len();
-            elements_count += w.elements.len() / 16;
+            elements_count += w.elements.len() / element::LEN;
         }
         let geometries = o.geometry;
         let pairs = n * cap.pair;
@@ -256,132 +252,169 @@ impl Merged {
         let mut m = Merged {
             n,
             offsets: offsets.clone(),
-            state: vec![0.0; 9 * n],
-            loads: vec![0.0; 7 * n],
-            props: vec![0.0; 5 * n],
-            ints: vec![0; 2 * n],
-            pair_ij: vec![EMPTY; 2 * pairs],
-            pair_history: vec![0.0; 6 * pairs],
-            cands: vec![EMPTY; 2 * walls],
-            wall_history: vec![0.0; 6 * walls],
-            rows: vec![0; 6 * n + pairs],
+            state: vec![0.0; state::LEN * n],
+            loads: vec![0.0; loads::LEN * n],
+            props: vec![0.0; props::LEN * n],
+            ints: vec![0; ints::LEN * n],
+            pair_ij: vec![EMPTY; pair_ij::LEN * pairs],
+            pair_history: vec![0.0; history::LEN * pairs],
+            cands: vec![EMPTY; cands::LEN * walls],
+            wall_history: vec![0.0; history::LEN * walls],
+            rows: vec![0; rows::REVERSE_ENTRIES * n + pairs],
             table: Vec::with_capacity(worlds.iter().map(|w| w.table.len()).sum()),
-            params: Vec::with_capacity(PARAMS * worlds.len()),
-            elements: Vec::with_capacity(16 * elements_count),
-            geoms: Vec::with_capacity(8 * geometries),
+            params: Vec::with_capacity(layout::params::LEN * worlds.len()),
+            elements: Vec::with_capacity(element::LEN * elements_count),
+            geoms: Vec::with_capacity(geometry::LEN * geometries),
             moving: Vec::new(),
             element_track: Vec::new(),
             geoms_track: Vec::new(),
             forced: vec![0; steps + 1],
-            search: [0.0, 0.0, 0.0, f64::INFINITY],
+            search: [0.0; search::LEN],
         };
+        m.search[search::HALF_SKIN_SQUARED] = f64::INFINITY;
         let mut max_radius: f64 = 0.0;
         for (k, (w, off)) in worlds.iter().zip(&offsets).enumerate() {
-            let (p0, nw) = (off.particle, w.n);
-            // Blocks of 3n, 3n, 3n (state), 3n, 3n, n (loads), n x 4 (props).
-            for b in 0..3 {
-                m.state[3 * (b * n + p0)..3 * (b * n + p0 + nw)]
-                    .copy_from_slice(&w.state[3 * b * nw..3 * (b + 1) * nw]);
-            }
-            for b in 0..2 {
-                m.loads[3 * (b * n + p0)..3 * (b * n + p0 + nw)]
-                    .copy_from_slice(&w.loads[3 * b * nw..3 * (b + 1) * nw]);
-            }
-            m.loads[6 * n + p0..6 * n + p0 + nw].copy_from_slice(&w.loads[6 * nw..7 * nw]);
-            for b in 0..4 {
-                m.props[b * n + p0..b * n + p0 + nw]
-                    .copy_from_slice(&w.props[b * nw..(b + 1) * nw]);
-            }
-            m.props[4 * n + p0..4 * n + p0 + nw].fill(k as f64);
-            for i in 0..nw {
-                m.ints[p0 + i] = w.material[i];
-                m.ints[n + p0 + i] = w.body[i];
-            }
-            // Pair and wall rows at their capacity.
-            for i in 0..nw {
-                let g = p0 + i;
-                let (a, b) = (w.pair_start[i] as usize, w.pair_start[i + 1] as usize);
-                if b - a > cap.pair {
-                    return Err(2);
-                }
-                for (s, (j, h)) in w.pairs[a..b].iter().enumerate() {
-                    let q = g * cap.pair + s;
-                    m.pair_ij[2 * q] = g as u32;
-                    m.pair_ij[2 * q + 1] = shift(*j as usize, p0);
-                    put_history(&mut m.pair_history, q, h);
-                }
-                m.rows[g] = (g * cap.pair) as u32;
-                m.rows[n + g] = (g * cap.pair + b - a) as u32;
-                let (a, b) = (w.wall_start[i] as usize, w.wall_start[i + 1] as usize);
-                if b - a > cap.wall {
-                    return Err(4);
-                }
-                for (s, (geometry, element, h)) in w.walls[a..b].iter().enumerate() {
-                    let q = g * cap.wall + s;
-                    m.cands[2 * q] = shift(*geometry as usize, off.geometry);
-                    m.cands[2 * q + 1] = *element;
-                    put_history(&mut m.wall_history, q, h);
-                }
-                m.rows[4 * n + g] = (g * cap.wall) as u32;
-                m.rows[5 * n + g] = (g * cap.wall + b - a) as u32;
-            }
-            let mut params = w.params.clone();
-            params[block::FIRST_GEOMETRY] = off.geometry as f64;
-            params[block::END_GEOMETRY] = (off.geometry + w.geometry_first.len()) as f64;
-            params[block::FIRST_PARTICLE] = p0 as f64;
-            params[block::END_PARTICLE] = (p0 + nw) as f64;
-            params[block::TABLE] = m.table.len() as f64;
-            m.params.extend(params);
-            m.table.extend(&w.table);
-            let first_element = m.elements.len() / 16;
-            m.elements.extend(&w.elements);
-            for g in 0..w.geometry_first.len() {
-                m.geoms.extend([
-                    w.geometry_material[g] as f64,
-                    (first_element + w.geometry_first[g]) as f64,
-                ]);
-                m.geoms.extend(w.geometry_velocity[g]);
-            }
-            for &g in &w.moving {
-                m.moving.push((off.geometry + g, w.geometry_elements(g)));
-            }
+            m.put_particles(k, w, off);
+            m.put_rows(w, off, cap)?;
+            m.put_geometries(w, off);
             for (s, &f) in w.forced.iter().enumerate().take(w.steps as usize) {
                 if f {
                     m.forced[s] = 1;
                 }
             }
             max_radius = max_radius.max(w.max_radius);
-            m.search[1] = m.search[1].max(w.pair_reach);
-            m.search[2] = m.search[2].max(w.wall_reach);
-            m.search[3] = m.search[3].min(w.half_skin * w.half_skin);
+            let se = &mut m.search;
+            se[search::PAIR_REACH] = se[search::PAIR_REACH].max(w.pair_reach);
+            se[search::WALL_REACH] = se[search::WALL_REACH].max(w.wall_reach);
+            se[search::HALF_SKIN_SQUARED] =
+                se[search::HALF_SKIN_SQUARED].min(w.half_skin * w.half_skin);
         }
-        m.search[0] = 1.0 / (1.01 * (2.0 * max_radius + m.search[1]));
-        // Per step: the moving elements of every world (a world past its steps keeps its last
-        // pose) and every geometry's row.
+        m.search[search::INV_CELL] =
+            1.0 / (1.01 * (2.0 * max_radius + m.search[search::PAIR_REACH]));
         if !m.moving.is_empty() {
-            for s in 0..steps {
-                for w in worlds.iter().filter(|w| !w.moving.is_empty()) {
-                    let rows = w.moving_elements();
-                    let at = s.min((w.steps as usize).saturating_sub(1));
-                    m.element_track
-                        .extend(&w.element_track[16 * rows * at..16 * rows * (at + 1)]);
-                }
-                for (w, off) in worlds.iter().zip(&offsets) {
-                    for g in 0..w.geometry_first.len() {
-                        let row = 8 * (off.geometry + g);
-                        m.geoms_track.extend(&m.geoms[row..row + 2]);
-                        let v = if w.moving.is_empty() {
-                            w.geometry_velocity[g]
-                        } else {
-                            let at = s.min((w.steps as usize).saturating_sub(1));
-                            w.velocity_track[at * w.geometry_first.len() + g]
-                        };
-                        m.geoms_track.extend(v);
-                    }
+            m.put_tracks(worlds, steps);
+        }
+        Ok(m)
+    }
+
+    /// World `k`'s particles at their place in the blocks of N.
+    fn put_particles(&mut self, k: usize, w: &World, off: &Offsets) {
+        use layout::{ints, loads, props, state};
+        let (n, p0, nw) = (self.n, off.particle, w.n);
+        for block in [state::POSITION, state::VELOCITY, state::ANGULAR_VELOCITY] {
+            self.state[block * n + 3 * p0..block * n + 3 * (p0 + nw)]
+                .copy_from_slice(&w.state[block * nw..block * nw + 3 * nw]);
+        }
+        for block in [loads::FORCE, loads::TORQUE] {
+            self.loads[block * n + 3 * p0..block * n + 3 * (p0 + nw)]
+                .copy_from_slice(&w.loads[block * nw..block * nw + 3 * nw]);
+        }
+        let block = loads::ROLLING_LIMIT;
+        self.loads[block * n + p0..block * n + p0 + nw]
+            .copy_from_slice(&w.loads[block * nw..(block + 1) * nw]);
+        for block in [
+            props::RADIUS,
+            props::MASS,
+            props::INV_MASS,
+            props::INV_INERTIA,
+        ] {
+            self.props[block * n + p0..block * n + p0 + nw]
+                .copy_from_slice(&w.props[block * nw..(block + 1) * nw]);
+        }
+        self.props[props::WORLD * n + p0..props::WORLD * n + p0 + nw].fill(k as f64);
+        for i in 0..nw {
+            self.ints[ints::MATERIAL * n + p0 + i] = w.material[i];
+            self.ints[ints::BODY * n + p0 + i] = w.body[i];
+        }
+    }
+
+    /// A world's pair and wall rows at their capacity; Err when one is longer.
+    fn put_rows(&mut self, w: &World, off: &Offsets, cap: Capacity) -> Result<(), u32> {
+        use layout::{cands, pair_ij, rows};
+        let (n, p0) = (self.n, off.particle);
+        for i in 0..w.n {
+            let g = p0 + i;
+            let (a, b) = (w.pair_start[i] as usize, w.pair_start[i + 1] as usize);
+            if b - a > cap.pair {
+                return Err(overflow::PAIR_ROW);
+            }
+            for (s, (j, h)) in w.pairs[a..b].iter().enumerate() {
+                let q = g * cap.pair + s;
+                self.pair_ij[pair_ij::LEN * q + pair_ij::I] = g as u32;
+                self.pair_ij[pair_ij::LEN * q + pair_ij::J] = shift(*j as usize, p0);
+                put_history(&mut self.pair_history, q, h);
+            }
+            self.rows[rows::PAIR_BEGIN * n + g] = (g * cap.pair) as u32;
+            self.rows[rows::PAIR_END * n + g] = (g * cap.pair + b - a) as u32;
+            let (a, b) = (w.wall_start[i] as usize, w.wall_start[i + 1] as usize);
+            if b - a > cap.wall {
+                return Err(overflow::WALL_ROW);
+            }
+            for (s, (geometry, element, h)) in w.walls[a..b].iter().enumerate() {
+                let q = g * cap.wall + s;
+                self.cands[cands::LEN * q + cands::GEOMETRY] =
+                    shift(*geometry as usize, off.geometry);
+                self.cands[cands::LEN * q + cands::ELEMENT] = *element;
+                put_history(&mut self.wall_history, q, h);
+            }
+            self.rows[rows::WALL_BEGIN * n + g] = (g * cap.wall) as u32;
+            self.rows[rows::WALL_END * n + g] = (g * cap.wall + b - a) as u32;
+        }
+        Ok(())
+    }
+
+    /// A world's params block, pair table, elements and geometries.
+    fn put_geometries(&mut self, w: &World, off: &Offsets) {
+        use layout::params as p;
+        let mut params = w.params.clone();
+        params[p::FIRST_GEOMETRY] = off.geometry as f64;
+        params[p::END_GEOMETRY] = (off.geometry + w.geometry_first.len()) as f64;
+        params[p::FIRST_PARTICLE] = off.particle as f64;
+        params[p::END_PARTICLE] = (off.particle + w.n) as f64;
+        params[p::TABLE] = self.table.len() as f64;
+        self.params.extend(params);
+        self.table.extend(&w.table);
+        let first_element = self.elements.len() / element::LEN;
+        self.elements.extend(&w.elements);
+        for g in 0..w.geometry_first.len() {
+            self.geoms.extend(geometry_row(
+                w.geometry_material[g] as f64,
+                (first_element + w.geometry_first[g]) as f64,
+                w.geometry_velocity[g],
+            ));
+        }
+        for &g in &w.moving {
+            self.moving.push((off.geometry + g, w.geometry_elements(g)));
+        }
+    }
+
+    /// Per step: the moving elements of every world (a world past its steps keeps its last
+    /// pose) and every geometry's row.
+    fn put_tracks(&mut self, worlds: &[World], steps: usize) {
+        for s in 0..steps {
+            for w in worlds.iter().filter(|w| !w.moving.is_empty()) {
+                let rows = element::LEN * w.moving_elements();
+                let at = s.min((w.steps as usize).saturating_sub(1));
+                self.element_track
+                    .extend(&w.element_track[rows * at..rows * (at + 1)]);
+            }
+            for (w, off) in worlds.iter().zip(&self.offsets) {
+                for g in 0..w.geometry_first.len() {
+                    let row = geometry::LEN * (off.geometry + g);
+                    let v = if w.moving.is_empty() {
+                        w.geometry_velocity[g]
+                    } else {
+                        let at = s.min((w.steps as usize).saturating_sub(1));
+                        w.velocity_track[at * w.geometry_first.len() + g]
+                    };
+                    self.geoms_track.extend(geometry_row(
+                        self.geoms[row + geometry::MATERIAL],
+                        self.geoms[row + geometry::FIRST_ELEMENT],
+                        v,
+                    ));
                 }
             }
         }
-        Ok(m)
     }
 
     /// The rows of moving elements per step.
@@ -398,13 +431,14 @@ impl Merged {
         rebuilds: u64,
         failed: &[Option<u64>],
     ) -> Vec<SegmentEnd> {
+        use layout::{cands, geometry_loads, loads, pair_ij, rows as r, state};
         let n = self.n;
         let s: Vec<f64> = bytemuck::pod_collect_to_vec(&out[1]);
         let l: Vec<f64> = bytemuck::pod_collect_to_vec(&out[2]);
         let ij: Vec<u32> = bytemuck::pod_collect_to_vec(&out[3]);
         let ph: Vec<f64> = bytemuck::pod_collect_to_vec(&out[4]);
         let rows: Vec<u32> = bytemuck::pod_collect_to_vec(&out[5]);
-        let cands: Vec<u32> = bytemuck::pod_collect_to_vec(&out[6]);
+        let wc: Vec<u32> = bytemuck::pod_collect_to_vec(&out[6]);
         let wh: Vec<f64> = bytemuck::pod_collect_to_vec(&out[7]);
         let gl: Vec<f64> = bytemuck::pod_collect_to_vec(&out[8]);
         worlds
@@ -413,32 +447,33 @@ impl Merged {
             .zip(failed)
             .map(|((w, off), &failed_at)| {
                 let range = off.particle..off.particle + w.n;
-                let v = |block: &[f64], base: usize| {
+                let v = |buffer: &[f64], block: usize| {
                     range
                         .clone()
-                        .map(|i| vec3_at(block, base + 3 * i))
+                        .map(|i| block3(buffer, block, n, i))
                         .collect::<Vec<_>>()
                 };
+                let limits = loads::ROLLING_LIMIT * n + off.particle;
                 let mut end = SegmentEnd {
-                    position: v(&s, 0),
-                    velocity: v(&s, 3 * n),
-                    angular_velocity: v(&s, 6 * n),
-                    force: v(&l, 0),
-                    torque: v(&l, 3 * n),
-                    rolling_torque_limit: l[6 * n + off.particle..6 * n + off.particle + w.n]
-                        .to_vec(),
+                    position: v(&s, state::POSITION),
+                    velocity: v(&s, state::VELOCITY),
+                    angular_velocity: v(&s, state::ANGULAR_VELOCITY),
+                    force: v(&l, loads::FORCE),
+                    torque: v(&l, loads::TORQUE),
+                    rolling_torque_limit: l[limits..limits + w.n].to_vec(),
                     rebuilds,
                     failed_at,
                     steps_done: failed_at.map_or(w.steps, |f| f + 1),
                     ..Default::default()
                 };
                 for i in range.clone() {
-                    for q in rows[i] as usize..rows[n + i] as usize {
+                    let slots = rows[r::PAIR_BEGIN * n + i]..rows[r::PAIR_END * n + i];
+                    for q in slots.start as usize..slots.end as usize {
                         let history = history_at(&ph, q);
                         if !history.is_empty() {
                             end.pairs.push(Pair {
                                 i: (i - off.particle) as u32,
-                                j: ij[2 * q + 1] - off.particle as u32,
+                                j: ij[pair_ij::LEN * q + pair_ij::J] - off.particle as u32,
                                 history,
                             });
                         }
@@ -446,12 +481,14 @@ impl Merged {
                 }
                 end.wall_start.push(0);
                 for i in range {
-                    for c in rows[4 * n + i] as usize..rows[5 * n + i] as usize {
+                    let slots = rows[r::WALL_BEGIN * n + i]..rows[r::WALL_END * n + i];
+                    for c in slots.start as usize..slots.end as usize {
                         let history = history_at(&wh, c);
                         if !history.is_empty() {
+                            let geometry = wc[cands::LEN * c + cands::GEOMETRY] as usize;
                             end.wall_candidates.push(WallCandidate {
-                                geometry: (cands[2 * c] as usize - off.geometry) as u16,
-                                element: cands[2 * c + 1],
+                                geometry: (geometry - off.geometry) as u16,
+                                element: wc[cands::LEN * c + cands::ELEMENT],
                                 history,
                             });
                         }
@@ -460,8 +497,8 @@ impl Merged {
                 }
                 end.geometry_loads = (off.geometry..off.geometry + w.geometry_first.len())
                     .map(|g| Load {
-                        force: vec3_at(&gl, 6 * g),
-                        torque: vec3_at(&gl, 6 * g + 3),
+                        force: vec3_at(&gl, geometry_loads::LEN * g + geometry_loads::FORCE),
+                        torque: vec3_at(&gl, geometry_loads::LEN * g + geometry_loads::TORQUE),
                     })
                     .collect();
                 end

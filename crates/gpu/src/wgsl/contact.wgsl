@@ -1,8 +1,8 @@
 // Hertz-Mindlin (no slip) with optional JKR cohesion, the tangential spring and the chosen
 // rolling model: contact::evaluate with contact::hertz_mindlin, contact::jkr,
 // contact::tangential_spring and contact::rolling, written once for particle pairs and
-// particle-wall contacts. Reads the kernel's `table` (7 numbers a material pair, from offset
-// `t`) and `params` (dt 0, rolling model 13, rolling viscous damping 14).
+// particle-wall contacts. Reads the kernel's `table` (the material pair's row of T_LEN from
+// `t`) and `params` (P_DT, P_ROLLING_MODEL, P_ROLLING_DAMPING).
 
 const PI: f64 = 3.141592653589793lf;
 const FRAC_1_SQRT_2: f64 = 0.7071067811865476lf;
@@ -31,7 +31,7 @@ fn jkr_cutoff_overlap(gamma: f64, e_star: f64, r_eff: f64) -> f64 {
 
 // The cut-off overlap of material pair `t` at effective radius r_eff.
 fn cutoff_of(t: u32, r_eff: f64) -> f64 {
-    return jkr_cutoff_overlap(table[t + 6u], table[t], r_eff);
+    return jkr_cutoff_overlap(table[t + T_SURFACE_ENERGY], table[t + T_E_STAR], r_eff);
 }
 
 // contact::jkr_contact_radius: Newton on g(s) = s^4/R* - c s - d from a point where g >= 0.
@@ -56,7 +56,7 @@ fn jkr_contact_radius(d: f64, gamma: f64, e_star: f64, r_eff: f64) -> f64 {
     return s * s;
 }
 
-// Accessors of the arrays both contact kernels bind: `history` (6 a contact) and `output`.
+// Accessors of the arrays both contact kernels bind: `history` (rows of H_LEN) and `output`.
 
 fn hist3(k: u32) -> vec3<f64> {
     return vec3<f64>(history[k], history[k + 1u], history[k + 2u]);
@@ -100,14 +100,14 @@ fn hertz_mindlin(
     shear_before: vec3<f64>,
     moment_before: vec3<f64>,
 ) -> Contact {
-    let e_star = table[t];
-    let g_star = table[t + 1u];
-    let tangential_damping_ratio = table[t + 2u];
-    let hertz_damping = table[t + 3u];
-    let static_friction = table[t + 4u];
-    let rolling_friction = table[t + 5u];
-    let gamma = table[t + 6u];
-    let dt = param(0u);
+    let e_star = table[t + T_E_STAR];
+    let g_star = table[t + T_G_STAR];
+    let tangential_damping_ratio = table[t + T_TANGENTIAL_DAMPING_RATIO];
+    let hertz_damping = table[t + T_HERTZ_DAMPING];
+    let static_friction = table[t + T_STATIC_FRICTION];
+    let rolling_friction = table[t + T_ROLLING_FRICTION];
+    let gamma = table[t + T_SURFACE_ENERGY];
+    let dt = param(P_DT);
 
     // Hertz (or with a surface energy JKR) normal force and the Mindlin tangential stiffness.
     var a = 0.0lf;
@@ -166,7 +166,8 @@ fn hertz_mindlin(
     var rolling_torque = zero3();
     var rolling_resistance = 0.0lf;
     var moment = moment_before;
-    if (param(13u) == 0.0lf) {
+    // 0 cdt, 1 epsd.
+    if (param(P_ROLLING_MODEL) == 0.0lf) {
         rolling_resistance = rolling_friction * abs(load);
     } else {
         let w = rel_spin - dot3(rel_spin, nrm) * nrm;
@@ -178,7 +179,7 @@ fn hertz_mindlin(
             moment *= lim / sqrt(m2);
             rolling_torque = -moment;
         } else {
-            let damping = param(14u) * 2.0lf * sqrt(rolling_inertia * k_r);
+            let damping = param(P_ROLLING_DAMPING) * 2.0lf * sqrt(rolling_inertia * k_r);
             rolling_torque = -(moment + damping * w);
         }
     }

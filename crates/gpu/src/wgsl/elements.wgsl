@@ -1,9 +1,8 @@
 // The closest point of a geometry element to a sphere centre (dem::geometry::Element::closest),
 // shared by the wall contacts and the wall-candidate search of the device-resident steps.
 //
-// elements (16 each): kind (0 plane, 1 rect, 2 disc, 3 cylinder shell, 4 triangle), then
-//   plane: point, normal | rect: centre, normal, u, v, half u, half v | disc: centre, normal,
-//   radius | cylinder: base, axis, radius, length | triangle: a, b, c
+// elements: rows of E_LEN, the kind (an EK_ code) at E_KIND and that kind's fields (E_PLANE_*,
+// E_RECT_*, ...; layout.rs says what each holds); geoms: rows of G_LEN.
 
 const FACE: u32 = 0u;
 const EDGE: u32 = 1u;
@@ -94,24 +93,24 @@ fn triangle(a: vec3<f64>, b: vec3<f64>, c: vec3<f64>, x: vec3<f64>) -> Closest {
 // Element::closest: the closest point of element e to x, or none behind a one-sided plane by
 // more than `reach` or exactly on a surface.
 fn closest(e: u32, x: vec3<f64>, reach: f64) -> Closest {
-    let k = 16u * e;
-    let kind = u32(elements[k]);
-    if (kind == 0u) {
-        let point = el3(k + 1u);
-        let normal = el3(k + 4u);
+    let k = E_LEN * e;
+    let kind = u32(elements[k + E_KIND]);
+    if (kind == EK_PLANE) {
+        let point = el3(k + E_PLANE_POINT);
+        let normal = el3(k + E_PLANE_NORMAL);
         let s = dot3(x - point, normal);
         if (s < -reach) {
             return none();
         }
         return Closest(true, x - s * normal, normal, s, FACE);
     }
-    if (kind == 1u) {
-        let center = el3(k + 1u);
-        let normal = el3(k + 4u);
-        let u = el3(k + 7u);
-        let v = el3(k + 10u);
-        let half_u = elements[k + 13u];
-        let half_v = elements[k + 14u];
+    if (kind == EK_RECT) {
+        let center = el3(k + E_RECT_CENTER);
+        let normal = el3(k + E_RECT_NORMAL);
+        let u = el3(k + E_RECT_U);
+        let v = el3(k + E_RECT_V);
+        let half_u = elements[k + E_RECT_HALF_U];
+        let half_v = elements[k + E_RECT_HALF_V];
         let r = x - center;
         let pu = dot3(r, u);
         let pv = dot3(r, v);
@@ -122,10 +121,10 @@ fn closest(e: u32, x: vec3<f64>, reach: f64) -> Closest {
         let q = center + clamp(pu, -half_u, half_u) * u + clamp(pv, -half_v, half_v) * v;
         return from_vector(q, x, EDGE);
     }
-    if (kind == 2u) {
-        let center = el3(k + 1u);
-        let normal = el3(k + 4u);
-        let radius = elements[k + 7u];
+    if (kind == EK_DISC) {
+        let center = el3(k + E_DISC_CENTER);
+        let normal = el3(k + E_DISC_NORMAL);
+        let radius = elements[k + E_DISC_RADIUS];
         let r = x - center;
         let s = dot3(r, normal);
         let inplane = r - s * normal;
@@ -135,11 +134,11 @@ fn closest(e: u32, x: vec3<f64>, reach: f64) -> Closest {
         }
         return from_vector(center + inplane * (radius / rho), x, EDGE);
     }
-    if (kind == 3u) {
-        let base = el3(k + 1u);
-        let axis = el3(k + 4u);
-        let radius = elements[k + 7u];
-        let length = elements[k + 8u];
+    if (kind == EK_CYLINDER) {
+        let base = el3(k + E_CYLINDER_BASE);
+        let axis = el3(k + E_CYLINDER_AXIS);
+        let radius = elements[k + E_CYLINDER_RADIUS];
+        let length = elements[k + E_CYLINDER_LENGTH];
         let r = x - base;
         let h = dot3(r, axis);
         let radial = r - h * axis;
@@ -158,7 +157,8 @@ fn closest(e: u32, x: vec3<f64>, reach: f64) -> Closest {
         let q = base + clamp(h, 0.0lf, length) * axis + radius * e;
         return from_vector(q, x, EDGE);
     }
-    return triangle(el3(k + 1u), el3(k + 4u), el3(k + 7u), x);
+    // EK_TRIANGLE
+    return triangle(el3(k + E_TRIANGLE_A), el3(k + E_TRIANGLE_B), el3(k + E_TRIANGLE_C), x);
 }
 
 fn distance_to(e: u32, q: vec3<f64>) -> f64 {

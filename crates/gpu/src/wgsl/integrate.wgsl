@@ -2,9 +2,8 @@
 // displacement since the last list build. The host finds the largest, and the first particle that
 // is not finite or has left the domain (flag 1).
 //
-// state: position 3N | velocity 3N | angular velocity 3N
-// loads: force 3N | torque 3N | rolling torque limit N
-// props: radius N | mass N | inverse mass N | inverse inertia N | world N
+// state (S_), loads (L_), props (PR_): blocks of N (layout.rs); built: positions at the last
+// build, 3 numbers a particle.
 
 @group(0) @binding(0) var<storage, read_write> state: array<f64>;
 @group(0) @binding(1) var<storage, read> loads: array<f64>;
@@ -29,7 +28,7 @@ fn load3(k: u32) -> vec3<f64> {
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = thread_index(gid);
-    let n = counts[0];
+    let n = counts[C_PARTICLES];
     if (i >= n) {
         return;
     }
@@ -37,25 +36,30 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!stepping()) {
         return;
     }
-    let dt = param(0u);
+    let dt = param(P_DT);
     let half = 0.5lf * dt;
-    var x = get3(3u * i);
-    if (param(11u) == 0.0lf || body[i] == NO_BODY) {
-        var v = get3(3u * n + 3u * i);
-        let w = get3(6u * n + 3u * i);
-        v += load3(3u * i) * (props[2u * n + i] * half);
-        let w2 = kick_spin(w, load3(3u * n + 3u * i), loads[6u * n + i], props[3u * n + i] * half);
+    var x = position(i);
+    if (param(P_CLUMPS) == 0.0lf || body[i] == NO_BODY) {
+        var v = velocity(i);
+        let w = angular_velocity(i);
+        v += load3(L_FORCE * n + 3u * i) * (props[PR_INV_MASS * n + i] * half);
+        let w2 = kick_spin(
+            w,
+            load3(L_TORQUE * n + 3u * i),
+            loads[L_ROLLING_LIMIT * n + i],
+            props[PR_INV_INERTIA * n + i] * half,
+        );
         x += v * dt;
-        put3(3u * n + 3u * i, v);
-        put3(6u * n + 3u * i, w2);
-        put3(3u * i, x);
+        put3(S_VELOCITY * n + 3u * i, v);
+        put3(S_ANGULAR_VELOCITY * n + 3u * i, w2);
+        put3(S_POSITION * n + 3u * i, x);
     }
     let d = x - vec3<f64>(built[3u * i], built[3u * i + 1u], built[3u * i + 2u]);
     moved[i] = d.x * d.x + d.y * d.y + d.z * d.z;
     var out = 0u;
-    if (param(4u) != 0.0lf) {
-        let lo = param3(5u);
-        let hi = param3(8u);
+    if (param(P_HAS_DOMAIN) != 0.0lf) {
+        let lo = param3(P_DOMAIN_LOW);
+        let hi = param3(P_DOMAIN_HIGH);
         if (any(x < lo) || any(x > hi)) {
             out = 1u;
         }

@@ -2,10 +2,9 @@
 // into its force, torque and rolling torque limit; with the kick flag, free spheres get the second
 // half kick (CpuBackend::particle_sums).
 //
-// rows (u32): pair begin N | pair end N | reverse begin N | reverse end N | wall begin N |
-//   wall end N | reverse entries (pair slots); rows may have gaps between them (the resident
-//   steps keep a fixed capacity per particle)
-// walls (per candidate, 10): the wall kernel's output (wall_forces.wgsl)
+// rows (u32): blocks of N (R_), a particle's pair slots R_PAIR_BEGIN..R_PAIR_END, its reverse
+//   entries (the pair slots where it is j) and its wall candidate slots likewise
+// pairs: the pair kernel's output (rows of PO_LEN); walls: the wall kernel's (rows of WO_LEN)
 
 @group(0) @binding(0) var<storage, read_write> state: array<f64>;
 @group(0) @binding(1) var<storage, read_write> loads: array<f64>;
@@ -40,7 +39,7 @@ fn put_load3(k: u32, v: vec3<f64>) {
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = thread_index(gid);
-    let n = counts[0];
+    let n = counts[C_PARTICLES];
     if (i >= n) {
         return;
     }
@@ -48,33 +47,33 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!stepping()) {
         return;
     }
-    var f = param3(1u) * props[n + i];
+    var f = param3(P_GRAVITY) * props[PR_MASS * n + i];
     var t = vec3<f64>(0.0lf, 0.0lf, 0.0lf);
     var lim = 0.0lf;
-    for (var q = rows[i]; q < rows[n + i]; q++) {
-        f += pair3(11u * q);
-        t += pair3(11u * q + 3u);
-        lim += pairs[11u * q + 9u];
+    for (var q = rows[R_PAIR_BEGIN * n + i]; q < rows[R_PAIR_END * n + i]; q++) {
+        f += pair3(PO_LEN * q + PO_FORCE);
+        t += pair3(PO_LEN * q + PO_TORQUE_I);
+        lim += pairs[PO_LEN * q + PO_ROLLING_I];
     }
-    for (var k = rows[2u * n + i]; k < rows[3u * n + i]; k++) {
-        let q = rows[6u * n + k];
-        f -= pair3(11u * q);
-        t += pair3(11u * q + 6u);
-        lim += pairs[11u * q + 10u];
+    for (var k = rows[R_REVERSE_BEGIN * n + i]; k < rows[R_REVERSE_END * n + i]; k++) {
+        let q = rows[R_REVERSE_ENTRIES * n + k];
+        f -= pair3(PO_LEN * q + PO_FORCE);
+        t += pair3(PO_LEN * q + PO_TORQUE_J);
+        lim += pairs[PO_LEN * q + PO_ROLLING_J];
     }
-    for (var c = rows[4u * n + i]; c < rows[5u * n + i]; c++) {
-        f -= wall3(10u * c);
-        t += wall3(10u * c + 6u);
-        lim += walls[10u * c + 9u];
+    for (var c = rows[R_WALL_BEGIN * n + i]; c < rows[R_WALL_END * n + i]; c++) {
+        f -= wall3(WO_LEN * c + WO_FORCE);
+        t += wall3(WO_LEN * c + WO_PARTICLE_TORQUE);
+        lim += walls[WO_LEN * c + WO_ROLLING];
     }
-    put_load3(3u * i, f);
-    put_load3(3u * n + 3u * i, t);
-    loads[6u * n + i] = lim;
-    if (param(12u) != 0.0lf && (param(11u) == 0.0lf || body[i] == NO_BODY)) {
-        let half = 0.5lf * param(0u);
-        let v = get3(3u * n + 3u * i) + f * (props[2u * n + i] * half);
-        let w = kick_spin(get3(6u * n + 3u * i), t, lim, props[3u * n + i] * half);
-        put3(3u * n + 3u * i, v);
-        put3(6u * n + 3u * i, w);
+    put_load3(L_FORCE * n + 3u * i, f);
+    put_load3(L_TORQUE * n + 3u * i, t);
+    loads[L_ROLLING_LIMIT * n + i] = lim;
+    if (param(P_KICK) != 0.0lf && (param(P_CLUMPS) == 0.0lf || body[i] == NO_BODY)) {
+        let half = 0.5lf * param(P_DT);
+        let v = velocity(i) + f * (props[PR_INV_MASS * n + i] * half);
+        let w = kick_spin(angular_velocity(i), t, lim, props[PR_INV_INERTIA * n + i] * half);
+        put3(S_VELOCITY * n + 3u * i, v);
+        put3(S_ANGULAR_VELOCITY * n + 3u * i, w);
     }
 }

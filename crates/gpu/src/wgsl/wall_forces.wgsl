@@ -2,12 +2,8 @@
 // Hertz-Mindlin, JKR down to its cut-off): face contacts first, then edge and vertex contacts that do not
 // coincide with one already taken on the same geometry. One thread per particle walks its row.
 //
-// elements: see elements.wgsl
-// rows (u32): see particle_sums.wgsl; a particle's candidates are wall begin..wall end
-// geoms (8 each): material, first element, linear velocity xyz, angular velocity xyz
-// cands (u32, 2 each): geometry, element (within the geometry)
-// history (6 each), output (10 each): force on the geometry xyz, torque on the geometry about the
-//   origin xyz, torque on the particle xyz, rolling torque limit
+// elements (E_), geoms (G_), cands (WC_), history (H_) and output (WO_) are rows; rows (R_) are
+// blocks of N: a particle's candidates are R_WALL_BEGIN..R_WALL_END (layout.rs).
 // status (u32, per particle): 1 when more contacts were taken than the kernel keeps (the host
 //   redoes the stage on the CPU)
 
@@ -28,18 +24,18 @@
 const KEEP: u32 = 32u;
 
 fn clear(c: u32) {
-    for (var k = 0u; k < 6u; k++) {
-        history[6u * c + k] = 0.0lf;
+    for (var k = 0u; k < H_LEN; k++) {
+        history[H_LEN * c + k] = 0.0lf;
     }
-    for (var k = 0u; k < 10u; k++) {
-        output[10u * c + k] = 0.0lf;
+    for (var k = 0u; k < WO_LEN; k++) {
+        output[WO_LEN * c + k] = 0.0lf;
     }
 }
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = thread_index(gid);
-    let n = counts[0];
+    let n = counts[C_PARTICLES];
     if (i >= n) {
         return;
     }
@@ -47,19 +43,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!stepping()) {
         return;
     }
-    let w0 = rows[4u * n + i];
-    let w1 = rows[5u * n + i];
+    let w0 = rows[R_WALL_BEGIN * n + i];
+    let w1 = rows[R_WALL_END * n + i];
     status[i] = 0u;
     if (w1 == w0) {
         return;
     }
-    let x = get3(3u * i);
-    let vel = get3(3u * n + 3u * i);
-    let spin = get3(6u * n + 3u * i);
-    let r = props[i];
-    let m = props[n + i];
-    let material = ints[i];
-    let mats = u32(param(15u));
+    let x = position(i);
+    let vel = velocity(i);
+    let spin = angular_velocity(i);
+    let r = props[PR_RADIUS * n + i];
+    let m = props[PR_MASS * n + i];
+    let material = ints[I_MATERIAL * n + i];
+    let mats = u32(param(P_MATERIALS));
     let tol = 1.0e-9lf + 1.0e-6lf * r;
     var taken_cand: array<u32, KEEP>;
     var taken_point: array<vec3<f64>, KEEP>;
@@ -67,9 +63,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var taken = 0u;
     for (var phase = FACE; phase <= EDGE; phase++) {
         for (var c = w0; c < w1; c++) {
-            let g = cands[2u * c];
-            let el = u32(geoms[8u * g + 1u]) + cands[2u * c + 1u];
-            let t = u32(param(P_TABLE)) + 7u * (material * mats + u32(geoms[8u * g]));
+            let g = cands[WC_LEN * c + WC_GEOMETRY];
+            let first = u32(geoms[G_LEN * g + G_FIRST_ELEMENT]);
+            let el = first + cands[WC_LEN * c + WC_ELEMENT];
+            let wall_material = u32(geoms[G_LEN * g + G_MATERIAL]);
+            let t = u32(param(P_TABLE)) + T_LEN * (material * mats + wall_material);
             // A cohesive contact reaches down to the law's cut-off (0 without a surface energy).
             let cutoff = cutoff_of(t, r);
             let cl = closest(el, x, r - cutoff);
@@ -87,7 +85,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (d > cutoff) {
                 for (var a = 0u; a < min(taken, KEEP); a++) {
                     let ca = taken_cand[a];
-                    if (cands[2u * ca] != g) {
+                    if (cands[WC_LEN * ca + WC_GEOMETRY] != g) {
                         continue;
                     }
                     if (phase == FACE || taken_feature[a] == EDGE) {
@@ -96,7 +94,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                             duplicate = true;
                         }
                     } else {
-                        let ea = u32(geoms[8u * g + 1u]) + cands[2u * ca + 1u];
+                        let ea = first + cands[WC_LEN * ca + WC_ELEMENT];
                         if (distance_to(ea, cl.point) < tol) {
                             duplicate = true;
                         }
@@ -122,8 +120,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let nrm = cl.normal;
             let ci = r - 0.5lf * d;
             let contact_point = x - ci * nrm;
-            let lin = geom3(8u * g + 2u);
-            let ang = geom3(8u * g + 5u);
+            let lin = geom3(G_LEN * g + G_LINEAR_VELOCITY);
+            let ang = geom3(G_LEN * g + G_ANGULAR_VELOCITY);
             let v_rel = vel - (lin + cross3(ang, contact_point));
             let hm = hertz_mindlin(
                 t,
@@ -135,11 +133,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 ci * spin,
                 spin - ang,
                 1.4lf * m * r * r,
-                hist3(6u * c),
-                hist3(6u * c + 3u),
+                hist3(H_LEN * c + H_TANGENTIAL),
+                hist3(H_LEN * c + H_ROLLING),
             );
-            put_hist3(6u * c, hm.shear);
-            put_hist3(6u * c + 3u, hm.moment);
+            put_hist3(H_LEN * c + H_TANGENTIAL, hm.shear);
+            put_hist3(H_LEN * c + H_ROLLING, hm.moment);
             let force = hm.force;
             let rolling_torque = hm.rolling_torque;
             let f_t = hm.tangential;
@@ -152,10 +150,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     reaction_rolling += spin * (rolling_limit / s);
                 }
             }
-            put_out3(10u * c, -force);
-            put_out3(10u * c + 3u, cross3(contact_point, -force) + reaction_rolling);
-            put_out3(10u * c + 6u, -ci * cross3(nrm, f_t) + rolling_torque);
-            output[10u * c + 9u] = rolling_limit;
+            let o = WO_LEN * c;
+            put_out3(o + WO_FORCE, -force);
+            put_out3(o + WO_TORQUE, cross3(contact_point, -force) + reaction_rolling);
+            put_out3(o + WO_PARTICLE_TORQUE, -ci * cross3(nrm, f_t) + rolling_torque);
+            output[o + WO_ROLLING] = rolling_limit;
         }
     }
 }

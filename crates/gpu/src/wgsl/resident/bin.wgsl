@@ -13,23 +13,25 @@
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (atomicLoad(&ctrl[1]) == 0u) {
+    if (atomicLoad(&ctrl[K_REBUILD]) == 0u) {
         return;
     }
-    let i = gid.x + gid.y * counts[4];
-    if (i >= dims[0]) {
+    let i = thread_index(gid);
+    let n = dims[D_PARTICLES];
+    if (i >= n) {
         return;
     }
     // A world that does not step keeps its rows (its last step's loads are read from them).
-    if (params[PARAMS * u32(props[4u * dims[0] + i]) + P_STEPPING] != 1.0lf) {
+    set_world(i);
+    if (!stepping()) {
         return;
     }
-    let x = vec3<f64>(state[3u * i], state[3u * i + 1u], state[3u * i + 2u]);
-    let b = bucket_of(cell_of(x, search[0]), u32(props[4u * dims[0] + i]), dims[3]);
+    let world = u32(props[PR_WORLD * n + i]);
+    let b = bucket_of(cell_of(position(i), search[SE_INV_CELL]), world, dims[D_BUCKETS]);
     let slot = atomicAdd(&bucket_count[b], 1u);
-    if (slot < dims[4]) {
-        bucket_items[b * dims[4] + slot] = i;
+    if (slot < dims[D_BUCKET_CAPACITY]) {
+        bucket_items[b * dims[D_BUCKET_CAPACITY] + slot] = i;
     } else {
-        atomicMax(&ctrl[3], 1u);
+        atomicMax(&ctrl[K_OVERFLOW], OV_BUCKET);
     }
 }

@@ -19,32 +19,29 @@
 @group(0) @binding(14) var<storage, read_write> built: array<f64>;
 @group(0) @binding(15) var<storage, read> params: array<f64>;
 
-fn position(i: u32) -> vec3<f64> {
-    return vec3<f64>(state[3u * i], state[3u * i + 1u], state[3u * i + 2u]);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (atomicLoad(&ctrl[1]) == 0u) {
+    if (atomicLoad(&ctrl[K_REBUILD]) == 0u) {
         return;
     }
-    let i = gid.x + gid.y * counts[4];
-    let n = dims[0];
+    let i = thread_index(gid);
+    let n = dims[D_PARTICLES];
     if (i >= n) {
         return;
     }
     // A world that does not step keeps its rows (its last step's loads are read from them).
-    if (params[PARAMS * u32(props[4u * n + i]) + P_STEPPING] != 1.0lf) {
+    set_world(i);
+    if (!stepping()) {
         return;
     }
-    let cap = dims[1];
-    let per_bucket = dims[4];
+    let cap = dims[D_PAIR_CAPACITY];
+    let per_bucket = dims[D_BUCKET_CAPACITY];
     let base = i * cap;
     let x = position(i);
-    let ri = props[i];
-    let reach = search[1];
-    let home = cell_of(x, search[0]);
-    let world = props[4u * n + i];
+    let ri = props[PR_RADIUS * n + i];
+    let reach = search[SE_PAIR_REACH];
+    let home = cell_of(x, search[SE_INV_CELL]);
+    let world = props[PR_WORLD * n + i];
     var seen: array<u32, 27>;
     var buckets_seen = 0u;
     var count = 0u;
@@ -52,7 +49,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var dz = -1; dz <= 1; dz++) {
         for (var dy = -1; dy <= 1; dy++) {
             for (var dx = -1; dx <= 1; dx++) {
-                let b = bucket_of(home + vec3<i32>(dx, dy, dz), u32(world), dims[3]);
+                let b = bucket_of(home + vec3<i32>(dx, dy, dz), u32(world), dims[D_BUCKETS]);
                 // Two cells may share a bucket: visit it once.
                 var again = false;
                 for (var k = 0u; k < buckets_seen; k++) {
@@ -68,10 +65,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 let m = min(bucket_count[b], per_bucket);
                 for (var s = 0u; s < m; s++) {
                     let j = bucket_items[b * per_bucket + s];
-                    if (j <= i || props[4u * n + j] != world) {
+                    if (j <= i || props[PR_WORLD * n + j] != world) {
                         continue;
                     }
-                    let cut = ri + props[j] + reach;
+                    let cut = ri + props[PR_RADIUS * n + j] + reach;
                     let d = position(j) - x;
                     if (d.x * d.x + d.y * d.y + d.z * d.z >= cut * cut) {
                         continue;
@@ -82,49 +79,49 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     }
                     // Insertion into the row, kept sorted by j.
                     var k = count;
-                    while (k > 0u && new_ij[2u * (base + k - 1u) + 1u] > j) {
-                        new_ij[2u * (base + k) + 1u] = new_ij[2u * (base + k - 1u) + 1u];
+                    while (k > 0u && new_ij[IJ_LEN * (base + k - 1u) + IJ_J] > j) {
+                        new_ij[IJ_LEN * (base + k) + IJ_J] = new_ij[IJ_LEN * (base + k - 1u) + IJ_J];
                         k--;
                     }
-                    new_ij[2u * (base + k) + 1u] = j;
+                    new_ij[IJ_LEN * (base + k) + IJ_J] = j;
                     count++;
                 }
             }
         }
     }
     if (overflow) {
-        atomicMax(&ctrl[3], 2u);
+        atomicMax(&ctrl[K_OVERFLOW], OV_PAIR_ROW);
     }
-    let old_end = rows[n + i];
+    let old_end = rows[R_PAIR_END * n + i];
     var o = base;
     for (var k = 0u; k < count; k++) {
         let q = base + k;
-        let j = new_ij[2u * q + 1u];
-        new_ij[2u * q] = i;
-        while (o < old_end && old_ij[2u * o + 1u] < j) {
+        let j = new_ij[IJ_LEN * q + IJ_J];
+        new_ij[IJ_LEN * q + IJ_I] = i;
+        while (o < old_end && old_ij[IJ_LEN * o + IJ_J] < j) {
             o++;
         }
-        let carried = o < old_end && old_ij[2u * o + 1u] == j;
-        for (var h = 0u; h < 6u; h++) {
+        let carried = o < old_end && old_ij[IJ_LEN * o + IJ_J] == j;
+        for (var h = 0u; h < H_LEN; h++) {
             var v = 0.0lf;
             if (carried) {
-                v = old_history[6u * o + h];
+                v = old_history[H_LEN * o + h];
             }
-            new_history[6u * q + h] = v;
+            new_history[H_LEN * q + h] = v;
         }
         let r = atomicAdd(&reverse_count[j], 1u);
         if (r < cap) {
-            rows[6u * n + j * cap + r] = q;
+            rows[R_REVERSE_ENTRIES * n + j * cap + r] = q;
         } else {
-            atomicMax(&ctrl[3], 3u);
+            atomicMax(&ctrl[K_OVERFLOW], OV_REVERSE_ROW);
         }
     }
     for (var k = count; k < cap; k++) {
-        new_ij[2u * (base + k)] = EMPTY;
-        new_ij[2u * (base + k) + 1u] = EMPTY;
+        new_ij[IJ_LEN * (base + k) + IJ_I] = EMPTY;
+        new_ij[IJ_LEN * (base + k) + IJ_J] = EMPTY;
     }
-    rows[i] = base;
-    rows[n + i] = base + count;
+    rows[R_PAIR_BEGIN * n + i] = base;
+    rows[R_PAIR_END * n + i] = base + count;
     built[3u * i] = x.x;
     built[3u * i + 1u] = x.y;
     built[3u * i + 2u] = x.z;

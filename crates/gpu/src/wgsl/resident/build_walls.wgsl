@@ -17,39 +17,35 @@
 @group(0) @binding(13) var<storage, read> params: array<f64>;
 
 
-fn position3(k: u32) -> vec3<f64> {
-    return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (atomicLoad(&ctrl[1]) == 0u) {
+    if (atomicLoad(&ctrl[K_REBUILD]) == 0u) {
         return;
     }
-    let i = gid.x + gid.y * counts[4];
-    let n = dims[0];
+    let i = thread_index(gid);
+    let n = dims[D_PARTICLES];
     if (i >= n) {
         return;
     }
     // A world that does not step keeps its rows (its last step's loads are read from them).
-    if (params[PARAMS * u32(props[4u * n + i]) + P_STEPPING] != 1.0lf) {
+    set_world(i);
+    if (!stepping()) {
         return;
     }
-    let cap = dims[2];
+    let cap = dims[D_WALL_CAPACITY];
     let base = i * cap;
-    let old_end = rows[5u * n + i];
-    let x = position3(3u * i);
-    let reach = props[i] + search[2];
-    let geometries = dims[5];
-    // Only the geometries of the particle's own world.
-    let world = PARAMS * u32(props[4u * n + i]);
+    let old_end = rows[R_WALL_END * n + i];
+    let x = position(i);
+    let reach = props[PR_RADIUS * n + i] + search[SE_WALL_REACH];
+    let geometries = dims[D_GEOMETRIES];
     var count = 0u;
     var overflow = false;
-    for (var g = u32(params[world + P_FIRST_GEOMETRY]); g < u32(params[world + P_END_GEOMETRY]); g++) {
-        let first = u32(geoms[8u * g + 1u]);
-        var last = dims[6];
+    // Only the geometries of the particle's own world.
+    for (var g = u32(param(P_FIRST_GEOMETRY)); g < u32(param(P_END_GEOMETRY)); g++) {
+        let first = u32(geoms[G_LEN * g + G_FIRST_ELEMENT]);
+        var last = dims[D_ELEMENTS];
         if (g + 1u < geometries) {
-            last = u32(geoms[8u * (g + 1u) + 1u]);
+            last = u32(geoms[G_LEN * (g + 1u) + G_FIRST_ELEMENT]);
         }
         for (var e = 0u; e < last - first; e++) {
             let cl = closest(first + e, x, reach);
@@ -61,27 +57,28 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 continue;
             }
             let c = base + count;
-            new_cands[2u * c] = g;
-            new_cands[2u * c + 1u] = e;
+            new_cands[WC_LEN * c + WC_GEOMETRY] = g;
+            new_cands[WC_LEN * c + WC_ELEMENT] = e;
             var found = EMPTY;
             for (var o = base; o < old_end; o++) {
-                if (old_cands[2u * o] == g && old_cands[2u * o + 1u] == e) {
+                let same_geometry = old_cands[WC_LEN * o + WC_GEOMETRY] == g;
+                if (same_geometry && old_cands[WC_LEN * o + WC_ELEMENT] == e) {
                     found = o;
                 }
             }
-            for (var h = 0u; h < 6u; h++) {
+            for (var h = 0u; h < H_LEN; h++) {
                 var v = 0.0lf;
                 if (found != EMPTY) {
-                    v = old_history[6u * found + h];
+                    v = old_history[H_LEN * found + h];
                 }
-                new_history[6u * c + h] = v;
+                new_history[H_LEN * c + h] = v;
             }
             count++;
         }
     }
     if (overflow) {
-        atomicMax(&ctrl[3], 4u);
+        atomicMax(&ctrl[K_OVERFLOW], OV_WALL_ROW);
     }
-    rows[4u * n + i] = base;
-    rows[5u * n + i] = base + count;
+    rows[R_WALL_BEGIN * n + i] = base;
+    rows[R_WALL_END * n + i] = base + count;
 }

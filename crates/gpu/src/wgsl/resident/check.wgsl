@@ -1,5 +1,5 @@
 // After the drift: a rebuild when a particle has moved half the skin since the last one; the
-// first step in which a particle of a world is not finite or has left the domain (ctrl 8 + w); a
+// first step in which a particle of a world is not finite or has left the domain (K_FAILED + w); a
 // particle that touched more walls than the wall kernel keeps in the step before. Worlds that are
 // done are skipped; one whose steps just ended is checked once more (its last kick).
 
@@ -19,30 +19,27 @@ fn finite(v: vec3<f64>) -> bool {
     return s == s && abs(s) < 1.0e300lf;
 }
 
-fn position3(k: u32) -> vec3<f64> {
-    return vec3<f64>(state[k], state[k + 1u], state[k + 2u]);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x + gid.y * counts[4];
-    let n = counts[0];
+    let i = thread_index(gid);
+    let n = counts[C_PARTICLES];
     if (i >= n) {
         return;
     }
-    let w = u32(props[4u * n + i]);
-    let flag = params[PARAMS * w + P_STEPPING];
-    if (flag == 0.0lf) {
+    // Worlds still stepping, and those whose steps just ended.
+    set_world(i);
+    if (param(P_STEPPING) == 0.0lf) {
         return;
     }
-    if (moved[i] > search[3]) {
-        atomicOr(&ctrl[1], 1u);
+    if (moved[i] > search[SE_HALF_SKIN_SQUARED]) {
+        atomicOr(&ctrl[K_REBUILD], 1u);
     }
-    if (outside[i] != 0u || !finite(position3(3u * i)) || !finite(position3(3u * n + 3u * i))) {
-        let last = u32(params[PARAMS * w + P_STEPS]) - 1u;
-        atomicMin(&ctrl[8u + w], min(atomicLoad(&ctrl[0]) - 1u, last));
+    if (outside[i] != 0u || !finite(position(i)) || !finite(velocity(i))) {
+        let w = u32(props[PR_WORLD * n + i]);
+        let last = u32(param(P_STEPS)) - 1u;
+        atomicMin(&ctrl[K_FAILED + w], min(atomicLoad(&ctrl[K_STEPS_BEGUN]) - 1u, last));
     }
     if (status[i] != 0u) {
-        atomicMax(&ctrl[3], 5u);
+        atomicMax(&ctrl[K_OVERFLOW], OV_WALLS_KEPT);
     }
 }

@@ -8,14 +8,14 @@
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (atomicLoad(&ctrl[1]) == 0u) {
+    if (atomicLoad(&ctrl[K_REBUILD]) == 0u) {
         return;
     }
-    let t = gid.x + gid.y * counts[4];
-    if (t < dims[3]) {
+    let t = gid.x + gid.y * counts[C_ROW_WIDTH];
+    if (t < dims[D_BUCKETS]) {
         atomicStore(&bucket_count[t], 0u);
     }
-    if (t < dims[0]) {
+    if (t < dims[D_PARTICLES]) {
         atomicStore(&reverse_count[t], 0u);
     }
 }

@@ -16,34 +16,37 @@
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (atomicLoad(&ctrl[1]) == 0u) {
+    if (atomicLoad(&ctrl[K_REBUILD]) == 0u) {
         return;
     }
-    let i = gid.x + gid.y * counts[4];
-    if (i >= dims[0]) {
+    let i = gid.x + gid.y * counts[C_ROW_WIDTH];
+    let n = dims[D_PARTICLES];
+    if (i >= n) {
         return;
     }
     if (i == 0u) {
-        atomicAdd(&ctrl[4], 1u);
+        atomicAdd(&ctrl[K_REBUILDS], 1u);
     }
     // A world that does not step keeps its rows (its last step's loads are read from them).
-    if (params[PARAMS * u32(props[4u * dims[0] + i]) + P_STEPPING] != 1.0lf) {
+    if (params[P_LEN * u32(props[PR_WORLD * n + i]) + P_STEPPING] != 1.0lf) {
         return;
     }
-    let cap = dims[1];
+    let cap = dims[D_PAIR_CAPACITY];
     for (var q = i * cap; q < (i + 1u) * cap; q++) {
-        pair_ij[2u * q] = new_ij[2u * q];
-        pair_ij[2u * q + 1u] = new_ij[2u * q + 1u];
-        for (var h = 0u; h < 6u; h++) {
-            pair_history[6u * q + h] = new_pair_history[6u * q + h];
+        for (var k = 0u; k < IJ_LEN; k++) {
+            pair_ij[IJ_LEN * q + k] = new_ij[IJ_LEN * q + k];
+        }
+        for (var h = 0u; h < H_LEN; h++) {
+            pair_history[H_LEN * q + h] = new_pair_history[H_LEN * q + h];
         }
     }
-    let wcap = dims[2];
+    let wcap = dims[D_WALL_CAPACITY];
     for (var c = i * wcap; c < (i + 1u) * wcap; c++) {
-        cands[2u * c] = new_cands[2u * c];
-        cands[2u * c + 1u] = new_cands[2u * c + 1u];
-        for (var h = 0u; h < 6u; h++) {
-            wall_history[6u * c + h] = new_wall_history[6u * c + h];
+        for (var k = 0u; k < WC_LEN; k++) {
+            cands[WC_LEN * c + k] = new_cands[WC_LEN * c + k];
+        }
+        for (var h = 0u; h < H_LEN; h++) {
+            wall_history[H_LEN * c + h] = new_wall_history[H_LEN * c + h];
         }
     }
 }

@@ -1,15 +1,6 @@
-// Shared by the device-resident kernels (crate::resident): the list layout and the cell hash.
-//
-// props: as the stage kernels' (block 4: each particle's world).
-// dims (u32): 0 particles N, 1 pair row capacity, 2 wall row capacity, 3 hash buckets M (a power
-//   of two), 4 bucket capacity, 5 geometries, 6 elements
-// search (f64): 0 inverse cell size, 1 pair reach beyond touching, 2 wall reach beyond touching,
-//   3 (half the skin) squared
-// ctrl (atomic u32): 0 steps begun, 1 rebuild in this step, 2 unused, 3 overflow (0 none, 1 a
-//   bucket, 2 a pair row, 3 a reverse row, 4 a wall row, 5 more wall contacts than the wall
-//   kernel keeps), 4 rebuilds, 5 worlds W, 8 + w world w's first failed step (0xffffffff: none)
-// params: a block of PARAMS numbers per world (common.wgsl, world.wgsl); a world that does not
-//   step is left out of rebuilds.
+// Shared by the device-resident kernels that build lists (crate::resident): the list sentinel
+// and the cell hash. Their words are the generated dims (D_), search (SE_) and ctrl (K_, with the
+// OV_ overflow codes) of layout.rs; a world that does not step is left out of rebuilds.
 // Pair rows have a fixed capacity: particle i's pairs (i < j, sorted by j) sit in slots
 // i * capacity.., empty slots hold EMPTY; wall rows likewise.
 
@@ -35,10 +26,17 @@ fn cell_of(x: vec3<f64>, inv_cell: f64) -> vec3<i32> {
     return vec3<i32>(cell_coord(x.x, inv_cell), cell_coord(x.y, inv_cell), cell_coord(x.z, inv_cell));
 }
 
+// Teschner et al.'s primes for the cell coordinates, and Knuth's multiplicative constant for the
+// world.
+const HASH_X: u32 = 73856093u;
+const HASH_Y: u32 = 19349663u;
+const HASH_Z: u32 = 83492791u;
+const HASH_WORLD: u32 = 2654435761u;
+
 // A cell's bucket: spatial hashing (Teschner et al. 2003), so the grid needs no bounds; the
 // world of a batch is hashed in, so that worlds in the same place fill different buckets.
 fn bucket_of(c: vec3<i32>, world: u32, buckets: u32) -> u32 {
-    let h = (u32(c.x) * 73856093u) ^ (u32(c.y) * 19349663u) ^ (u32(c.z) * 83492791u)
-        ^ (world * 2654435761u);
+    let h = (u32(c.x) * HASH_X) ^ (u32(c.y) * HASH_Y) ^ (u32(c.z) * HASH_Z)
+        ^ (world * HASH_WORLD);
     return h & (buckets - 1u);
 }

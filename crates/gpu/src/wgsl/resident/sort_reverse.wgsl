@@ -9,17 +9,18 @@
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (atomicLoad(&ctrl[1]) == 0u) {
+    if (atomicLoad(&ctrl[K_REBUILD]) == 0u) {
         return;
     }
-    let j = gid.x + gid.y * counts[4];
-    let n = dims[0];
+    let j = gid.x + gid.y * counts[C_ROW_WIDTH];
+    let n = dims[D_PARTICLES];
     if (j >= n) {
         return;
     }
-    let cap = dims[1];
+    // A reverse row has the pair rows' capacity.
+    let cap = dims[D_PAIR_CAPACITY];
     let m = min(reverse_count[j], cap);
-    let base = 6u * n + j * cap;
+    let base = R_REVERSE_ENTRIES * n + j * cap;
     for (var a = 1u; a < m; a++) {
         let v = rows[base + a];
         var k = a;
@@ -29,6 +30,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         rows[base + k] = v;
     }
-    rows[2u * n + j] = j * cap;
-    rows[3u * n + j] = j * cap + m;
+    rows[R_REVERSE_BEGIN * n + j] = j * cap;
+    rows[R_REVERSE_END * n + j] = j * cap + m;
 }

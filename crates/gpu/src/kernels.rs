@@ -1,0 +1,94 @@
+//! Every kernel's full WGSL source, composed in one place: the layout constants
+//! ([`layout::wgsl_constants`]), `vector.wgsl`, then the shared parts the kernel uses and its own
+//! file. The context compiles exactly these sources, and the tests below parse and validate
+//! them with naga (no device needed), so a kernel that does not compile fails `cargo test`
+//! anywhere, not only where a GPU is.
+
+use crate::layout;
+
+const VECTOR: &str = include_str!("wgsl/vector.wgsl");
+/// The stage kernels' accessors; needs `state`, `props`, `params` and `counts` bound.
+const COMMON: &str = include_str!("wgsl/common.wgsl");
+const SPIN: &str = include_str!("wgsl/spin.wgsl");
+const CONTACT: &str = include_str!("wgsl/contact.wgsl");
+const ELEMENTS: &str = include_str!("wgsl/elements.wgsl");
+/// The segment kernels' list sentinel and cell hash.
+const SHARED: &str = include_str!("wgsl/resident/shared.wgsl");
+
+/// Every kernel: its name (the label the device reports) and its parts after the constants and
+/// `vector.wgsl`, in order.
+const KERNELS: &[(&str, &[&str])] = &[
+    (
+        "integrate",
+        &[COMMON, SPIN, include_str!("wgsl/integrate.wgsl")],
+    ),
+    (
+        "pair_forces",
+        &[COMMON, CONTACT, include_str!("wgsl/pair_forces.wgsl")],
+    ),
+    (
+        "particle_sums",
+        &[COMMON, SPIN, include_str!("wgsl/particle_sums.wgsl")],
+    ),
+    (
+        "wall_forces",
+        &[
+            COMMON,
+            CONTACT,
+            ELEMENTS,
+            include_str!("wgsl/wall_forces.wgsl"),
+        ],
+    ),
+    ("begin", &[include_str!("wgsl/resident/begin.wgsl")]),
+    ("check", &[COMMON, include_str!("wgsl/resident/check.wgsl")]),
+    ("clear", &[include_str!("wgsl/resident/clear.wgsl")]),
+    (
+        "bin",
+        &[COMMON, SHARED, include_str!("wgsl/resident/bin.wgsl")],
+    ),
+    (
+        "build_pairs",
+        &[
+            COMMON,
+            SHARED,
+            include_str!("wgsl/resident/build_pairs.wgsl"),
+        ],
+    ),
+    (
+        "build_walls",
+        &[
+            COMMON,
+            SHARED,
+            ELEMENTS,
+            include_str!("wgsl/resident/build_walls.wgsl"),
+        ],
+    ),
+    (
+        "sort_reverse",
+        &[include_str!("wgsl/resident/sort_reverse.wgsl")],
+    ),
+    ("commit", &[include_str!("wgsl/resident/commit.wgsl")]),
+    (
+        "geometry_loads",
+        &[include_str!("wgsl/resident/geometry_loads.wgsl")],
+    ),
+];
+
+/// Every kernel's name and full source, as the device compiles it.
+pub(crate) fn kernel_sources() -> Vec<(&'static str, String)> {
+    let constants = layout::wgsl_constants();
+    KERNELS
+        .iter()
+        .map(|&(name, parts)| {
+            let source = [constants.as_str(), VECTOR]
+                .into_iter()
+                .chain(parts.iter().copied())
+                .collect::<Vec<_>>()
+                .join("\n");
+            (name, source)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

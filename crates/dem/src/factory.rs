@@ -9,7 +9,7 @@
 
 use crate::mixture::{random_orientation, Drawn, FillTarget, Item, Mixture};
 use crate::sim::walls::visit_elements;
-use crate::sim::{SimError, Simulation, StepExtension};
+use crate::sim::{OnDevice, SimError, Simulation, StepExtension};
 use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -227,6 +227,11 @@ pub fn perpendicular_axes(n: DVec3) -> (DVec3, DVec3) {
 impl StepExtension for Factory {
     fn name(&self) -> &str {
         &self.name
+    }
+
+    /// A batch needs the host; the steps until the next one (`idle_steps`) stay on the device.
+    fn on_device(&self) -> OnDevice {
+        OnDevice::BetweenSegments
     }
 
     fn after_step(&mut self, sim: &mut Simulation) -> Result<(), SimError> {

@@ -27,6 +27,9 @@ impl StepExtension for PointLoad {
     fn name(&self) -> &str {
         "point load"
     }
+    fn on_device(&self) -> dem::sim::OnDevice {
+        dem::sim::OnDevice::EveryStep
+    }
     fn adds_forces(&self) -> bool {
         true
     }

@@ -26,6 +26,9 @@ impl StepExtension for Anchor {
     fn name(&self) -> &str {
         "anchor"
     }
+    fn on_device(&self) -> dem::sim::OnDevice {
+        dem::sim::OnDevice::EveryStep
+    }
     fn adds_forces(&self) -> bool {
         true
     }
@@ -46,6 +49,9 @@ struct StopAfter {
 impl StepExtension for StopAfter {
     fn name(&self) -> &str {
         "stop"
+    }
+    fn on_device(&self) -> dem::sim::OnDevice {
+        dem::sim::OnDevice::BetweenSegments
     }
     fn after_step(&mut self, sim: &mut Simulation) -> Result<(), SimError> {
         if sim.steps >= self.limit {

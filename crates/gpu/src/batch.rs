@@ -272,6 +272,8 @@ impl GpuStages {
                 }
                 ends.into_iter().map(Some).collect()
             }
+            // A failed device: every world's steps go to the CPU, nothing left to split.
+            Err(_) if self.ctx.failure().is_some() => worlds.iter().map(|_| None).collect(),
             Err(why) if worlds.len() == 1 => vec![self.decline(why)],
             Err(_) => {
                 c.split.fetch_add(1, Ordering::Relaxed);

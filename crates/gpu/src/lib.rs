@@ -42,8 +42,16 @@
 //! - **Failures.** A context that cannot be made (no Vulkan adapter with f64 shaders, a kernel the
 //!   driver refuses) is an error naming the adapter. A particle that stops being finite or leaves
 //!   the domain in a segment stops it within 64 steps, with the step it happened in. A device
-//!   lost in the middle of a stage (a driver reset) panics: the `Backend` stages cannot return
-//!   errors yet.
+//!   lost in the middle of a run (a driver reset), memory the driver refuses, or any error wgpu
+//!   reports outside a scope is recorded as the context's failure ([`GpuContext::failure`],
+//!   the `failure` module), said once on stderr, and never a panic: from then on each stage runs
+//!   on the CPU from the state the host holds, segments are declined, and a new simulation that
+//!   asks for "gpu" gets the CPU with the failure as the reason (`dem::sim::resolve_backend`), so a
+//!   study goes on, on the CPU (`tests/device_lost.rs`).
+//! - **What runs where** is declared where it is written: a contact law's `ContactLaw::ON_GPU`
+//!   (Hertz-Mindlin's is true; [`laws_on_gpu`]), an extension's `StepExtension::on_device`
+//!   (bonds work on the host at every step, so a bonded scene runs stage by stage; a factory
+//!   between segments). `Simulation::choose_backend` tells the user both.
 //! - **Kernels** are WGSL files in `src/wgsl/` (the segment kernels in `src/wgsl/resident/`),
 //!   each put together with the shared parts it uses (`vector.wgsl`, vector helpers;
 //!   `common.wgsl`, the accessors of `state`, `props`, `params` and `counts`; `spin.wgsl`, the
@@ -64,10 +72,12 @@
 //!   so a moved field cannot be half moved.
 
 pub mod batch;
+mod failure;
 mod kernels;
 mod layout;
 mod pack;
 mod resident;
+mod stages;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -81,15 +91,8 @@ use dem::sim::{
 };
 use wgpu::util::DeviceExt;
 
-use layout::{element, geometry, pair_output, wall_output};
-use pack::{
-    block3, element_row, f64s, flat, geometry_row, history_at, history_of, ints_of, loads_of,
-    pair_output_at, pair_output_of, pair_table, params_of, props_of, rows_of, state_of,
-    wall_output_at, wall_output_of, Counts,
-};
-
 /// Bytes of `state` per particle, the largest of the per-particle buffers.
-const STATE_BYTES: usize = 8 * layout::state::LEN;
+pub(crate) const STATE_BYTES: usize = 8 * layout::state::LEN;
 
 /// Threads per workgroup, as the kernels declare.
 const WORKGROUP: u32 = 64;
@@ -103,6 +106,8 @@ pub struct GpuContext {
     adapter: String,
     /// The largest storage buffer a kernel can bind, in bytes.
     max_binding: u64,
+    /// The device's first failure; from then on nothing runs on it (`failure`).
+    failure: Arc<failure::Failure>,
     integrate: wgpu::ComputePipeline,
     pair_forces: wgpu::ComputePipeline,
     particle_sums: wgpu::ComputePipeline,
@@ -193,8 +198,27 @@ impl GpuContext {
             ));
         }
         let max_binding = device.limits().max_storage_buffer_binding_size;
+        // From here on a lost device or an error outside a scope is recorded, not a panic.
+        let failure = Arc::new(failure::Failure::default());
+        {
+            let (lost, name) = (failure.clone(), info.name.clone());
+            device.set_device_lost_callback(move |reason, message| {
+                lost.record(format!(
+                    "the GPU {name} was lost ({reason:?}): {}",
+                    failure::one_line(&message)
+                ))
+            });
+            let (error, name) = (failure.clone(), info.name.clone());
+            device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                error.record(format!(
+                    "the GPU {name} failed: {}",
+                    failure::one_line(&e.to_string())
+                ))
+            }));
+        }
         Ok(GpuContext {
             max_binding,
+            failure,
             adapter: format!("{} ({:?})", info.name, info.backend),
             device,
             queue,
@@ -209,6 +233,19 @@ impl GpuContext {
     /// The adapter's name and API, for logs and benchmarks.
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+
+    /// Why the device stopped (lost, out of memory, an error wgpu reported), if it did: from then
+    /// on every stage runs on the CPU and no segment on the device.
+    pub fn failure(&self) -> Option<String> {
+        self.failure.get()
+    }
+
+    /// Destroys the device, as a driver reset loses it: what the tests of the fallback to the CPU
+    /// use. Nothing runs on this context afterwards.
+    #[doc(hidden)]
+    pub fn lose_device(&self) {
+        self.device.destroy();
     }
 
     /// Whether arrays of `bytes` (the largest of a stage) fit one binding, and the stage's
@@ -247,7 +284,7 @@ impl GpuContext {
         buffers: &[&wgpu::Buffer],
         threads: u32,
         read: &[usize],
-    ) -> Vec<Vec<u8>> {
+    ) -> Result<Vec<Vec<u8>>, String> {
         let group = self.bind(pipeline, buffers);
         let (x, y) = groups(threads);
         let mut encoder = self.device.create_command_encoder(&Default::default());
@@ -290,7 +327,13 @@ pub fn shared_context() -> Result<Arc<GpuContext>, String> {
 /// test files, studies and `--backend gpu` can choose it. Call once at start-up.
 pub fn register() {
     dem::sim::register_backend("gpu", || {
-        let stages = GpuStages::with_context(shared_context()?);
+        let ctx = shared_context()?;
+        // A device that failed earlier in this process: the simulation runs on the CPU, and
+        // `choose_backend` / `resolve_backend` say why.
+        if let Some(failure) = ctx.failure() {
+            return Err(failure);
+        }
+        let stages = GpuStages::with_context(ctx);
         Ok(Box::new(match dem::sim::batch_group() {
             Some(group) => stages.in_batch_group(group),
             None => stages,
@@ -360,11 +403,11 @@ impl GpuStages {
         &self.ctx
     }
 
-    /// Whether the contact stages run on the GPU for these inputs: Hertz-Mindlin, with or
-    /// without JKR cohesion (the Hooke law runs on the CPU).
+    /// Whether the contact stages run on the GPU for these inputs: a law that declares it
+    /// (`ContactLaw::ON_GPU`: Hertz-Mindlin, with or without JKR cohesion), between spheres (the
+    /// Hooke law and polyhedra run on the CPU).
     pub fn runs_pairs(inputs: &StepInputs) -> bool {
-        matches!(inputs.params.contact_model, ContactModel::HertzMindlin(_))
-            && inputs.polyhedra.is_none()
+        inputs.params.contact_model.on_gpu() && inputs.polyhedra.is_none()
     }
 }
 
@@ -382,15 +425,16 @@ impl Backend for GpuStages {
             r.push("polyhedral particles' contacts run on the CPU".to_string());
         } else if !Self::runs_pairs(inputs) {
             r.push(format!(
-                "the {} contact law runs on the CPU (the GPU stages run hertz_mindlin)",
-                inputs.params.contact_model.name()
+                "the {} contact law runs on the CPU (the GPU stages run {})",
+                inputs.params.contact_model.name(),
+                laws_on_gpu().join(", ")
             ));
         }
         r
     }
 
     fn runs_segments(&self, inputs: &StepInputs) -> bool {
-        Self::runs_pairs(inputs) && !inputs.clumps
+        Self::runs_pairs(inputs) && !inputs.clumps && self.ctx.failure().is_none()
     }
 
     fn run_segment(&self, segment: &Segment) -> Option<SegmentEnd> {
@@ -411,216 +455,32 @@ impl Backend for GpuStages {
         params: &SimulationParams,
         clumps: bool,
     ) -> Result<Moved, usize> {
-        // The kernel measures the displacement since the list build only: without the one since
-        // the near scan, the CPU pair stage (where it runs) goes over every pair.
-        let built_at = anchors.build;
-        let n = p.len();
-        if n == 0 {
-            return Ok(Moved::since_build_only(0.0));
-        }
-        assert_eq!(
-            built_at.len(),
-            n,
-            "positions at the last build, one per particle"
-        );
         let c = &self.ctx;
-        if !c.fits(STATE_BYTES * n) {
-            return self.to_cpu().integrate(p, anchors, params, clumps);
-        }
-        let threads = n as u32;
-        let state = c.storage(&state_of(p));
-        let loads = c.storage(&loads_of(p));
-        let props = c.storage(&props_of(p));
-        let body = c.storage(&p.body);
-        let built = c.storage(&flat(built_at));
-        let par = c.storage(&params_of(params, clumps, false, 0, false));
-        let counts = c.storage(
-            &Counts {
-                particles: n,
-                ..Default::default()
-            }
-            .words(threads),
-        );
-        let moved = c.storage(&vec![0.0f64; n]);
-        let outside = c.storage(&vec![0u32; n]);
-        let out = c.run(
-            &c.integrate,
-            &[
-                &state, &loads, &props, &body, &built, &par, &counts, &moved, &outside,
-            ],
-            threads,
-            &[0, 7, 8],
-        );
-        let s = f64s(&out[0]);
-        for i in 0..n {
-            p.position[i] = block3(&s, layout::state::POSITION, n, i);
-            p.velocity[i] = block3(&s, layout::state::VELOCITY, n, i);
-            p.angular_velocity[i] = block3(&s, layout::state::ANGULAR_VELOCITY, n, i);
-        }
-        let moved = f64s(&out[1]);
-        let outside: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
-        match (0..n).find(|&i| !moved[i].is_finite() || outside[i] != 0) {
-            Some(i) => Err(i),
-            None => Ok(Moved::since_build_only(
-                moved[..n].iter().copied().fold(0.0, f64::max).sqrt(),
-            )),
+        match c.failure.guard(&c.adapter, || {
+            self.integrate_device(p, anchors, params, clumps)
+        }) {
+            Ok(moved) => moved,
+            Err(_) => self.to_cpu().integrate(p, anchors, params, clumps),
         }
     }
 
     fn pair_forces(&self, p: &Particles, lists: &mut NeighbourList, inputs: &StepInputs) {
-        if !Self::runs_pairs(inputs) {
-            return self.to_cpu().pair_forces(p, lists, inputs);
-        }
-        let pairs = lists.pairs.len();
-        if pairs == 0 {
-            return;
-        }
-        let n = p.len();
         let c = &self.ctx;
-        if !c.fits((STATE_BYTES * n).max(8 * pair_output::LEN * pairs)) {
-            return self.to_cpu().pair_forces(p, lists, inputs);
+        if c.failure
+            .guard(&c.adapter, || self.pair_forces_device(p, lists, inputs))
+            .is_err()
+        {
+            self.to_cpu().pair_forces(p, lists, inputs);
         }
-        let threads = pairs as u32;
-        let state = c.storage(&state_of(p));
-        let props = c.storage(&props_of(p));
-        let ints = c.storage(&ints_of(p));
-        let mut ij = vec![0; layout::pair_ij::LEN * pairs];
-        for (q, pair) in lists.pairs.iter().enumerate() {
-            ij[layout::pair_ij::LEN * q + layout::pair_ij::I] = pair.i;
-            ij[layout::pair_ij::LEN * q + layout::pair_ij::J] = pair.j;
-        }
-        let ij = c.storage(&ij);
-        let history = c.storage(&history_of(lists.pairs.iter().map(|q| &q.history)));
-        let output = c.storage(&vec![0.0f64; pair_output::LEN * pairs]);
-        let table = c.storage(&pair_table(inputs));
-        let par = c.storage(&params_of(
-            inputs.params,
-            inputs.clumps,
-            false,
-            inputs.materials.len(),
-            inputs.cohesive,
-        ));
-        let counts = c.storage(
-            &Counts {
-                particles: n,
-                pairs,
-                ..Default::default()
-            }
-            .words(threads),
-        );
-        let out = c.run(
-            &c.pair_forces,
-            &[
-                &state, &props, &ints, &ij, &history, &output, &table, &par, &counts,
-            ],
-            threads,
-            &[4, 5],
-        );
-        let h = f64s(&out[0]);
-        let o = f64s(&out[1]);
-        for (q, pair) in lists.pairs.iter_mut().enumerate() {
-            pair.history = history_at(&h, q);
-            lists.output[q] = pair_output_at(&o, q);
-        }
-        lists.mark_all_active();
     }
 
     fn wall_forces(&self, p: &Particles, walls: &mut WallLists, inputs: &StepInputs) {
-        let count = walls.candidates().len();
-        if count == 0 {
-            return;
-        }
-        let n = p.len();
         let c = &self.ctx;
-        let elements: usize = inputs.geometries.iter().map(|g| g.elements.len()).sum();
-        let largest = (STATE_BYTES * n)
-            .max(8 * wall_output::LEN * count)
-            .max(8 * element::LEN * elements);
-        if !Self::runs_pairs(inputs) || !c.fits(largest) {
-            return self.to_cpu().wall_forces(p, walls, inputs);
-        }
-        assert_eq!(
-            walls.start().len(),
-            n + 1,
-            "wall row starts: one per particle and one more"
-        );
-        let threads = n as u32;
-        let mut flat_elements: Vec<f64> = Vec::with_capacity(element::LEN * elements);
-        let mut geoms: Vec<f64> = Vec::with_capacity(geometry::LEN * inputs.geometries.len());
-        for g in inputs.geometries {
-            let (lin, ang) = (g.velocity.linear, g.velocity.angular);
-            geoms.extend(geometry_row(
-                g.material as f64,
-                (flat_elements.len() / element::LEN) as f64,
-                [lin.x, lin.y, lin.z, ang.x, ang.y, ang.z],
-            ));
-            for e in &g.elements {
-                flat_elements.extend(element_row(e));
-            }
-        }
-        let state = c.storage(&state_of(p));
-        let props = c.storage(&props_of(p));
-        let ints = c.storage(&ints_of(p));
-        let flat_elements = c.storage(&flat_elements);
-        let geoms = c.storage(&geoms);
-        let mut cands = vec![0; layout::cands::LEN * count];
-        for (k, w) in walls.candidates().iter().enumerate() {
-            cands[layout::cands::LEN * k + layout::cands::GEOMETRY] = w.geometry as u32;
-            cands[layout::cands::LEN * k + layout::cands::ELEMENT] = w.element;
-        }
-        let cands = c.storage(&cands);
-        let rows = c.storage(&rows_of(None, walls.start(), n));
-        let history = c.storage(&history_of(walls.candidates().iter().map(|w| &w.history)));
-        let output = c.storage(&vec![0.0f64; wall_output::LEN * count]);
-        let table = c.storage(&pair_table(inputs));
-        let par = c.storage(&params_of(
-            inputs.params,
-            inputs.clumps,
-            false,
-            inputs.materials.len(),
-            inputs.cohesive,
-        ));
-        let counts = c.storage(
-            &Counts {
-                particles: n,
-                walls: count,
-                ..Default::default()
-            }
-            .words(threads),
-        );
-        let status = c.storage(&vec![0u32; n]);
-        let out = c.run(
-            &c.wall_forces,
-            &[
-                &state,
-                &props,
-                &ints,
-                &flat_elements,
-                &geoms,
-                &cands,
-                &rows,
-                &history,
-                &output,
-                &table,
-                &par,
-                &counts,
-                &status,
-            ],
-            threads,
-            &[7, 8, 12],
-        );
-        let status: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
-        if status[..n].iter().any(|&s| s != 0) {
-            // A particle touching more walls at once than the kernel keeps: the CPU has no limit.
-            return self.to_cpu().wall_forces(p, walls, inputs);
-        }
-        let h = f64s(&out[0]);
-        let o = f64s(&out[1]);
-        for (k, w) in walls.candidates_mut().iter_mut().enumerate() {
-            w.history = history_at(&h, k);
-        }
-        for (k, slot) in walls.output_mut().iter_mut().enumerate() {
-            *slot = wall_output_at(&o, k);
+        if c.failure
+            .guard(&c.adapter, || self.wall_forces_device(p, walls, inputs))
+            .is_err()
+        {
+            self.to_cpu().wall_forces(p, walls, inputs);
         }
     }
 
@@ -632,80 +492,38 @@ impl Backend for GpuStages {
         inputs: &StepInputs,
         kick: bool,
     ) {
-        let n = p.len();
-        if n == 0 {
-            return;
-        }
         let c = &self.ctx;
-        let csr_len = layout::rows::REVERSE_ENTRIES * n + lists.reverse.len();
-        if !c.fits(
-            (STATE_BYTES * n)
-                .max(8 * pair_output::LEN * lists.output.len())
-                .max(8 * wall_output::LEN * walls.output().len())
-                .max(4 * csr_len),
-        ) {
-            return self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
-        }
-        let threads = n as u32;
-        let state = c.storage(&state_of(p));
-        let loads = c.storage(&vec![0.0f64; layout::loads::LEN * n]);
-        let props = c.storage(&props_of(p));
-        let body = c.storage(&p.body);
-        let pair_out = c.storage(&pair_output_of(&lists.output));
-        // The CPU stage indexes these rows for every particle; they must be there.
-        for (what, r) in [
-            ("pair row starts", &lists.row_start),
-            ("reverse row starts", &lists.reverse_start),
-        ] {
-            assert_eq!(r.len(), n + 1, "{what}: one per particle and one more");
-        }
-        assert_eq!(
-            walls.start().len(),
-            n + 1,
-            "wall row starts: one per particle and one more"
-        );
-        let rows = c.storage(&rows_of(Some(lists), walls.start(), n));
-        let wall_out = c.storage(&wall_output_of(walls.output()));
-        let par = c.storage(&params_of(
-            inputs.params,
-            inputs.clumps,
-            kick,
-            inputs.materials.len(),
-            inputs.cohesive,
-        ));
-        let counts = c.storage(
-            &Counts {
-                particles: n,
-                pairs: lists.pairs.len(),
-                reverse: lists.reverse.len(),
-                walls: walls.output().len(),
-            }
-            .words(threads),
-        );
-        let out = c.run(
-            &c.particle_sums,
-            &[
-                &state, &loads, &props, &body, &pair_out, &rows, &wall_out, &par, &counts,
-            ],
-            threads,
-            &[0, 1],
-        );
-        let s = f64s(&out[0]);
-        let l = f64s(&out[1]);
-        use layout::{loads, state};
-        for i in 0..n {
-            p.velocity[i] = block3(&s, state::VELOCITY, n, i);
-            p.angular_velocity[i] = block3(&s, state::ANGULAR_VELOCITY, n, i);
-            p.force[i] = block3(&l, loads::FORCE, n, i);
-            p.torque[i] = block3(&l, loads::TORQUE, n, i);
-            p.rolling_torque_limit[i] = l[loads::ROLLING_LIMIT * n + i];
+        if c.failure
+            .guard(&c.adapter, || {
+                self.particle_sums_device(p, lists, walls, inputs, kick)
+            })
+            .is_err()
+        {
+            self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
         }
     }
+}
+
+/// The contact laws whose contacts the GPU stages run (`ContactLaw::ON_GPU`).
+pub fn laws_on_gpu() -> Vec<&'static str> {
+    ContactModel::NAMES
+        .iter()
+        .copied()
+        .filter(|&n| ContactModel::from_name(n).is_some_and(|m| m.on_gpu()))
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `contact.wgsl` has Hertz-Mindlin's force (with JKR) and no other: a law that declares
+    /// `ON_GPU` must bring its WGSL, and this list changes with it.
+    #[test]
+    fn the_laws_declared_on_the_gpu_are_the_ones_the_kernels_have() {
+        assert_eq!(laws_on_gpu(), ["hertz_mindlin"]);
+        assert!(!ContactModel::from_name("hooke").unwrap().on_gpu());
+    }
 
     #[test]
     fn dispatches_cover_every_thread_once() {

@@ -39,7 +39,7 @@ pub mod output;
 mod update4;
 
 use crate::particles::{Particles, NO_BODY};
-use crate::sim::{SimError, Simulation, StepExtension};
+use crate::sim::{OnDevice, SimError, Simulation, StepExtension};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::any::Any;
@@ -695,6 +695,11 @@ pub const SAFE_PHASE: f64 = 0.4;
 impl StepExtension for Bonds {
     fn name(&self) -> &str {
         "bonds"
+    }
+
+    /// Bond forces are computed on the host at every step (issue 42 puts them on the device).
+    fn on_device(&self) -> OnDevice {
+        OnDevice::EveryStep
     }
 
     fn adds_forces(&self) -> bool {

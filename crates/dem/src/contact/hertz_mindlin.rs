@@ -13,6 +13,8 @@ pub struct HertzMindlin;
 impl ContactLaw for HertzMindlin {
     const NAME: &'static str = "hertz_mindlin";
     const COHESIVE: bool = true;
+    /// `crates/gpu/src/wgsl/contact.wgsl`, with JKR and both rolling models.
+    const ON_GPU: bool = true;
 
     #[inline(always)]
     fn force(

@@ -112,6 +112,10 @@ pub trait ContactLaw: Copy + Default + std::fmt::Debug + PartialEq + Send + Sync
     const COHESIVE: bool = false;
     /// Settings the law reads from `simulation.contact_parameters`: (name, what it is).
     const PARAMETERS: &'static [(&'static str, &'static str)] = &[];
+    /// Whether the GPU back end (`crates/gpu`) has this law's force in WGSL and runs its contacts
+    /// on the device; false: the GPU stages hand its contacts to the CPU, and the user is told.
+    /// No default: a new law says where it runs in the one file that defines it.
+    const ON_GPU: bool;
 
     /// Sets one of [`Self::PARAMETERS`]; the error says what was expected.
     fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), String> {
@@ -270,6 +274,12 @@ macro_rules! contact_laws {
             /// Whether the law uses surface energy (cohesion).
             pub fn cohesive(&self) -> bool {
                 match self { $(Self::$law(_) => <$law as ContactLaw>::COHESIVE,)+ }
+            }
+
+            /// Whether the GPU back end runs the law's contacts on the device
+            /// ([`ContactLaw::ON_GPU`]).
+            pub fn on_gpu(&self) -> bool {
+                match self { $(Self::$law(_) => <$law as ContactLaw>::ON_GPU,)+ }
             }
 
             /// The settings the law reads: (name, what it is).

@@ -7,10 +7,42 @@ use super::{SimError, Simulation, SimulationParams};
 use crate::particles::{Particles, NO_BODY};
 use std::any::Any;
 
+/// Where an extension does its work when the simulation's stages run on a device (the GPU back
+/// end), as [`StepExtension::on_device`] declares it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnDevice {
+    /// Its work falls on chosen steps ([`StepExtension::idle_steps`]) and needs the host only
+    /// there: the device runs the steps between as whole segments (a factory).
+    BetweenSegments,
+    /// It works on the host at every step (it adds forces): the simulation runs stage by stage,
+    /// the particles copied to the device and back at each stage (bonds, until they run on the
+    /// device).
+    EveryStep,
+}
+
+impl OnDevice {
+    /// What a back end tells the user about the extension `name`.
+    pub fn remark(self, name: &str) -> String {
+        match self {
+            OnDevice::BetweenSegments => format!(
+                "{name} runs on the host between segments of steps that stay on the device"
+            ),
+            OnDevice::EveryStep => format!(
+                "{name} runs on the host at every step, so the simulation runs stage by stage with the particles copied to the device and back at every stage (slower than the CPU)"
+            ),
+        }
+    }
+}
+
 /// Something that runs with every step.
 pub trait StepExtension: Send + Any {
     /// What the stage timers and messages call it.
     fn name(&self) -> &str;
+
+    /// Where it works when the stages run on a device. No default: each extension declares it
+    /// where it is written. One that adds forces must say [`OnDevice::EveryStep`]
+    /// ([`crate::sim::Simulation::add_extension`] refuses anything else in a debug build).
+    fn on_device(&self) -> OnDevice;
 
     /// Whether [`Self::add_forces`] is to be called: then the second half kick waits for it.
     fn adds_forces(&self) -> bool {

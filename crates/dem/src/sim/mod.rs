@@ -36,7 +36,7 @@ pub mod walls;
 pub use backend::{Anchors, Backend, Moved, StepInputs};
 pub use contacts::PairContact;
 pub use cpu::{kick_spin, CpuBackend};
-pub use extension::StepExtension;
+pub use extension::{OnDevice, StepExtension};
 pub use params::{SimError, SimulationParams, StageTimers};
 pub use registry::{
     backend_choices, batch_group, in_batch_group, make_backend, new_batch_group, register_backend,
@@ -164,10 +164,17 @@ impl Simulation {
             return Vec::new();
         }
         match self.use_backend(name) {
+            // Every back end but the CPU runs on a device: each extension says where it works
+            // there (`StepExtension::on_device`).
             Ok(()) => self
                 .backend
                 .remarks(&self.inputs(!self.bodies.is_empty()))
                 .into_iter()
+                .chain(
+                    self.extensions
+                        .iter()
+                        .map(|e| e.on_device().remark(e.name())),
+                )
                 .map(|r| format!("backend \"{name}\": {r}"))
                 .collect(),
             Err(why) => vec![format!("backend \"{name}\": {why}; running on the CPU")],
@@ -224,6 +231,11 @@ impl Simulation {
 
     /// Adds a per-step extension.
     pub fn add_extension(&mut self, extension: Box<dyn StepExtension>) {
+        debug_assert!(
+            !extension.adds_forces() || extension.on_device() == OnDevice::EveryStep,
+            "{}: adds forces, so it works on the host at every step (OnDevice::EveryStep)",
+            extension.name()
+        );
         self.extensions.push(extension);
     }
 

@@ -103,7 +103,10 @@ impl super::Simulation {
             || self.particles.is_empty()
             || self.steps < self.segments_declined_until
             || !self.bodies.is_empty()
-            || self.extensions.iter().any(|e| e.adds_forces())
+            || self
+                .extensions
+                .iter()
+                .any(|e| e.on_device() == super::OnDevice::EveryStep)
             || !self.backend.runs_segments(&self.inputs(false))
         {
             return 0;

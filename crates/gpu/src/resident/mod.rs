@@ -17,6 +17,8 @@
 //! The host reads a few control words every [`CHUNK`] steps (to stop a failed run early), and
 //! the state once at the end of the segment.
 
+use std::sync::Arc;
+
 use dem::sim::{Segment, SegmentEnd};
 
 use crate::layout::{ctrl, overflow};
@@ -47,6 +49,8 @@ enum Retry {
     /// The segment cannot run here (why: too large for a binding, a particle with too many
     /// walls).
     Decline(String),
+    /// The device failed (`crate::failure`): nothing more runs on it.
+    Failed(String),
 }
 
 /// The pipelines of the resident kernels.
@@ -109,12 +113,14 @@ impl GpuContext {
         })
     }
 
-    /// Copies `buffers` back (after what `encoder` holds) and waits for them.
+    /// Copies `buffers` back (after what `encoder` holds) and waits for them. Err when the
+    /// device failed: a copy that could not be mapped, or a failure recorded meanwhile (the
+    /// device-lost callback and the error handler run during the wait).
     pub(crate) fn read_back(
         &self,
         mut encoder: wgpu::CommandEncoder,
         buffers: &[&wgpu::Buffer],
-    ) -> Vec<Vec<u8>> {
+    ) -> Result<Vec<Vec<u8>>, String> {
         let staging: Vec<wgpu::Buffer> = buffers
             .iter()
             .map(|b| {
@@ -129,21 +135,40 @@ impl GpuContext {
             })
             .collect();
         self.queue.submit([encoder.finish()]);
+        let unmapped = Arc::new(std::sync::Mutex::new(None::<String>));
         for s in &staging {
-            s.slice(..).map_async(wgpu::MapMode::Read, |r| {
-                r.expect("mapping a read-back buffer");
+            let unmapped = unmapped.clone();
+            s.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+                if let Err(e) = r {
+                    unmapped
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .get_or_insert(e.to_string());
+                }
             });
         }
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .expect("waiting for the GPU");
+        let waited = self.device.poll(wgpu::PollType::wait_indefinitely());
+        let failed = |what: String| {
+            let what = format!("the GPU {} failed: {what}", self.adapter);
+            self.failure.record(what.clone());
+            what
+        };
+        if let Err(e) = waited {
+            return Err(failed(format!("waiting for it: {e}")));
+        }
+        if let Some(e) = unmapped.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            return Err(failed(format!("reading its results back: {e}")));
+        }
+        if let Some(f) = self.failure.get() {
+            return Err(f);
+        }
         staging
             .iter()
             .map(|s| {
                 s.slice(..)
                     .get_mapped_range()
-                    .expect("a mapped buffer")
-                    .to_vec()
+                    .map(|r| r.to_vec())
+                    .map_err(|e| failed(format!("reading its results back: {e}")))
             })
             .collect()
     }
@@ -152,7 +177,10 @@ impl GpuContext {
 impl GpuStages {
     /// Runs a segment on the device (see the module notes); None when it cannot.
     pub(crate) fn segment(&self, seg: &Segment) -> Option<SegmentEnd> {
-        if seg.particles.is_empty() || !Self::runs_pairs(&seg.inputs) {
+        if seg.particles.is_empty()
+            || !Self::runs_pairs(&seg.inputs)
+            || self.ctx.failure().is_some()
+        {
             return None;
         }
         let world = World::pack(seg)?;
@@ -176,7 +204,12 @@ impl GpuStages {
             bucket: 16,
         };
         for _ in 0..12 {
-            let tried = self.try_run(worlds, cap);
+            // A panic inside wgpu (a lost device) is the device's failure, not the process's.
+            let c = &self.ctx;
+            let tried = c
+                .failure
+                .guard(&c.adapter, || Ok(self.try_run(worlds, cap)))
+                .unwrap_or_else(|why| Err(Retry::Failed(why)));
             if tried.is_err() {
                 self.segments[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             }
@@ -189,7 +222,7 @@ impl GpuStages {
                 Err(Retry::Overflow(code)) => {
                     return Err(format!("an unknown overflow code {code}"))
                 }
-                Err(Retry::Decline(why)) => return Err(why),
+                Err(Retry::Decline(why) | Retry::Failed(why)) => return Err(why),
             }
         }
         Err(format!(
@@ -200,6 +233,10 @@ impl GpuStages {
 
     /// Declines a segment: says why once per process (the steps then run stage by stage).
     pub(crate) fn decline<T>(&self, why: String) -> Option<T> {
+        if self.ctx.failure().is_some() {
+            // Said as the device's failure already; the steps run on the CPU.
+            return None;
+        }
         static SAID: std::sync::Once = std::sync::Once::new();
         SAID.call_once(|| {
             eprintln!("warning: the GPU runs this simulation stage by stage, copying the particles at every stage, because {why}");

@@ -455,7 +455,7 @@ impl GpuStages {
         // The lists for the state at the start (their histories from the host's lists).
         let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &l.rebuild.iter().collect::<Vec<_>>());
-        let out = c.read_back(encoder, &[&b.ctrl]);
+        let out = c.read_back(encoder, &[&b.ctrl]).map_err(Retry::Failed)?;
         check_overflow(&out[0])?;
         // A world is over once its steps are run or it failed; the run stops when all are.
         let over = |words: &[u32], done: usize| {
@@ -474,7 +474,7 @@ impl GpuStages {
                 encode(&mut encoder, &step);
             }
             done += chunk;
-            let out = c.read_back(encoder, &[&b.ctrl]);
+            let out = c.read_back(encoder, &[&b.ctrl]).map_err(Retry::Failed)?;
             check_overflow(&out[0])?;
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
             if over(&words, done) {
@@ -485,20 +485,22 @@ impl GpuStages {
         // end are still stepping, so `begin` marks them for the check alone.
         let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &[&l.begin, &l.check, &l.geometry_loads]);
-        let out = c.read_back(
-            encoder,
-            &[
-                &b.ctrl,
-                &b.state,
-                &b.loads,
-                &b.pair_ij,
-                &b.pair_history,
-                &b.rows,
-                &b.cands,
-                &b.wall_history,
-                &b.geometry_loads,
-            ],
-        );
+        let out = c
+            .read_back(
+                encoder,
+                &[
+                    &b.ctrl,
+                    &b.state,
+                    &b.loads,
+                    &b.pair_ij,
+                    &b.pair_history,
+                    &b.rows,
+                    &b.cands,
+                    &b.wall_history,
+                    &b.geometry_loads,
+                ],
+            )
+            .map_err(Retry::Failed)?;
         check_overflow(&out[0])?;
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
         let failed: Vec<Option<u64>> = words

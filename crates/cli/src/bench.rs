@@ -84,6 +84,28 @@ pub fn batch(
     Ok(())
 }
 
+/// `demcal bench worlds`: many seed-000-sized simulations at once (the batches a study's GPU
+/// rounds make), in particle-steps per second over all of them.
+pub fn worlds(
+    runs: usize,
+    steps: Option<u64>,
+    jobs: Option<usize>,
+    backend: &str,
+) -> Result<(), String> {
+    let backend = chosen_backend(backend)?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = jobs.unwrap_or(if backend == "cpu" { cores } else { runs });
+    check_jobs("--jobs", jobs, backend != "cpu")?;
+    let bar = progress_bar(runs as u64);
+    let r = dem::bench::worlds(runs, steps.unwrap_or(2_000), jobs, backend, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+    println!("{}", r.line());
+    if let Some(line) = dem_gpu::profile::report_line() {
+        println!("{line}");
+    }
+    Ok(())
+}
+
 /// `demcal bench fill`: a random fill of `count` spheres, timed.
 pub fn fill(count: usize) -> Result<(), String> {
     // As many as a scene may hold, checked before anything is drawn: 1e8 reached 3.5 GB before
@@ -137,6 +159,9 @@ pub fn steps(name: &str, steps: Option<u64>, backend: &str, scale: u32) -> Resul
         rayon::current_num_threads()
     );
     println!("{}", r.line(name));
+    if let Some(line) = dem_gpu::profile::report_line() {
+        println!("{line}");
+    }
     Ok(())
 }
 

@@ -230,8 +230,10 @@ enum Command {
         /// stalk specimen crushed; batch: 32 quickstart repose tests (seeds 1-32) made as a study
         /// stage makes them, on the back end chosen, then on the CPU runner; fill: a random fill
         /// of 1 000 000 spheres at a solid fraction of 0.35; stages: each stage of the step timed
-        /// on its own on the settle scene's bed (after 20 000 steps; --scale, --steps, --calls).
-        #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch", "fill", "stages"])]
+        /// on its own on the settle scene's bed (after 20 000 steps; --scale, --steps, --calls);
+        /// worlds: 32 seed-000-sized settle scenes (4 000 spheres each) for 2 000 steps, all at
+        /// once (on the GPU in shared launches; --runs, --steps, --jobs).
+        #[arg(value_parser = ["settle", "settle-wide", "bonded", "batch", "fill", "stages", "worlds"])]
         name: String,
         /// settle: widen the box this many times in x and y, for scale² times the spheres
         /// (8: the 1 444 000 spheres of settle-wide; 5 000 steps unless --steps).
@@ -252,10 +254,11 @@ enum Command {
         /// Run the stages on the CPU or the GPU.
         #[arg(long, value_parser = ["cpu", "gpu"], default_value = "cpu")]
         backend: String,
-        /// batch: how many runs (seeds 1..N).
+        /// batch: how many runs (seeds 1..N); worlds: how many worlds.
         #[arg(long, default_value_t = 32)]
         runs: usize,
-        /// batch: runs at once on the chosen back end (on the GPU, runs per batch; default: all).
+        /// batch and worlds: runs at once on the chosen back end (on the GPU, runs per batch;
+        /// default: all; worlds on the CPU: the cores).
         #[arg(long)]
         jobs: Option<usize>,
         /// batch: runs at once on the CPU runner it is compared with (default: the cores).
@@ -596,6 +599,7 @@ fn main() -> ExitCode {
             }
             "batch" => bench::batch(test.as_deref(), runs, jobs, cpu_jobs, &backend),
             "fill" => on_pool(|| bench::fill(count)),
+            "worlds" => bench::worlds(runs, steps, jobs, &backend),
             _ => on_pool(|| bench::steps(&name, steps, &backend, scale)),
         }),
     };

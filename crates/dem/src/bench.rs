@@ -113,18 +113,149 @@ pub fn settle_scene(scale: u32) -> Result<String, String> {
     if scale == 1 {
         return Ok(SETTLE_SCENE.to_string());
     }
-    // Millimetres, so that the numbers are exact in the text.
-    let mm = 100 * scale;
+    Ok(settle_scene_mm(100 * scale))
+}
+
+/// The settle scene with a box `mm` millimetres wide in x and y (100: the settle scene; the
+/// lattice keeps its spacing of 4.2 mm, so the count goes with the width squared).
+fn settle_scene_mm(mm: u32) -> String {
     let widened = [
         (BOX_MAX, format!("max = [{mm}e-3, {mm}e-3, 0.4]")),
         (LATTICE_MAX, format!("max = [{0}e-3, {0}e-3, 0.17]", mm - 2)),
         (DOMAIN_MAX, format!("max = [{0}e-3, {0}e-3, 0.41]", mm + 10)),
     ];
-    Ok(widened
+    widened
         .iter()
         .fold(SETTLE_SCENE.to_string(), |text, (from, to)| {
             text.replace(from, to)
-        }))
+        })
+}
+
+/// Width of a world of `demcal bench worlds`: 46 mm holds 10 x 10 x 40 = 4 000 lattice spheres,
+/// about the seed-000 shear specimen's 4 300.
+pub const WORLD_WIDTH_MM: u32 = 46;
+
+/// What `demcal bench worlds` measured: many small simulations at once.
+#[derive(Clone, Debug)]
+pub struct WorldsResult {
+    pub worlds: usize,
+    pub particles_each: usize,
+    pub steps: u64,
+    pub jobs: usize,
+    pub wall_s: f64,
+    pub backend: &'static str,
+    /// Mean bed height over the worlds (each world is the same scene, so they agree).
+    pub bed_height_m: f64,
+}
+
+impl WorldsResult {
+    /// Particle-steps per second over all the worlds together.
+    pub fn particle_steps_per_s(&self) -> f64 {
+        (self.worlds * self.particles_each) as f64 * self.steps as f64 / self.wall_s
+    }
+
+    pub fn line(&self) -> String {
+        format!(
+            "worlds: backend={} worlds={} particles_each={} steps={} jobs={} wall_s={:.1} particle_steps_per_s={:.1e} bed_height_m={:.4}",
+            self.backend,
+            self.worlds,
+            self.particles_each,
+            self.steps,
+            self.jobs,
+            self.wall_s,
+            self.particle_steps_per_s(),
+            self.bed_height_m
+        )
+    }
+}
+
+/// Runs `worlds` seed-000-sized settle scenes ([`WORLD_WIDTH_MM`]) for `steps` steps each,
+/// `jobs` at a time on `backend`, as a study stage runs its jobs: on a device the simulations that
+/// run at once form one batch group and share launches (`crate::sim::in_batch_group`); on the CPU
+/// each job gets its share of the cores. `finished` hears each world that ends.
+pub fn worlds(
+    worlds: usize,
+    steps: u64,
+    jobs: usize,
+    backend: &str,
+    finished: &(dyn Fn() + Sync),
+) -> Result<WorldsResult, String> {
+    if worlds == 0 || worlds > 10_000 {
+        return Err(format!("--runs {worlds}: expected 1 to 10000 worlds"));
+    }
+    if steps == 0 || steps > MAX_BENCH_STEPS {
+        return Err(format!(
+            "--steps: expected 1 to {MAX_BENCH_STEPS}, got {steps}"
+        ));
+    }
+    let jobs = jobs.clamp(1, worlds);
+    let text = settle_scene_mm(WORLD_WIDTH_MM);
+    // Built once up front: a scene that fails fails before anything is timed.
+    let first = Scene::from_toml(&text, "a world of bench worlds", Path::new("."))
+        .map_err(|e| e.to_string())?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let pools = (0..jobs)
+        .map(|_| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads((cores / jobs).max(1))
+                .build()
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| format!("cannot start {jobs} job(s): {e}"))?;
+    let left = std::sync::atomic::AtomicUsize::new(worlds);
+    let heights = std::sync::Mutex::new(Vec::new());
+    let chosen = std::sync::Mutex::new("cpu");
+    let group = crate::sim::new_batch_group();
+    let start = Instant::now();
+    let outcome: Result<(), String> = std::thread::scope(|scope| {
+        let handles: Vec<_> = pools
+            .iter()
+            .map(|pool| {
+                let (text, left, heights, chosen) = (&text, &left, &heights, &chosen);
+                scope.spawn(move || -> Result<(), String> {
+                    use std::sync::atomic::Ordering;
+                    while left
+                        .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1))
+                        .is_ok()
+                    {
+                        let height = pool.install(|| {
+                            crate::sim::in_batch_group(group, || {
+                                let scene = Scene::from_toml(text, "a world", Path::new("."))
+                                    .map_err(|e| e.to_string())?;
+                                let mut sim = scene.simulation;
+                                sim.choose_backend(backend);
+                                *chosen.lock().unwrap_or_else(|e| e.into_inner()) =
+                                    sim.backend_name();
+                                sim.run(steps).map_err(|e| e.to_string())?;
+                                Ok::<_, String>(bed_height(&sim.particles))
+                            })
+                        })?;
+                        heights
+                            .lock()
+                            .unwrap_or_else(|e| e.into_inner())
+                            .push(height);
+                        finished();
+                    }
+                    Ok(())
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .try_for_each(|h| h.join().unwrap_or_else(|_| Err("a world panicked".into())))
+    });
+    outcome?;
+    let wall_s = start.elapsed().as_secs_f64();
+    let heights = heights.into_inner().unwrap_or_else(|e| e.into_inner());
+    Ok(WorldsResult {
+        worlds,
+        particles_each: first.simulation.particles.len(),
+        steps,
+        jobs,
+        wall_s,
+        backend: chosen.into_inner().unwrap_or_else(|e| e.into_inner()),
+        bed_height_m: heights.iter().sum::<f64>() / heights.len().max(1) as f64,
+    })
 }
 
 /// The settle scene widened 8 times in x and y: 1 444 000 spheres.

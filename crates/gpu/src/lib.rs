@@ -76,6 +76,7 @@ mod failure;
 mod kernels;
 mod layout;
 mod pack;
+pub mod profile;
 mod resident;
 mod stages;
 
@@ -108,6 +109,8 @@ pub struct GpuContext {
     max_binding: u64,
     /// The device's first failure; from then on nothing runs on it (`failure`).
     failure: Arc<failure::Failure>,
+    /// Whether the device has timestamp queries (for `profile`).
+    timestamps: bool,
     integrate: wgpu::ComputePipeline,
     pair_forces: wgpu::ComputePipeline,
     particle_sums: wgpu::ComputePipeline,
@@ -149,9 +152,16 @@ impl GpuContext {
                 }
             })?;
         let info = adapter.get_info();
+        // Timestamp queries where the device has them: the kernel profile of `profile` reads them.
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let optional = if timestamps {
+            wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("demcal"),
-            required_features: wgpu::Features::SHADER_F64,
+            required_features: wgpu::Features::SHADER_F64 | optional,
             required_limits: adapter.limits(),
             ..Default::default()
         }))
@@ -219,6 +229,7 @@ impl GpuContext {
         Ok(GpuContext {
             max_binding,
             failure,
+            timestamps,
             adapter: format!("{} ({:?})", info.name, info.backend),
             device,
             queue,
@@ -233,6 +244,12 @@ impl GpuContext {
     /// The adapter's name and API, for logs and benchmarks.
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+
+    /// Whether the device has timestamp queries, which the kernel profile needs
+    /// (`DEMCAL_GPU_PROFILE=1`, [`profile`]).
+    pub fn has_timestamps(&self) -> bool {
+        self.timestamps
     }
 
     /// Why the device stopped (lost, out of memory, an error wgpu reported), if it did: from then

@@ -25,10 +25,10 @@ impl OnDevice {
     pub fn remark(self, name: &str) -> String {
         match self {
             OnDevice::BetweenSegments => format!(
-                "{name} runs on the host between segments of steps that stay on the device"
+                "the {name} extension works on the host between segments of steps that stay on the device"
             ),
             OnDevice::EveryStep => format!(
-                "{name} runs on the host at every step, so the simulation runs stage by stage with the particles copied to the device and back at every stage (slower than the CPU)"
+                "the {name} extension works on the host at every step, so the simulation runs stage by stage with the particles copied to the device and back at every stage (slower than the CPU)"
             ),
         }
     }

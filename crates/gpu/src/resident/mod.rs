@@ -84,8 +84,35 @@ impl ResidentKernels {
     }
 }
 
+impl GpuContext {
+    /// The kernel a pipeline of this context runs, by name (for the profile).
+    pub(crate) fn kernel_name(&self, p: &wgpu::ComputePipeline) -> &'static str {
+        let k = &self.resident;
+        [
+            (&self.integrate, "integrate"),
+            (&self.pair_forces, "pair_forces"),
+            (&self.wall_forces, "wall_forces"),
+            (&self.particle_sums, "particle_sums"),
+            (&k.begin, "begin"),
+            (&k.check, "check"),
+            (&k.clear, "clear"),
+            (&k.bin, "bin"),
+            (&k.build_pairs, "build_pairs"),
+            (&k.build_walls, "build_walls"),
+            (&k.sort_reverse, "sort_reverse"),
+            (&k.commit, "commit"),
+            (&k.geometry_loads, "geometry_loads"),
+        ]
+        .into_iter()
+        .find(|(q, _)| std::ptr::eq(*q, p))
+        .map_or("unknown", |(_, name)| name)
+    }
+}
+
 /// One kernel launch of a step: pipeline, bind group, threads.
 struct Launch<'a> {
+    /// The kernel's name, for the profile.
+    name: &'static str,
     pipeline: &'a wgpu::ComputePipeline,
     group: wgpu::BindGroup,
     threads: u32,
@@ -242,6 +269,35 @@ impl GpuStages {
             eprintln!("warning: the GPU runs this simulation stage by stage, copying the particles at every stage, because {why}");
         });
         None
+    }
+}
+
+/// Encodes `launches` as `encode` does, each in a pass of its own that writes its start and end
+/// into `stamps` from query `2 * first` on (`crate::profile`).
+fn encode_timed(
+    encoder: &mut wgpu::CommandEncoder,
+    launches: &[&Launch],
+    stamps: &wgpu::QuerySet,
+    first: u32,
+) {
+    for (k, l) in launches.iter().enumerate() {
+        let at = 2 * (first + k as u32);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(l.name),
+            timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                query_set: stamps,
+                beginning_of_pass_write_index: Some(at),
+                end_of_pass_write_index: Some(at + 1),
+            }),
+        });
+        let (x, y) = if l.threads == 0 {
+            (1, 1)
+        } else {
+            groups(l.threads)
+        };
+        pass.set_pipeline(l.pipeline);
+        pass.set_bind_group(0, &l.group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
     }
 }
 

@@ -4,7 +4,10 @@
 use dem::sim::SegmentEnd;
 
 use super::world::{Merged, World};
-use super::{check_overflow, encode, Capacity, Launch, Retry, BUCKETS_PER_PARTICLE, CHUNK, EMPTY};
+use super::{
+    check_overflow, encode, encode_timed, Capacity, Launch, Retry, BUCKETS_PER_PARTICLE, CHUNK,
+    EMPTY,
+};
 use crate::layout;
 use crate::pack::Counts;
 use crate::{GpuContext, GpuStages, STATE_BYTES};
@@ -197,6 +200,7 @@ fn launch<'a>(
     threads: usize,
 ) -> Launch<'a> {
     Launch {
+        name: c.kernel_name(pipeline),
         pipeline,
         group: c.bind(pipeline, buffers),
         threads: threads as u32,
@@ -464,6 +468,7 @@ impl GpuStages {
             })
         };
         let mut done = 0usize;
+        let timer = Timer::new(c, step.len() * CHUNK as usize);
         while done < sizes.steps {
             let chunk = (sizes.steps - done).min(CHUNK as usize);
             let mut encoder = c.device.create_command_encoder(&Default::default());
@@ -471,10 +476,31 @@ impl GpuStages {
                 if !m.moving.is_empty() {
                     move_geometries(&mut encoder, &b, &m, &sizes, s);
                 }
-                encode(&mut encoder, &step);
+                match &timer {
+                    Some(t) => {
+                        let first = ((s - done) * step.len()) as u32;
+                        encode_timed(&mut encoder, &step, &t.stamps, first)
+                    }
+                    None => encode(&mut encoder, &step),
+                }
             }
             done += chunk;
-            let out = c.read_back(encoder, &[&b.ctrl]).map_err(Retry::Failed)?;
+            let out = match &timer {
+                Some(t) => {
+                    let queries = (2 * chunk * step.len()) as u32;
+                    encoder.resolve_query_set(&t.stamps, 0..queries, &t.resolved, 0);
+                    let out = c
+                        .read_back(encoder, &[&b.ctrl, &t.resolved])
+                        .map_err(Retry::Failed)?;
+                    let stamps: Vec<u64> = bytemuck::pod_collect_to_vec(&out[1]);
+                    let names: Vec<&'static str> = (0..chunk)
+                        .flat_map(|_| step.iter().map(|l| l.name))
+                        .collect();
+                    crate::profile::add(&names, &stamps, c.queue.get_timestamp_period());
+                    out
+                }
+                None => c.read_back(encoder, &[&b.ctrl]).map_err(Retry::Failed)?,
+            };
             check_overflow(&out[0])?;
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
             if over(&words, done) {
@@ -545,4 +571,34 @@ fn move_geometries(
         0,
         8 * row as u64,
     );
+}
+
+/// The timestamp queries of a profiled segment (`crate::profile`): None unless profiling was
+/// asked for and the device has timestamp queries.
+struct Timer {
+    stamps: wgpu::QuerySet,
+    /// Where the stamps are resolved to, for the read-back.
+    resolved: wgpu::Buffer,
+}
+
+impl Timer {
+    fn new(c: &GpuContext, launches: usize) -> Option<Timer> {
+        if !crate::profile::asked() || !c.timestamps || launches > crate::profile::MOST_LAUNCHES {
+            return None;
+        }
+        let count = 2 * launches as u32;
+        Some(Timer {
+            stamps: c.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("kernel timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            }),
+            resolved: c.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("kernel timestamps"),
+                size: 8 * count as u64,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+        })
+    }
 }

@@ -46,7 +46,7 @@ step() {
   shift
   echo "== $name: $*"
   local t0=$(date +%s%N)
-  timeout "$limit" "$@" 2>&1 | grep -v '^\s*$'
+  timeout -k 10 "$limit" "$@" 2>&1 | grep -v '^\s*$'
   local rc=${PIPESTATUS[0]}
   local t1=$(date +%s%N)
   if [ "$rc" -ne 0 ]; then
@@ -80,7 +80,7 @@ fi
 step "settle gpu" "$DEMCAL" bench settle --backend gpu --steps "$settle_steps"
 step "settle x$wide_scale gpu" "$DEMCAL" bench settle --backend gpu --scale "$wide_scale" --steps "$wide_steps"
 step "bonded gpu" "$DEMCAL" bench bonded --backend gpu --steps "$bonded_steps"
-step "batch gpu vs cpu" "$DEMCAL" bench batch --backend gpu --runs "$batch_runs" --cpu-jobs "$cores" "${batch_test[@]}"
+step "batch gpu vs cpu" "$DEMCAL" bench batch --backend gpu --runs "$batch_runs" --cpu-jobs "$cores" ${batch_test[@]+"${batch_test[@]}"}
 step "worlds gpu" "$DEMCAL" bench worlds --backend gpu --runs "$world_runs" --steps "$world_steps"
 # Kernel time shares from timestamp queries (each launch in a pass of its own, so a little slower).
 step "kernel shares, settle gpu" env DEMCAL_GPU_PROFILE=1 "$DEMCAL" bench settle --backend gpu --steps "$settle_steps"

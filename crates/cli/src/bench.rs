@@ -93,8 +93,12 @@ pub fn worlds(
     backend: &str,
 ) -> Result<(), String> {
     let backend = chosen_backend(backend)?;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let jobs = jobs.unwrap_or(if backend == "cpu" { cores } else { runs });
+    let cores = rayon::current_num_threads();
+    let jobs = jobs.unwrap_or(if backend == "cpu" {
+        cores
+    } else {
+        runs.min(MOST_PER_BATCH)
+    });
     check_jobs("--jobs", jobs, backend != "cpu")?;
     let bar = progress_bar(runs as u64);
     let r = dem::bench::worlds(runs, steps.unwrap_or(2_000), jobs, backend, &|| bar.inc(1))?;

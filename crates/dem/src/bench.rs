@@ -193,7 +193,8 @@ pub fn worlds(
     // Built once up front: a scene that fails fails before anything is timed.
     let first = Scene::from_toml(&text, "a world of bench worlds", Path::new("."))
         .map_err(|e| e.to_string())?;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // The threads the caller set (`--threads`), shared between the jobs.
+    let cores = rayon::current_num_threads();
     let pools = (0..jobs)
         .map(|_| {
             rayon::ThreadPoolBuilder::new()

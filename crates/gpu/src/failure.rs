@@ -43,9 +43,9 @@ impl Failure {
         self.first.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 
-    /// Runs `work` (calls into the device of `adapter`): a panic inside it (wgpu's on a lost
-    /// device) becomes an error, recorded, and so does an error `work` returns after the device
-    /// failed meanwhile (its results are not to be trusted then).
+    /// Runs `work` (calls into the device of `adapter`, and nothing else: no CPU stage, no
+    /// assertion of the caller's): a panic inside it (wgpu's on a lost device) becomes an error,
+    /// recorded. Err at once when the device failed before.
     pub(crate) fn guard<T>(
         &self,
         adapter: &str,
@@ -58,7 +58,10 @@ impl Failure {
         QUIET.with(|q| q.set(q.get() + 1));
         let result = panic::catch_unwind(AssertUnwindSafe(work));
         QUIET.with(|q| q.set(q.get() - 1));
-        let result = match result {
+        // A failure recorded meanwhile by another thread does not void a result that `work`
+        // got: `read_back` refuses data once a failure is recorded, and data read before it are
+        // sound. Voiding it would run a stage whose results are already applied a second time.
+        match result {
             Ok(r) => r,
             Err(payload) => {
                 let message = payload
@@ -70,10 +73,6 @@ impl Failure {
                 self.record(what.clone());
                 Err(what)
             }
-        };
-        match (result, self.get()) {
-            (Ok(_), Some(f)) => Err(f),
-            (r, _) => r,
         }
     }
 }

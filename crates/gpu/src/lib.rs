@@ -472,31 +472,42 @@ impl Backend for GpuStages {
         params: &SimulationParams,
         clumps: bool,
     ) -> Result<Moved, usize> {
+        assert_eq!(
+            anchors.build.len(),
+            p.len(),
+            "positions at the last build, one per particle"
+        );
+        // The guard holds only the device's work; the CPU's runs outside it (`stages`).
         let c = &self.ctx;
         match c.failure.guard(&c.adapter, || {
             self.integrate_device(p, anchors, params, clumps)
         }) {
-            Ok(moved) => moved,
-            Err(_) => self.to_cpu().integrate(p, anchors, params, clumps),
+            Ok(Some(moved)) => moved,
+            Ok(None) | Err(_) => self.to_cpu().integrate(p, anchors, params, clumps),
         }
     }
 
     fn pair_forces(&self, p: &Particles, lists: &mut NeighbourList, inputs: &StepInputs) {
         let c = &self.ctx;
-        if c.failure
-            .guard(&c.adapter, || self.pair_forces_device(p, lists, inputs))
-            .is_err()
-        {
+        let done = c
+            .failure
+            .guard(&c.adapter, || self.pair_forces_device(p, lists, inputs));
+        if done != Ok(true) {
             self.to_cpu().pair_forces(p, lists, inputs);
         }
     }
 
     fn wall_forces(&self, p: &Particles, walls: &mut WallLists, inputs: &StepInputs) {
+        assert_eq!(
+            walls.start().len(),
+            p.len() + 1,
+            "wall row starts: one per particle and one more"
+        );
         let c = &self.ctx;
-        if c.failure
-            .guard(&c.adapter, || self.wall_forces_device(p, walls, inputs))
-            .is_err()
-        {
+        let done = c
+            .failure
+            .guard(&c.adapter, || self.wall_forces_device(p, walls, inputs));
+        if done != Ok(true) {
             self.to_cpu().wall_forces(p, walls, inputs);
         }
     }
@@ -509,13 +520,19 @@ impl Backend for GpuStages {
         inputs: &StepInputs,
         kick: bool,
     ) {
+        // The CPU stage indexes these rows for every particle; they must be there.
+        for (what, len) in [
+            ("pair row starts", lists.row_start.len()),
+            ("reverse row starts", lists.reverse_start.len()),
+            ("wall row starts", walls.start().len()),
+        ] {
+            assert_eq!(len, p.len() + 1, "{what}: one per particle and one more");
+        }
         let c = &self.ctx;
-        if c.failure
-            .guard(&c.adapter, || {
-                self.particle_sums_device(p, lists, walls, inputs, kick)
-            })
-            .is_err()
-        {
+        let done = c.failure.guard(&c.adapter, || {
+            self.particle_sums_device(p, lists, walls, inputs, kick)
+        });
+        if done != Ok(true) {
             self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
         }
     }

@@ -1,12 +1,15 @@
 //! The stage-by-stage path: each stage copies its arrays to the device, runs its kernel and
 //! copies the results back (scenes with clumps, and segments the device declined). Each returns
-//! Err when the device failed (`crate::failure`), before anything of the host's is changed, so
-//! the caller can run the same stage on the CPU.
+//! Err when the device failed (`crate::failure`), before anything of the host's is changed, and
+//! Ok(false) (None for the integration) when the stage is the CPU's to run (a law the kernels
+//! lack, arrays too large for a binding, a particle touching more walls than the kernel keeps):
+//! the caller runs it on the CPU outside the guard, so that a CPU stage never runs twice and a
+//! panic in it is never taken for the device's failure.
 
 use dem::neighbour::NeighbourList;
 use dem::particles::Particles;
 use dem::sim::walls::WallLists;
-use dem::sim::{Anchors, Backend, Moved, SimulationParams, StepInputs};
+use dem::sim::{Anchors, Moved, SimulationParams, StepInputs};
 
 use crate::layout::{self, element, geometry, pair_output, wall_output};
 use crate::pack::{
@@ -23,22 +26,17 @@ impl GpuStages {
         anchors: Anchors,
         params: &SimulationParams,
         clumps: bool,
-    ) -> Result<Result<Moved, usize>, String> {
+    ) -> Result<Option<Result<Moved, usize>>, String> {
         // The kernel measures the displacement since the list build only: without the one since
         // the near scan, the CPU pair stage (where it runs) goes over every pair.
         let built_at = anchors.build;
         let n = p.len();
         if n == 0 {
-            return Ok(Ok(Moved::since_build_only(0.0)));
+            return Ok(Some(Ok(Moved::since_build_only(0.0))));
         }
-        assert_eq!(
-            built_at.len(),
-            n,
-            "positions at the last build, one per particle"
-        );
         let c = &self.ctx;
         if !c.fits(STATE_BYTES * n) {
-            return Ok(self.to_cpu().integrate(p, anchors, params, clumps));
+            return Ok(None);
         }
         let threads = n as u32;
         let state = c.storage(&state_of(p));
@@ -72,14 +70,14 @@ impl GpuStages {
         }
         let moved = f64s(&out[1]);
         let outside: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
-        Ok(
+        Ok(Some(
             match (0..n).find(|&i| !moved[i].is_finite() || outside[i] != 0) {
                 Some(i) => Err(i),
                 None => Ok(Moved::since_build_only(
                     moved[..n].iter().copied().fold(0.0, f64::max).sqrt(),
                 )),
             },
-        )
+        ))
     }
 
     pub(crate) fn pair_forces_device(
@@ -87,20 +85,18 @@ impl GpuStages {
         p: &Particles,
         lists: &mut NeighbourList,
         inputs: &StepInputs,
-    ) -> Result<(), String> {
+    ) -> Result<bool, String> {
         if !Self::runs_pairs(inputs) {
-            self.to_cpu().pair_forces(p, lists, inputs);
-            return Ok(());
+            return Ok(false);
         }
         let pairs = lists.pairs.len();
         if pairs == 0 {
-            return Ok(());
+            return Ok(true);
         }
         let n = p.len();
         let c = &self.ctx;
         if !c.fits((STATE_BYTES * n).max(8 * pair_output::LEN * pairs)) {
-            self.to_cpu().pair_forces(p, lists, inputs);
-            return Ok(());
+            return Ok(false);
         }
         let threads = pairs as u32;
         let state = c.storage(&state_of(p));
@@ -145,7 +141,7 @@ impl GpuStages {
             lists.output[q] = pair_output_at(&o, q);
         }
         lists.mark_all_active();
-        Ok(())
+        Ok(true)
     }
 
     pub(crate) fn wall_forces_device(
@@ -153,10 +149,10 @@ impl GpuStages {
         p: &Particles,
         walls: &mut WallLists,
         inputs: &StepInputs,
-    ) -> Result<(), String> {
+    ) -> Result<bool, String> {
         let count = walls.candidates().len();
         if count == 0 {
-            return Ok(());
+            return Ok(true);
         }
         let n = p.len();
         let c = &self.ctx;
@@ -165,14 +161,8 @@ impl GpuStages {
             .max(8 * wall_output::LEN * count)
             .max(8 * element::LEN * elements);
         if !Self::runs_pairs(inputs) || !c.fits(largest) {
-            self.to_cpu().wall_forces(p, walls, inputs);
-            return Ok(());
+            return Ok(false);
         }
-        assert_eq!(
-            walls.start().len(),
-            n + 1,
-            "wall row starts: one per particle and one more"
-        );
         let threads = n as u32;
         let mut flat_elements: Vec<f64> = Vec::with_capacity(element::LEN * elements);
         let mut geoms: Vec<f64> = Vec::with_capacity(geometry::LEN * inputs.geometries.len());
@@ -241,8 +231,7 @@ impl GpuStages {
         let status: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
         if status[..n].iter().any(|&s| s != 0) {
             // A particle touching more walls at once than the kernel keeps: the CPU has no limit.
-            self.to_cpu().wall_forces(p, walls, inputs);
-            return Ok(());
+            return Ok(false);
         }
         let h = f64s(&out[0]);
         let o = f64s(&out[1]);
@@ -252,7 +241,7 @@ impl GpuStages {
         for (k, slot) in walls.output_mut().iter_mut().enumerate() {
             *slot = wall_output_at(&o, k);
         }
-        Ok(())
+        Ok(true)
     }
 
     pub(crate) fn particle_sums_device(
@@ -262,10 +251,10 @@ impl GpuStages {
         walls: &WallLists,
         inputs: &StepInputs,
         kick: bool,
-    ) -> Result<(), String> {
+    ) -> Result<bool, String> {
         let n = p.len();
         if n == 0 {
-            return Ok(());
+            return Ok(true);
         }
         let c = &self.ctx;
         let csr_len = layout::rows::REVERSE_ENTRIES * n + lists.reverse.len();
@@ -275,8 +264,7 @@ impl GpuStages {
                 .max(8 * wall_output::LEN * walls.output().len())
                 .max(4 * csr_len),
         ) {
-            self.to_cpu().particle_sums(p, lists, walls, inputs, kick);
-            return Ok(());
+            return Ok(false);
         }
         let threads = n as u32;
         let state = c.storage(&state_of(p));
@@ -284,18 +272,6 @@ impl GpuStages {
         let props = c.storage(&props_of(p));
         let body = c.storage(&p.body);
         let pair_out = c.storage(&pair_output_of(&lists.output));
-        // The CPU stage indexes these rows for every particle; they must be there.
-        for (what, r) in [
-            ("pair row starts", &lists.row_start),
-            ("reverse row starts", &lists.reverse_start),
-        ] {
-            assert_eq!(r.len(), n + 1, "{what}: one per particle and one more");
-        }
-        assert_eq!(
-            walls.start().len(),
-            n + 1,
-            "wall row starts: one per particle and one more"
-        );
         let rows = c.storage(&rows_of(Some(lists), walls.start(), n));
         let wall_out = c.storage(&wall_output_of(walls.output()));
         let par = c.storage(&params_of(
@@ -332,6 +308,6 @@ impl GpuStages {
             p.torque[i] = block3(&l, loads::TORQUE, n, i);
             p.rolling_torque_limit[i] = l[loads::ROLLING_LIMIT * n + i];
         }
-        Ok(())
+        Ok(true)
     }
 }

@@ -106,7 +106,7 @@ impl super::Simulation {
             || self
                 .extensions
                 .iter()
-                .any(|e| e.on_device() == super::OnDevice::EveryStep)
+                .any(|e| e.adds_forces() || e.on_device() == super::OnDevice::EveryStep)
             || !self.backend.runs_segments(&self.inputs(false))
         {
             return 0;

@@ -237,7 +237,7 @@ impl GpuStages {
                 .failure
                 .guard(&c.adapter, || Ok(self.try_run(worlds, cap)))
                 .unwrap_or_else(|why| Err(Retry::Failed(why)));
-            if tried.is_err() {
+            if matches!(tried, Err(Retry::Overflow(_))) {
                 self.segments[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             }
             match tried {

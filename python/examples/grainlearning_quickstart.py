@@ -205,7 +205,12 @@ def build(problem: dict, samples: int, iterations: int, jobs: int, seed: int, lo
     })
     inference = (RecordingFilter if stock_filter else LogSigmaFilter).from_dict({
         "Bayes_filter": {"ess_target": 0.3},
-        "sampling": {"max_num_components": 8, "covariance_type": "tied", "random_state": seed},
+        # GrainLearning copies each sample floor(expand_factor x samples x weight) times before it
+        # fits its mixture: with few samples (--quick) and a posterior on one or two of them, ten
+        # copies per sample left every copy the same point and the fit failed (a collapsed
+        # covariance; seen with 6 samples), so few samples get more copies.
+        "sampling": {"max_num_components": 8, "covariance_type": "tied", "random_state": seed,
+                     "expand_factor": 10 if samples >= 20 else 100},
     })
     return QuickstartCalibration(
         system=system,

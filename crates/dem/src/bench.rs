@@ -417,6 +417,28 @@ pub fn stage_costs(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A world of `bench worlds` is seed-000-sized (10 x 10 x 40 lattice spheres), every world
+    /// runs its steps, and identical worlds settle identically (the batch's runs do not mix).
+    #[test]
+    fn worlds_are_seed_000_sized_and_run_alike() {
+        let heard = std::sync::atomic::AtomicUsize::new(0);
+        let r = worlds(3, 200, 2, "cpu", &|| {
+            heard.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        })
+        .unwrap();
+        assert_eq!(r.particles_each, 4000);
+        assert_eq!((r.worlds, r.steps, r.backend), (3, 200, "cpu"));
+        assert_eq!(heard.into_inner(), 3);
+        let one = worlds(1, 200, 1, "cpu", &|| {}).unwrap();
+        assert_eq!(r.bed_height_m, one.bed_height_m);
+        assert!(
+            r.bed_height_m > 0.16 && r.bed_height_m < 0.18,
+            "{}",
+            r.bed_height_m
+        );
+        assert!(worlds(0, 10, 1, "cpu", &|| {}).is_err());
+    }
     use glam::DVec3;
 
     /// The widened scene changes the box, the lattice region and the domain, each once, and

@@ -109,8 +109,6 @@ pub struct GpuContext {
     max_binding: u64,
     /// The device's first failure; from then on nothing runs on it (`failure`).
     failure: Arc<failure::Failure>,
-    /// Whether the device has timestamp queries (for `profile`).
-    timestamps: bool,
     integrate: wgpu::ComputePipeline,
     pair_forces: wgpu::ComputePipeline,
     particle_sums: wgpu::ComputePipeline,
@@ -229,7 +227,6 @@ impl GpuContext {
         Ok(GpuContext {
             max_binding,
             failure,
-            timestamps,
             adapter: format!("{} ({:?})", info.name, info.backend),
             device,
             queue,
@@ -249,7 +246,9 @@ impl GpuContext {
     /// Whether the device has timestamp queries, which the kernel profile needs
     /// (`DEMCAL_GPU_PROFILE=1`, [`profile`]).
     pub fn has_timestamps(&self) -> bool {
-        self.timestamps
+        self.device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
     }
 
     /// Why the device stopped (lost, out of memory, an error wgpu reported), if it did: from then

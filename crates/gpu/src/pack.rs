@@ -305,6 +305,18 @@ pub(crate) fn geometry_row(
 
 /// A world's block of the params buffer (`layout::params`); a segment sets its steps, and a batch
 /// where its geometries, particles and table are.
+/// The params block of a stage called with `inputs` (`kick`: the particle sums' second half
+/// kick).
+pub(crate) fn stage_params(inputs: &StepInputs, kick: bool) -> Vec<f64> {
+    params_of(
+        inputs.params,
+        inputs.clumps,
+        kick,
+        inputs.materials.len(),
+        inputs.cohesive,
+    )
+}
+
 pub(crate) fn params_of(
     params: &SimulationParams,
     clumps: bool,

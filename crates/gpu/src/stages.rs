@@ -14,8 +14,8 @@ use dem::sim::{Anchors, Moved, SimulationParams, StepInputs};
 use crate::layout::{self, element, geometry, pair_output, wall_output};
 use crate::pack::{
     block3, element_row, f64s, flat, geometry_row, history_at, history_of, ints_of, loads_of,
-    pair_output_at, pair_output_of, pair_table, params_of, props_of, rows_of, state_of,
-    wall_output_at, wall_output_of, Counts,
+    pair_output_at, pair_output_of, pair_table, params_of, props_of, rows_of, stage_params,
+    state_of, wall_output_at, wall_output_of, Counts,
 };
 use crate::{GpuStages, STATE_BYTES};
 
@@ -111,13 +111,7 @@ impl GpuStages {
         let history = c.storage(&history_of(lists.pairs.iter().map(|q| &q.history)));
         let output = c.storage(&vec![0.0f64; pair_output::LEN * pairs]);
         let table = c.storage(&pair_table(inputs));
-        let par = c.storage(&params_of(
-            inputs.params,
-            inputs.clumps,
-            false,
-            inputs.materials.len(),
-            inputs.cohesive,
-        ));
+        let par = c.storage(&stage_params(inputs, false));
         let counts = c.storage(
             &Counts {
                 particles: n,
@@ -192,13 +186,7 @@ impl GpuStages {
         let history = c.storage(&history_of(walls.candidates().iter().map(|w| &w.history)));
         let output = c.storage(&vec![0.0f64; wall_output::LEN * count]);
         let table = c.storage(&pair_table(inputs));
-        let par = c.storage(&params_of(
-            inputs.params,
-            inputs.clumps,
-            false,
-            inputs.materials.len(),
-            inputs.cohesive,
-        ));
+        let par = c.storage(&stage_params(inputs, false));
         let counts = c.storage(
             &Counts {
                 particles: n,
@@ -274,13 +262,7 @@ impl GpuStages {
         let pair_out = c.storage(&pair_output_of(&lists.output));
         let rows = c.storage(&rows_of(Some(lists), walls.start(), n));
         let wall_out = c.storage(&wall_output_of(walls.output()));
-        let par = c.storage(&params_of(
-            inputs.params,
-            inputs.clumps,
-            kick,
-            inputs.materials.len(),
-            inputs.cohesive,
-        ));
+        let par = c.storage(&stage_params(inputs, kick));
         let counts = c.storage(
             &Counts {
                 particles: n,

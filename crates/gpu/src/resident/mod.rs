@@ -272,6 +272,20 @@ impl GpuStages {
     }
 }
 
+impl Launch<'_> {
+    /// Records the launch in `pass` (a launch of no threads still runs one group: `begin`).
+    fn dispatch(&self, pass: &mut wgpu::ComputePass) {
+        let (x, y) = if self.threads == 0 {
+            (1, 1)
+        } else {
+            groups(self.threads)
+        };
+        pass.set_pipeline(self.pipeline);
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
 /// Encodes `launches` as `encode` does, each in a pass of its own that writes its start and end
 /// into `stamps` from query `2 * first` on (`crate::profile`).
 fn encode_timed(
@@ -290,28 +304,14 @@ fn encode_timed(
                 end_of_pass_write_index: Some(at + 1),
             }),
         });
-        let (x, y) = if l.threads == 0 {
-            (1, 1)
-        } else {
-            groups(l.threads)
-        };
-        pass.set_pipeline(l.pipeline);
-        pass.set_bind_group(0, &l.group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+        l.dispatch(&mut pass);
     }
 }
 
 fn encode(encoder: &mut wgpu::CommandEncoder, launches: &[&Launch]) {
     let mut pass = encoder.begin_compute_pass(&Default::default());
     for l in launches {
-        let (x, y) = if l.threads == 0 {
-            (1, 1)
-        } else {
-            groups(l.threads)
-        };
-        pass.set_pipeline(l.pipeline);
-        pass.set_bind_group(0, &l.group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+        l.dispatch(&mut pass);
     }
 }
 

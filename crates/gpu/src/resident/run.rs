@@ -583,7 +583,10 @@ struct Timer {
 
 impl Timer {
     fn new(c: &GpuContext, launches: usize) -> Option<Timer> {
-        if !crate::profile::asked() || !c.timestamps || launches > crate::profile::MOST_LAUNCHES {
+        if !crate::profile::asked()
+            || !c.has_timestamps()
+            || launches > crate::profile::MOST_LAUNCHES
+        {
             return None;
         }
         let count = 2 * launches as u32;

@@ -72,6 +72,14 @@ const KERNELS: &[(&str, &[&str])] = &[
         "geometry_loads",
         &[include_str!("wgsl/resident/geometry_loads.wgsl")],
     ),
+    (
+        "bond_forces",
+        &[COMMON, include_str!("wgsl/bonds/bond_forces.wgsl")],
+    ),
+    (
+        "bond_sums",
+        &[COMMON, SPIN, include_str!("wgsl/bonds/bond_sums.wgsl")],
+    ),
 ];
 
 /// Every kernel's name and full source, as the device compiles it.

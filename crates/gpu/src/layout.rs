@@ -104,8 +104,8 @@ macro_rules! codes {
 layout! {
     /// `params`: one block per world of a batch (a simulation run stage by stage is world 0), so
     /// that worlds with other time steps, gravity or rolling models share launches. Material and
-    /// geometry indices are the world's own; the host sets the last seven per segment.
-    params, "P_", Contiguous, len 24 {
+    /// geometry indices are the world's own; the host sets the last eight per segment.
+    params, "P_", Contiguous, len 25 {
         /// The time step.
         DT: 0, 1;
         GRAVITY: 1, 3;
@@ -138,6 +138,9 @@ layout! {
         END_PARTICLE: 22, 1;
         /// Where the world's material pair table starts in `table`.
         TABLE: 23, 1;
+        /// 1 when the world's bonds run with it in the segment: the bond sums add their forces
+        /// after the particle sums and give the second half kick instead of them.
+        BONDS: 24, 1;
     }
 }
 
@@ -285,6 +288,89 @@ layout! {
 }
 
 layout! {
+    /// `bond_state`: one row per bond of a segment (`dem::bond::segment::STATE_LEN` numbers, in
+    /// its order): what a bond carries from step to step.
+    bond_state, "BS_", Contiguous, len 11 {
+        /// Along the axis, positive pushing the spheres apart.
+        NORMAL_FORCE: 0, 1;
+        SHEAR_FORCE: 1, 3;
+        /// The twisting moment about the axis.
+        TWIST: 4, 1;
+        BENDING: 5, 3;
+        /// The axis (from the second sphere to the first) at the last update.
+        AXIS: 8, 3;
+    }
+}
+
+layout! {
+    /// `bond_output`: one row per bond (`dem::bond::segment::OUTPUT_LEN` numbers), what it does
+    /// to its spheres in the step (zero once broken).
+    bond_output, "BO_", Contiguous, len 9 {
+        /// Force on the first sphere (the second gets its opposite).
+        FORCE: 0, 3;
+        TORQUE_FIRST: 3, 3;
+        TORQUE_SECOND: 6, 3;
+    }
+}
+
+layout! {
+    /// `bond_params`: one row per bond kind of a batch (`dem::bond::BondParams`; each world's
+    /// kinds after those of the worlds before it).
+    bond_params, "BP_", Contiguous, len 5 {
+        /// k_n and k_t (N/m^3).
+        NORMAL_STIFFNESS: 0, 1;
+        SHEAR_STIFFNESS: 1, 1;
+        /// sigma_c and tau_c (Pa).
+        CRITICAL_NORMAL_STRESS: 2, 1;
+        CRITICAL_SHEAR_STRESS: 3, 1;
+        /// The local damping fraction of the bonded spheres.
+        DAMPING: 4, 1;
+    }
+}
+
+layout! {
+    /// `bond_ends` (u32): one row per bond, its spheres (the batch's indices), its kind (a row
+    /// of `bond_params`) and whether it is intact (the bond kernel clears it when it breaks).
+    bond_ends, "BE_", Contiguous, len 4 {
+        FIRST: 0, 1;
+        SECOND: 1, 1;
+        KIND: 2, 1;
+        INTACT: 3, 1;
+    }
+}
+
+layout! {
+    /// `bond_props`: one row per bond, what does not change in a segment.
+    bond_props, "BQ_", Contiguous, len 2 {
+        /// R_B (m).
+        RADIUS: 0, 1;
+        /// The bond's own factor on k_n and k_t.
+        STIFFNESS: 1, 1;
+    }
+}
+
+layout! {
+    /// `bond_broke`: one row per bond, the step (within the segment) in which it broke, -1 while
+    /// intact, and its mid-point then.
+    bond_broke, "BB_", Contiguous, len 4 {
+        STEP: 0, 1;
+        POSITION: 1, 3;
+    }
+}
+
+layout! {
+    /// `bond_rows` (u32), in blocks of N: each particle's bonds as a range begin..end of the
+    /// slots that follow, each slot `2 b` where it is bond b's first sphere and `2 b + 1` where
+    /// it is its second, in bond order.
+    bond_rows, "BN_", Contiguous, len 2 {
+        BEGIN: 0, 1;
+        END: 1, 1;
+        /// The slots of every particle's row, one after another.
+        SLOTS: 2, super::OPEN;
+    }
+}
+
+layout! {
     /// `state`, in blocks of N: what the kick and drift advance (three numbers a particle each).
     state, "S_", Contiguous, len 9 {
         POSITION: 0, 3;
@@ -345,7 +431,7 @@ layout! {
 layout! {
     /// `counts` (u32): the sizes a stage kernel works over. A segment sets every count; a stage
     /// run alone only those its kernel reads.
-    counts, "C_", Contiguous, len 5 {
+    counts, "C_", Contiguous, len 6 {
         PARTICLES: 0, 1;
         PAIRS: 1, 1;
         REVERSE: 2, 1;
@@ -353,6 +439,8 @@ layout! {
         WALLS: 3, 1;
         /// Threads in a row of a 2-D dispatch (a thread's index is x + y * ROW_WIDTH).
         ROW_WIDTH: 4, 1;
+        /// Bonds of a segment.
+        BONDS: 5, 1;
     }
 }
 
@@ -432,11 +520,18 @@ pub(crate) const LAYOUTS: &[Layout] = &[
     pair_ij::LAYOUT,
     cands::LAYOUT,
     geometry_loads::LAYOUT,
+    bond_state::LAYOUT,
+    bond_output::LAYOUT,
+    bond_params::LAYOUT,
+    bond_ends::LAYOUT,
+    bond_props::LAYOUT,
+    bond_broke::LAYOUT,
     state::LAYOUT,
     loads::LAYOUT,
     props::LAYOUT,
     ints::LAYOUT,
     rows::LAYOUT,
+    bond_rows::LAYOUT,
     counts::LAYOUT,
     dims::LAYOUT,
     search::LAYOUT,
@@ -613,5 +708,12 @@ mod tests {
         }
         assert_eq!(parsed["EK_TRIANGLE"], element_kind::TRIANGLE);
         assert_eq!(parsed["OV_WALLS_KEPT"], overflow::WALLS_KEPT);
+    }
+
+    /// A bond's state and output rows are the engine's (`dem::bond::segment`), copied as they are.
+    #[test]
+    fn bond_rows_are_the_engines() {
+        assert_eq!(bond_state::LEN, dem::bond::segment::STATE_LEN);
+        assert_eq!(bond_output::LEN, dem::bond::segment::OUTPUT_LEN);
     }
 }

@@ -91,6 +91,7 @@ pub(crate) struct Counts {
     pub pairs: usize,
     pub reverse: usize,
     pub walls: usize,
+    pub bonds: usize,
 }
 
 impl Counts {
@@ -102,6 +103,7 @@ impl Counts {
         w[c::PAIRS] = self.pairs as u32;
         w[c::REVERSE] = self.reverse as u32;
         w[c::WALLS] = self.walls as u32;
+        w[c::BONDS] = self.bonds as u32;
         w[c::ROW_WIDTH] = row_width(threads);
         w
     }

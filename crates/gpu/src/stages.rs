@@ -269,6 +269,7 @@ impl GpuStages {
                 pairs: lists.pairs.len(),
                 reverse: lists.reverse.len(),
                 walls: walls.output().len(),
+                bonds: 0,
             }
             .words(threads),
         );

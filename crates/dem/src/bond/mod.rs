@@ -36,6 +36,7 @@ pub mod chain;
 mod kernel;
 mod lanes;
 pub mod output;
+pub mod segment;
 mod update4;
 
 use crate::particles::{Particles, NO_BODY};
@@ -47,6 +48,7 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use kernel::{local_damping, Section};
+use segment::{SegmentBonds, SegmentBondsEnd};
 
 /// The bond's radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -697,9 +699,27 @@ impl StepExtension for Bonds {
         "bonds"
     }
 
-    /// Bond forces are computed on the host at every step (issue 42 puts them on the device).
+    /// A device runs the bonds with the particles (`segment.rs`); stepped stage by stage, the
+    /// host updates them at every step.
     fn on_device(&self) -> OnDevice {
-        OnDevice::EveryStep
+        OnDevice::InSegments
+    }
+
+    fn segment_bonds(&self, particles: &Particles, index_of: &[u32]) -> Option<SegmentBonds> {
+        self.for_segment(&particles.id, index_of)
+    }
+
+    fn end_segment(&mut self, end: SegmentBondsEnd, first_step: u64, steps: u64, dt: f64) {
+        Bonds::end_segment(self, end, first_step, steps, dt);
+    }
+
+    /// Nothing to do between steps once every bond kind has formed.
+    fn idle_steps(&self, _time: f64, _dt: f64) -> u64 {
+        if self.all_formed() {
+            u64::MAX
+        } else {
+            0
+        }
     }
 
     fn adds_forces(&self) -> bool {

@@ -4,6 +4,7 @@
 
 use super::cpu::kick_spin;
 use super::{SimError, Simulation, SimulationParams};
+use crate::bond::segment::{SegmentBonds, SegmentBondsEnd};
 use crate::particles::{Particles, NO_BODY};
 use std::any::Any;
 
@@ -15,9 +16,12 @@ pub enum OnDevice {
     /// there: the device runs the steps between as whole segments (a factory).
     BetweenSegments,
     /// It works on the host at every step (it adds forces): the simulation runs stage by stage,
-    /// the particles copied to the device and back at each stage (bonds, until they run on the
-    /// device).
+    /// the particles copied to the device and back at each stage.
     EveryStep,
+    /// It adds forces at every step, and the device runs it with the particles inside segments:
+    /// it hands its state over ([`StepExtension::segment_bonds`]) and takes it back
+    /// ([`StepExtension::end_segment`]) (the bonds).
+    InSegments,
 }
 
 impl OnDevice {
@@ -26,6 +30,9 @@ impl OnDevice {
         match self {
             OnDevice::BetweenSegments => format!(
                 "the {name} extension works on the host between segments of steps that stay on the device"
+            ),
+            OnDevice::InSegments => format!(
+                "the {name} extension runs on the device with the particles, in segments of steps"
             ),
             OnDevice::EveryStep => format!(
                 "the {name} extension works on the host at every step, so the simulation runs stage by stage with the particles copied to the device and back at every stage (slower than the CPU)"
@@ -40,9 +47,23 @@ pub trait StepExtension: Send + Any {
     fn name(&self) -> &str;
 
     /// Where it works when the stages run on a device. No default: each extension declares it
-    /// where it is written. One that adds forces must say [`OnDevice::EveryStep`]
-    /// ([`crate::sim::Simulation::add_extension`] refuses anything else in a debug build).
+    /// where it is written. One that adds forces must say [`OnDevice::EveryStep`] or
+    /// [`OnDevice::InSegments`] ([`crate::sim::Simulation::add_extension`] refuses anything else
+    /// in a debug build).
     fn on_device(&self) -> OnDevice;
+
+    /// For [`OnDevice::InSegments`]: its bonds, for a segment over `particles` (`index_of` as
+    /// [`Self::add_forces`] has it); None when it has none to hand over.
+    fn segment_bonds(&self, particles: &Particles, index_of: &[u32]) -> Option<SegmentBonds> {
+        let _ = (particles, index_of);
+        None
+    }
+
+    /// For [`OnDevice::InSegments`]: takes back what the device did with its bonds in a segment
+    /// that began after step `first_step` and ran `steps` steps of `dt`.
+    fn end_segment(&mut self, end: SegmentBondsEnd, first_step: u64, steps: u64, dt: f64) {
+        let _ = (end, first_step, steps, dt);
+    }
 
     /// Whether [`Self::add_forces`] is to be called: then the second half kick waits for it.
     fn adds_forces(&self) -> bool {

@@ -232,8 +232,8 @@ impl Simulation {
     /// Adds a per-step extension.
     pub fn add_extension(&mut self, extension: Box<dyn StepExtension>) {
         debug_assert!(
-            !extension.adds_forces() || extension.on_device() == OnDevice::EveryStep,
-            "{}: adds forces, so it works on the host at every step (OnDevice::EveryStep)",
+            !extension.adds_forces() || extension.on_device() != OnDevice::BetweenSegments,
+            "{}: adds forces at every step (OnDevice::EveryStep or InSegments)",
             extension.name()
         );
         self.extensions.push(extension);

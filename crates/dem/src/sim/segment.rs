@@ -19,7 +19,8 @@
 //! carries the histories over, as a rebuild always does) and runs the extensions.
 
 use super::walls::WallCandidate;
-use super::{SimError, StepInputs};
+use super::{OnDevice, SimError, StepInputs};
+use crate::bond::segment::{SegmentBonds, SegmentBondsEnd};
 use crate::geometry::{Element, Load, VelocityField};
 use crate::neighbour::{NeighbourList, Pair};
 use crate::particles::Particles;
@@ -59,6 +60,9 @@ pub struct Segment<'a> {
     pub pair_reach: f64,
     /// Wall search reach beyond touching (the same).
     pub wall_reach: f64,
+    /// The bonds the device runs with the particles (an [`OnDevice::InSegments`] extension's).
+    /// A back end that cannot run them declines the segment.
+    pub bonds: Option<&'a SegmentBonds>,
 }
 
 /// The state after a segment's last step.
@@ -84,6 +88,8 @@ pub struct SegmentEnd {
     /// The step (0-based within the segment) in which a particle first stopped being finite or
     /// left the domain; the state is then that of the segment's end, for the message only.
     pub failed_at: Option<u64>,
+    /// The bonds after the last step, when the segment had bonds.
+    pub bonds: Option<SegmentBondsEnd>,
 }
 
 /// Most steps in one segment: segments chain, and this bounds what the host keeps per step and
@@ -96,17 +102,25 @@ const MAX_TRACKED_ELEMENTS: usize = 4_000_000;
 
 impl super::Simulation {
     /// How many of the next `left` steps can run as one segment on the back end: 0 when it cannot
-    /// (clumps, extension forces, a back end without segments), else up to the first step at
-    /// which an extension has work.
+    /// (clumps, extension forces the device does not run, a back end without segments), else up
+    /// to the first step at which an extension has work.
     pub(super) fn segment_steps(&self, left: u64) -> u64 {
         if left < 2
             || self.particles.is_empty()
             || self.steps < self.segments_declined_until
             || !self.bodies.is_empty()
+            || self.extensions.iter().any(|e| match e.on_device() {
+                OnDevice::EveryStep => true,
+                OnDevice::BetweenSegments => e.adds_forces(),
+                OnDevice::InSegments => false,
+            })
+            // The device runs one extension's bonds.
             || self
                 .extensions
                 .iter()
-                .any(|e| e.adds_forces() || e.on_device() == super::OnDevice::EveryStep)
+                .filter(|e| e.on_device() == OnDevice::InSegments)
+                .count()
+                > 1
             || !self.backend.runs_segments(&self.inputs(false))
         {
             return 0;
@@ -223,6 +237,12 @@ impl super::Simulation {
             .then(|| self.geometries.clone());
         let track = self.geometry_track(steps);
         let reach = self.params.skin + self.cohesive_reach;
+        let bonded = self
+            .extensions
+            .iter()
+            .position(|e| e.on_device() == OnDevice::InSegments);
+        let bonds =
+            bonded.and_then(|k| self.extensions[k].segment_bonds(&self.particles, &self.index_of));
         let segment = Segment {
             particles: &self.particles,
             lists: &self.neighbours,
@@ -233,8 +253,14 @@ impl super::Simulation {
             track: &track,
             pair_reach: reach,
             wall_reach: reach,
+            bonds: bonds.as_ref(),
         };
-        let Some(end) = self.backend.run_segment(&segment) else {
+        let end = self
+            .backend
+            .run_segment(&segment)
+            // A back end that left the bonds out has not run the segment.
+            .filter(|end| bonds.is_none() || end.bonds.is_some());
+        let Some(mut end) = end else {
             if let Some(g) = saved {
                 self.geometries = g;
             }
@@ -246,6 +272,9 @@ impl super::Simulation {
         self.segment_backoff = 0;
         let dt = self.params.time_step;
         let (start_steps, start_time) = (self.steps, self.time);
+        if let (Some(k), Some(b)) = (bonded, end.bonds.take()) {
+            self.extensions[k].end_segment(b, start_steps, end.steps_done, dt);
+        }
         let p = &mut self.particles;
         p.position = end.position;
         p.velocity = end.velocity;

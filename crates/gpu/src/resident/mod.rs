@@ -24,6 +24,7 @@ use dem::sim::{Segment, SegmentEnd};
 use crate::layout::{ctrl, overflow};
 use crate::{groups, GpuContext, GpuStages};
 
+mod bonds;
 mod run;
 pub(crate) mod world;
 use world::World;
@@ -64,6 +65,8 @@ pub(crate) struct ResidentKernels {
     sort_reverse: wgpu::ComputePipeline,
     commit: wgpu::ComputePipeline,
     geometry_loads: wgpu::ComputePipeline,
+    bond_forces: wgpu::ComputePipeline,
+    bond_sums: wgpu::ComputePipeline,
 }
 
 impl ResidentKernels {
@@ -80,6 +83,8 @@ impl ResidentKernels {
             sort_reverse: take("sort_reverse"),
             commit: take("commit"),
             geometry_loads: take("geometry_loads"),
+            bond_forces: take("bond_forces"),
+            bond_sums: take("bond_sums"),
         }
     }
 }
@@ -102,6 +107,8 @@ impl GpuContext {
             (&k.sort_reverse, "sort_reverse"),
             (&k.commit, "commit"),
             (&k.geometry_loads, "geometry_loads"),
+            (&k.bond_forces, "bond_forces"),
+            (&k.bond_sums, "bond_sums"),
         ]
         .into_iter()
         .find(|(q, _)| std::ptr::eq(*q, p))

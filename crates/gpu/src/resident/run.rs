@@ -3,6 +3,7 @@
 
 use dem::sim::SegmentEnd;
 
+use super::bonds::BondBuffers;
 use super::world::{Merged, World};
 use super::{
     check_overflow, encode, encode_timed, Capacity, Launch, Retry, BUCKETS_PER_PARTICLE, CHUNK,
@@ -57,6 +58,7 @@ impl Sizes {
             8 * layout::element::LEN * self.elements,
         ]
         .into_iter()
+        .chain(m.bonds.as_ref().map(|b| b.largest()))
         .max()
         .unwrap_or(0)
     }
@@ -102,6 +104,7 @@ struct Buffers {
     bucket_items: wgpu::Buffer,
     reverse_count: wgpu::Buffer,
     geometry_loads: wgpu::Buffer,
+    bonds: Option<BondBuffers>,
 }
 
 impl Buffers {
@@ -114,6 +117,7 @@ impl Buffers {
                 pairs,
                 reverse: pairs,
                 walls,
+                bonds: 0,
             };
             c.storage(&counts.words(threads as u32))
         };
@@ -177,6 +181,7 @@ impl Buffers {
                 0.0f64;
                 layout::geometry_loads::LEN * s.geometries.max(1)
             ]),
+            bonds: m.bonds.as_ref().map(|mb| BondBuffers::new(c, mb, n)),
         }
     }
 }
@@ -189,11 +194,13 @@ struct Launches<'a> {
     check: Launch<'a>,
     rebuild: [Launch<'a>; 6],
     forces: [Launch<'a>; 3],
+    /// The bond kernel and the bond sums, after the forces, when a world has bonds.
+    bonds: Option<[Launch<'a>; 2]>,
     geometry_loads: Launch<'a>,
 }
 
 /// A launch of `pipeline` over `threads` threads with `buffers` bound in order.
-fn launch<'a>(
+pub(super) fn launch<'a>(
     c: &GpuContext,
     pipeline: &'a wgpu::ComputePipeline,
     buffers: &[&wgpu::Buffer],
@@ -208,10 +215,24 @@ fn launch<'a>(
 }
 
 impl<'a> Launches<'a> {
-    fn new(c: &'a GpuContext, b: &Buffers, s: &Sizes) -> Launches<'a> {
+    fn new(c: &'a GpuContext, b: &Buffers, s: &Sizes, m: &Merged) -> Launches<'a> {
         let k = &c.resident;
         let n = s.n;
+        let bonds = b.bonds.as_ref().zip(m.bonds.as_ref()).map(|(bb, mb)| {
+            bb.launches(
+                c,
+                &b.state,
+                &b.loads,
+                &b.props,
+                &b.params,
+                &b.counts_n,
+                &b.ctrl,
+                mb.count,
+                n,
+            )
+        });
         Launches {
+            bonds,
             begin: launch(c, &k.begin, &[&b.ctrl, &b.forced, &b.params], 0),
             integrate: launch(
                 c,
@@ -448,12 +469,13 @@ impl GpuStages {
             )));
         }
         let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
-        let l = Launches::new(c, &b, &sizes);
+        let l = Launches::new(c, &b, &sizes, &m);
         // One step's launches, in order (the same every step).
         let step: Vec<&Launch> = [&l.begin, &l.integrate, &l.check]
             .into_iter()
             .chain(l.rebuild.iter())
             .chain(l.forces.iter())
+            .chain(l.bonds.iter().flatten())
             .collect();
 
         // The lists for the state at the start (their histories from the host's lists).
@@ -511,22 +533,21 @@ impl GpuStages {
         // end are still stepping, so `begin` marks them for the check alone.
         let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &[&l.begin, &l.check, &l.geometry_loads]);
-        let out = c
-            .read_back(
-                encoder,
-                &[
-                    &b.ctrl,
-                    &b.state,
-                    &b.loads,
-                    &b.pair_ij,
-                    &b.pair_history,
-                    &b.rows,
-                    &b.cands,
-                    &b.wall_history,
-                    &b.geometry_loads,
-                ],
-            )
-            .map_err(Retry::Failed)?;
+        let mut buffers = vec![
+            &b.ctrl,
+            &b.state,
+            &b.loads,
+            &b.pair_ij,
+            &b.pair_history,
+            &b.rows,
+            &b.cands,
+            &b.wall_history,
+            &b.geometry_loads,
+        ];
+        if let Some(bb) = &b.bonds {
+            buffers.extend([&bb.state, &bb.output, &bb.broke]);
+        }
+        let out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
         check_overflow(&out[0])?;
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
         let failed: Vec<Option<u64>> = words
@@ -536,7 +557,11 @@ impl GpuStages {
             .collect();
         // The first rebuild, before the first step, is not the simulation's.
         let rebuilds = words[layout::ctrl::REBUILDS].saturating_sub(1) as u64;
-        Ok(m.split(worlds, &out, rebuilds, &failed))
+        let bonds = match &m.bonds {
+            Some(mb) => mb.split(worlds, [&out[9], &out[10], &out[11]]),
+            None => worlds.iter().map(|_| None).collect(),
+        };
+        Ok(m.split(worlds, &out, rebuilds, &failed, bonds))
     }
 }
 

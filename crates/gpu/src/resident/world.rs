@@ -17,6 +17,7 @@ use dem::neighbour::Pair;
 use dem::sim::walls::WallCandidate;
 use dem::sim::{Segment, SegmentEnd};
 
+use super::bonds::{MergedBonds, WorldBonds};
 use super::{Capacity, EMPTY};
 use crate::layout::{self, element, geometry, overflow};
 use crate::pack::{
@@ -65,6 +66,8 @@ pub(crate) struct World {
     /// Longest pair or reverse row, longest wall row (for the first capacities).
     pub longest_row: usize,
     pub longest_wall: usize,
+    /// The bonds that run with it (`dem::bond::segment`).
+    pub bonds: Option<WorldBonds>,
 }
 
 impl World {
@@ -140,6 +143,13 @@ impl World {
         let mut params_block =
             params_of(params, false, true, inputs.materials.len(), inputs.cohesive);
         params_block[layout::params::STEPS] = seg.steps as f64;
+        let bonds = match seg.bonds {
+            Some(b) => Some(WorldBonds::pack(b, n)?),
+            None => None,
+        };
+        if bonds.is_some() {
+            params_block[layout::params::BONDS] = 1.0;
+        }
         Some(World {
             n,
             state: state_of(p),
@@ -172,6 +182,7 @@ impl World {
             half_skin: 0.5 * params.skin,
             longest_row,
             longest_wall,
+            bonds,
         })
     }
 
@@ -223,6 +234,8 @@ pub(crate) struct Merged {
     pub forced: Vec<u32>,
     /// The reaches of the list rebuilds (`layout::search`).
     pub search: [f64; layout::search::LEN],
+    /// The worlds' bonds; None when none has any.
+    pub bonds: Option<MergedBonds>,
 }
 
 /// An index shifted by a world's offset.
@@ -270,6 +283,7 @@ impl Merged {
             geoms_track: Vec::new(),
             forced: vec![0; steps + 1],
             search: [0.0; search::LEN],
+            bonds: MergedBonds::new(worlds, &offsets, n),
         };
         m.search[search::HALF_SKIN_SQUARED] = f64::INFINITY;
         let mut max_radius: f64 = 0.0;
@@ -430,6 +444,7 @@ impl Merged {
         out: &[Vec<u8>],
         rebuilds: u64,
         failed: &[Option<u64>],
+        bonds: Vec<Option<dem::bond::segment::SegmentBondsEnd>>,
     ) -> Vec<SegmentEnd> {
         use layout::{cands, geometry_loads, loads, pair_ij, rows as r, state};
         let n = self.n;
@@ -445,7 +460,8 @@ impl Merged {
             .iter()
             .zip(&self.offsets)
             .zip(failed)
-            .map(|((w, off), &failed_at)| {
+            .zip(bonds)
+            .map(|(((w, off), &failed_at), bonds)| {
                 let range = off.particle..off.particle + w.n;
                 let v = |buffer: &[f64], block: usize| {
                     range
@@ -464,6 +480,7 @@ impl Merged {
                     rebuilds,
                     failed_at,
                     steps_done: failed_at.map_or(w.steps, |f| f + 1),
+                    bonds,
                     ..Default::default()
                 };
                 for i in range.clone() {

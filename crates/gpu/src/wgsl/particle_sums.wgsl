@@ -1,6 +1,6 @@
 // Each particle sums gravity, its pair slots (as i and as j) and its wall slots in a fixed order
 // into its force, torque and rolling torque limit; with the kick flag, free spheres get the second
-// half kick (CpuBackend::particle_sums).
+// half kick (CpuBackend::particle_sums), unless the world's bonds run with it.
 //
 // rows (u32): blocks of N (R_), a particle's pair slots R_PAIR_BEGIN..R_PAIR_END, its reverse
 //   entries (the pair slots where it is j) and its wall candidate slots likewise
@@ -69,7 +69,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     put_load3(L_FORCE * n + 3u * i, f);
     put_load3(L_TORQUE * n + 3u * i, t);
     loads[L_ROLLING_LIMIT * n + i] = lim;
-    if (param(P_KICK) != 0.0lf && (param(P_CLUMPS) == 0.0lf || body[i] == NO_BODY)) {
+    // In a world with bonds the bond sums add theirs first and kick (bonds/bond_sums.wgsl).
+    if (param(P_KICK) != 0.0lf && param(P_BONDS) == 0.0lf
+        && (param(P_CLUMPS) == 0.0lf || body[i] == NO_BODY)) {
         let half = 0.5lf * param(P_DT);
         let v = velocity(i) + f * (props[PR_INV_MASS * n + i] * half);
         let w = kick_spin(angular_velocity(i), t, lim, props[PR_INV_INERTIA * n + i] * half);

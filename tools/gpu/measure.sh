@@ -9,8 +9,8 @@
 # What it runs (each line of output is a demcal bench line, so the numbers can be pasted):
 #   1. the device: nvidia-smi or vulkaninfo where present, and the adapter demcal picks;
 #   2. settle (21 160 spheres) and settle x8 (1 444 000) on the GPU, in particle-steps/s;
-#   3. the bonded bench (the seed-000 stalk specimen; bonds work on the host at every step, so it
-#      runs stage by stage) on the GPU;
+#   3. the bonded bench (the seed-000 stalk specimen, its bonds on the device with the particles)
+#      on the GPU;
 #   4. bench batch: 32 quickstart repose tests on the GPU in shared launches against the CPU runner
 #      with as many jobs as cores, in simulations per hour;
 #   5. bench worlds: 32 seed-000-sized worlds (4 000 spheres) for 2 000 steps, all at once, on the

@@ -28,8 +28,9 @@ pub struct BenchResult {
     /// Bonds formed and broken (0 without bonds).
     pub bonds: usize,
     pub bonds_broken: usize,
-    /// Share of the step time spent on bond forces.
-    pub bond_share: f64,
+    /// Share of the step time spent on bond forces on the host; None where steps ran as device
+    /// segments, whose bonds run on the device with everything else.
+    pub bond_share: Option<f64>,
     /// The back end that ran the stages, and what it said about the scene (what it left to the
     /// CPU, or why the CPU ran instead).
     pub backend: &'static str,
@@ -44,11 +45,12 @@ impl BenchResult {
     /// The line `demcal bench NAME` ends with.
     pub fn line(&self, name: &str) -> String {
         let bonds = if self.bonds > 0 {
+            let share = self
+                .bond_share
+                .map_or("device".to_string(), |s| format!("{:.1}%", 100.0 * s));
             format!(
-                " bonds={} bonds_broken={} bond_share={:.1}%",
-                self.bonds,
-                self.bonds_broken,
-                100.0 * self.bond_share
+                " bonds={} bonds_broken={} bond_share={share}",
+                self.bonds, self.bonds_broken,
             )
         } else {
             String::new()
@@ -365,8 +367,9 @@ fn run(
         pair_passes: sim.pair_passes(),
         bonds,
         bonds_broken,
-        bond_share: sim.timers.extension_forces.as_secs_f64()
-            / sim.timers.total().as_secs_f64().max(1e-12),
+        bond_share: sim.timers.device_segments.is_zero().then(|| {
+            sim.timers.extension_forces.as_secs_f64() / sim.timers.total().as_secs_f64().max(1e-12)
+        }),
         backend: sim.backend_name(),
         remarks,
     })

@@ -19,7 +19,10 @@
 //!   element kind (planes, rectangles, discs, cylinder shells, triangles; moving geometry through
 //!   its velocity field; faces before edges, as `dem::sim::walls::wall_contacts` does; the JKR
 //!   cut-off), the particle sums with the second half kick, and (in segments) the neighbour and
-//!   wall-candidate searches and the geometry loads. On the check path the Hooke law, a stage
+//!   wall-candidate searches, the geometry loads and the bonds (`resident::bonds`,
+//!   `wgsl/bonds/`: each bond's incremental update and breakage test, each sphere's bond forces
+//!   summed in bond order with local damping, the breakages logged by the host afterwards; each
+//!   world of a batch has its own bonds). On the check path the Hooke law, a stage
 //!   whose arrays would pass the device's largest binding, and a particle touching more than 32
 //!   walls at once are handed to the CPU back end inside the stage
 //!   ([`GpuStages::handed_to_cpu`] counts them); a segment whose lists pass the largest binding
@@ -50,8 +53,9 @@
 //!   study goes on, on the CPU (`tests/device_lost.rs`).
 //! - **What runs where** is declared where it is written: a contact law's `ContactLaw::ON_GPU`
 //!   (Hertz-Mindlin's is true; [`laws_on_gpu`]), an extension's `StepExtension::on_device`
-//!   (bonds work on the host at every step, so a bonded scene runs stage by stage; a factory
-//!   between segments). `Simulation::choose_backend` tells the user both.
+//!   (bonds run in segments on the device, `OnDevice::InSegments`, and on the host when a scene
+//!   steps stage by stage; a factory works between segments). `Simulation::choose_backend`
+//!   tells the user both.
 //! - **Kernels** are WGSL files in `src/wgsl/` (the segment kernels in `src/wgsl/resident/`),
 //!   each put together with the shared parts it uses (`vector.wgsl`, vector helpers;
 //!   `common.wgsl`, the accessors of `state`, `props`, `params` and `counts`; `spin.wgsl`, the
@@ -59,8 +63,8 @@
 //!   closest point of a wall element; `resident/shared.wgsl`, the segment's cell hash). One
 //!   function, `kernels::kernel_sources`, composes every kernel; the context compiles what it
 //!   returns, and the crate's tests parse and validate the same text with naga, so a kernel that
-//!   does not compile fails `cargo test` on any machine. Clumps, bonds and geometry motion stay
-//!   in the pipeline on the host.
+//!   does not compile fails `cargo test` on any machine. Clumps and geometry motion stay in the
+//!   pipeline on the host (a segment gets the geometry poses of every step from it).
 //! - **The data contract.** Every buffer the host and the kernels share (a world's params block,
 //!   the material pair table, element and geometry rows, contact histories, the force kernels'
 //!   outputs, the particles' blocks of N in `state`, `loads`, `props`, `ints` and `rows`, the

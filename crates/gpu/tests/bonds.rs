@@ -160,6 +160,44 @@ fn shaken() -> Simulation {
     sim
 }
 
+/// A chain whose bonds form 200 steps into the run, while its spheres move apart and together:
+/// the device runs up to the formation, the host forms the bonds, the device runs on with them.
+fn late() -> Simulation {
+    let p = chain(40);
+    let b = bond(1e10, 5e9, 2e3, 2e3, 0.0);
+    let mut formed = Bonds::new(2, &[([0, 0], b)]);
+    formed.form_due(&p, 0.0, 1.0).unwrap();
+    let dt = formed.safe_time_step(&p).unwrap();
+    let bonds = Bonds::new(
+        2,
+        &[(
+            [0, 0],
+            BondParams {
+                formation_time: 200.0 * dt,
+                ..b
+            },
+        )],
+    );
+    let mut sim = Simulation::new(
+        p,
+        table(),
+        vec![],
+        SimulationParams {
+            time_step: dt,
+            rolling_model: RollingModel::ConstantDirectionalTorque,
+            skin: 0.2 * R,
+            ..Default::default()
+        },
+    );
+    sim.add_extension(Box::new(bonds));
+    for k in 0..sim.particles.len() {
+        let x = sim.particles.position[k].x;
+        sim.particles.velocity[k] =
+            DVec3::new((x * 2100.0).sin() * 0.02, (x * 3000.0).sin(), 0.0) * 0.05;
+    }
+    sim
+}
+
 /// A small shear specimen: a block of 8 x 4 x 4 touching spheres (slightly jittered) on two
 /// supports, cut in the middle by a blade coming down at 1 m/s; bonds break under it.
 fn specimen() -> Simulation {
@@ -431,6 +469,13 @@ const CASES: &[Case] = &[
         breaks: 3,
     },
     Case {
+        name: "late bonds",
+        make: late,
+        steps: 1500,
+        chunk: 750,
+        breaks: 1,
+    },
+    Case {
         name: "loose block",
         make: loose,
         steps: 2000,
@@ -458,7 +503,7 @@ fn bonded_scenes_on_the_device_match_the_cpu() {
     let Some(ctx) = gpu() else {
         return;
     };
-    for case in &CASES[..6] {
+    for case in &CASES[..7] {
         let cpu = run((case.make)(), case.steps, case.chunk);
         assert!(
             cpu.breakages.len() >= case.breaks,
@@ -516,7 +561,7 @@ fn a_batch_of_bonded_worlds_gives_each_its_own_result() {
     let Some(ctx) = gpu() else {
         return;
     };
-    let cases: Vec<&Case> = [0, 2, 4, 5, 6].iter().map(|&k| &CASES[k]).collect();
+    let cases: Vec<&Case> = [0, 2, 4, 5, 6, 7].iter().map(|&k| &CASES[k]).collect();
     let alone: Vec<End> = cases
         .iter()
         .map(|case| run_gpu(case, GpuStages::with_context(ctx.clone())))

@@ -593,12 +593,15 @@ impl Bonds {
         self.apply(p);
     }
 
-    /// Marks the bonds that broke in this step's update as broken and logs them, in bond order.
+    /// Marks the bonds that broke in this step's update as broken and logs them, by stable ids.
     fn record_breakages(&mut self, p: &Particles, index_of: &[u32], time: f64) {
-        for b in 0..self.ids.len() {
-            if !std::mem::take(&mut self.broke_now[b]) || !self.intact[b] {
-                continue;
-            }
+        // By stable ids within the step: the bond order follows the particles' (re-sorted at
+        // rebuilds), and a device keeps it fixed over a segment (`segment.rs`).
+        let mut broke: Vec<usize> = (0..self.ids.len())
+            .filter(|&b| std::mem::take(&mut self.broke_now[b]) && self.intact[b])
+            .collect();
+        broke.sort_by_key(|&b| self.ids[b]);
+        for b in broke {
             // The stresses and the limit it broke at, from the state the update left.
             let section = Section::new(self.radius[b]);
             let (sigma, tau) = section.stresses(&self.state[b]);
@@ -705,18 +708,37 @@ impl StepExtension for Bonds {
         OnDevice::InSegments
     }
 
-    fn segment_bonds(&self, particles: &Particles, index_of: &[u32]) -> Option<SegmentBonds> {
+    fn segment_bonds(
+        &self,
+        particles: &Particles,
+        index_of: &[u32],
+    ) -> Result<Option<SegmentBonds>, String> {
         self.for_segment(&particles.id, index_of)
     }
 
-    fn end_segment(&mut self, end: SegmentBondsEnd, first_step: u64, steps: u64, dt: f64) {
-        Bonds::end_segment(self, end, first_step, steps, dt);
+    fn end_segment(
+        &mut self,
+        end: SegmentBondsEnd,
+        first_step: u64,
+        steps: u64,
+        dt: f64,
+    ) -> Result<(), String> {
+        Bonds::end_segment(self, end, first_step, steps, dt)
     }
 
-    /// Nothing to do between steps once every bond kind has formed.
-    fn idle_steps(&self, _time: f64, _dt: f64) -> u64 {
-        if self.all_formed() {
-            u64::MAX
+    /// Nothing to do between steps until the next bond kind forms, nothing at all once every
+    /// kind has (less one step for the round-off in the step times, as a factory counts).
+    fn idle_steps(&self, time: f64, dt: f64) -> u64 {
+        let next = (0..self.params.len())
+            .filter(|&k| !self.formed[k])
+            .map(|k| self.params[k].formation_time)
+            .fold(f64::INFINITY, f64::min);
+        if next == f64::INFINITY {
+            return u64::MAX;
+        }
+        let steps = ((next - 1e-12 - time) / dt).floor();
+        if steps.is_finite() && steps > 1.0 {
+            steps as u64 - 1
         } else {
             0
         }

@@ -5,8 +5,9 @@
 //! tests breakage, and adds the bonds' forces to their spheres in the order the host does (each
 //! sphere its own bonds, in bond order, after its contacts and gravity; then local damping and
 //! the second half kick). A bond that breaks records the step and its mid-point; the host then
-//! logs the breakages in (step, bond) order, as a step by step run logs them, with the stresses
-//! read from the state the device left (a broken bond is not updated again).
+//! logs the breakages by step, and within a step by the bonds' stable ids, as a step by step run
+//! logs them, with the stresses read from the state the device left (a broken bond is not
+//! updated again).
 
 use glam::DVec3;
 
@@ -87,17 +88,23 @@ fn state_of(r: &[f64; STATE_LEN]) -> BondState {
 
 impl Bonds {
     /// The bonds for a segment over particles whose stable ids are `id` (`index_of[id]` their
-    /// index); None without bonds (the step then needs nothing of them).
-    pub fn for_segment(&self, id: &[u32], index_of: &[u32]) -> Option<SegmentBonds> {
+    /// index); Ok(None) without bonds (the step then needs nothing of them), Err when a bond's
+    /// sphere has no index (the segment must then be declined, not run without the bonds).
+    pub fn for_segment(
+        &self,
+        id: &[u32],
+        index_of: &[u32],
+    ) -> Result<Option<SegmentBonds>, String> {
         if self.ids.is_empty() {
-            return None;
+            return Ok(None);
         }
         let index = |k: u32| index_of.get(k as usize).copied();
         let ends = self
             .ids
             .iter()
             .map(|&[a, b]| Some([index(a)?, index(b)?]))
-            .collect::<Option<Vec<_>>>()?;
+            .collect::<Option<Vec<_>>>()
+            .ok_or("a bonded sphere is not among the particles")?;
         let mut row_start = Vec::with_capacity(id.len() + 1);
         let mut slots = Vec::with_capacity(2 * self.ids.len());
         row_start.push(0);
@@ -109,7 +116,7 @@ impl Bonds {
             }
             row_start.push(slots.len() as u32);
         }
-        Some(SegmentBonds {
+        Ok(Some(SegmentBonds {
             params: self.params.clone(),
             ends,
             kind: self.kind.clone(),
@@ -119,16 +126,29 @@ impl Bonds {
             state: self.state.iter().map(state_row).collect(),
             row_start,
             slots,
-        })
+        }))
     }
 
     /// Takes back a segment's bonds: their state and output after its last step, and its
     /// breakages, logged as a step by step run logs them (by step, then bond order) at the
     /// times of a segment that began after step `first_step` with steps of `dt` and ran `steps`
     /// steps.
-    pub fn end_segment(&mut self, end: SegmentBondsEnd, first_step: u64, steps: u64, dt: f64) {
-        if end.state.len() != self.state.len() || end.output.len() != self.output.len() {
-            return;
+    pub fn end_segment(
+        &mut self,
+        end: SegmentBondsEnd,
+        first_step: u64,
+        steps: u64,
+        dt: f64,
+    ) -> Result<(), String> {
+        let n = self.ids.len();
+        if end.state.len() != n
+            || end.output.len() != n
+            || end.breakages.iter().any(|b| b.bond >= n)
+        {
+            return Err(format!(
+                "the device returned {} bond states for {n} bonds",
+                end.state.len()
+            ));
         }
         self.state = end.state.iter().map(state_of).collect();
         self.output = end
@@ -141,7 +161,7 @@ impl Bonds {
             })
             .collect();
         let mut broke = end.breakages;
-        broke.sort_by_key(|b| (b.step, b.bond));
+        broke.sort_by_key(|b| (b.step, self.ids[b.bond]));
         let mut k = 0;
         while k < broke.len() {
             let step = broke[k].step;
@@ -173,5 +193,6 @@ impl Bonds {
                 .push((time, self.intact_count(), self.broken_count()));
         }
         self.last_update = self.last_update.max((first_step + steps) as f64 * dt);
+        Ok(())
     }
 }

@@ -88,7 +88,8 @@ pub trait Backend: Send + Sync {
     }
 
     /// Whether [`Self::run_segment`] can run a simulation with these inputs (no clumps, no
-    /// extension forces: the pipeline checks those). False by default: the pipeline calls the
+    /// extension forces but those of an `OnDevice::InSegments` extension, which the segment
+    /// hands over: the pipeline checks those). False by default: the pipeline calls the
     /// stages one by one.
     fn runs_segments(&self, inputs: &StepInputs) -> bool {
         let _ = inputs;

@@ -32,7 +32,7 @@ impl OnDevice {
                 "the {name} extension works on the host between segments of steps that stay on the device"
             ),
             OnDevice::InSegments => format!(
-                "the {name} extension runs on the device with the particles, in segments of steps"
+                "the {name} extension runs on the device with the particles where the steps run in segments (scenes without clumps), on the host where they run stage by stage"
             ),
             OnDevice::EveryStep => format!(
                 "the {name} extension works on the host at every step, so the simulation runs stage by stage with the particles copied to the device and back at every stage (slower than the CPU)"
@@ -53,16 +53,29 @@ pub trait StepExtension: Send + Any {
     fn on_device(&self) -> OnDevice;
 
     /// For [`OnDevice::InSegments`]: its bonds, for a segment over `particles` (`index_of` as
-    /// [`Self::add_forces`] has it); None when it has none to hand over.
-    fn segment_bonds(&self, particles: &Particles, index_of: &[u32]) -> Option<SegmentBonds> {
+    /// [`Self::add_forces`] has it); Ok(None) when it has none, Err when it cannot hand them
+    /// over (the steps then run stage by stage, its forces on the host). The default declines:
+    /// an extension that says `InSegments` must hand its forces to the device.
+    fn segment_bonds(
+        &self,
+        particles: &Particles,
+        index_of: &[u32],
+    ) -> Result<Option<SegmentBonds>, String> {
         let _ = (particles, index_of);
-        None
+        Err(format!("the {} extension has no device state", self.name()))
     }
 
     /// For [`OnDevice::InSegments`]: takes back what the device did with its bonds in a segment
-    /// that began after step `first_step` and ran `steps` steps of `dt`.
-    fn end_segment(&mut self, end: SegmentBondsEnd, first_step: u64, steps: u64, dt: f64) {
+    /// that began after step `first_step` and ran `steps` steps of `dt`; Err stops the run.
+    fn end_segment(
+        &mut self,
+        end: SegmentBondsEnd,
+        first_step: u64,
+        steps: u64,
+        dt: f64,
+    ) -> Result<(), String> {
         let _ = (end, first_step, steps, dt);
+        Ok(())
     }
 
     /// Whether [`Self::add_forces`] is to be called: then the second half kick waits for it.

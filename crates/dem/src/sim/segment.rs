@@ -9,6 +9,8 @@
 //! - the geometry motion of every step ([`GeometryTrack`]), computed on the host beforehand as
 //!   the pipeline would (`Geometry::advance`), so moving walls cost the device a copy of a few
 //!   elements per step, not a host round trip;
+//! - the bonds of an extension that runs on the device ([`super::OnDevice::InSegments`]), which it
+//!   takes back after the segment;
 //! - the steps at which geometry motion forces a list rebuild: the device rebuilds on its own when
 //!   a particle has moved half the skin, and the host forces one when a geometry has moved a
 //!   quarter of the skin since the last forced one, so particle and geometry motion since any
@@ -241,8 +243,21 @@ impl super::Simulation {
             .extensions
             .iter()
             .position(|e| e.on_device() == OnDevice::InSegments);
-        let bonds =
-            bonded.and_then(|k| self.extensions[k].segment_bonds(&self.particles, &self.index_of));
+        let bonds = match bonded
+            .map(|k| self.extensions[k].segment_bonds(&self.particles, &self.index_of))
+        {
+            None | Some(Ok(None)) => None,
+            Some(Ok(Some(b))) => Some(b),
+            // Stage by stage, the extension's forces on the host, as for a declined segment.
+            Some(Err(_)) => {
+                if let Some(g) = saved {
+                    self.geometries = g;
+                }
+                self.segment_backoff = (2 * self.segment_backoff).clamp(16, 4096);
+                self.segments_declined_until = self.steps + self.segment_backoff;
+                return Ok(false);
+            }
+        };
         let segment = Segment {
             particles: &self.particles,
             lists: &self.neighbours,
@@ -272,8 +287,15 @@ impl super::Simulation {
         self.segment_backoff = 0;
         let dt = self.params.time_step;
         let (start_steps, start_time) = (self.steps, self.time);
-        if let (Some(k), Some(b)) = (bonded, end.bonds.take()) {
-            self.extensions[k].end_segment(b, start_steps, end.steps_done, dt);
+        if let (Some(k), Some(mut b)) = (bonded, end.bonds.take()) {
+            // The kernels of a world's failing step still ran on its failed state.
+            if let Some(f) = end.failed_at {
+                b.breakages.retain(|x| x.step < f);
+            }
+            let time = (start_steps + end.steps_done) as f64 * dt;
+            self.extensions[k]
+                .end_segment(b, start_steps, end.steps_done, dt)
+                .map_err(|message| SimError::Extension { time, message })?;
         }
         let p = &mut self.particles;
         p.position = end.position;

@@ -12,6 +12,9 @@ const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SPIN: &str = include_str!("wgsl/spin.wgsl");
 const CONTACT: &str = include_str!("wgsl/contact.wgsl");
 const ELEMENTS: &str = include_str!("wgsl/elements.wgsl");
+/// Rigid clumps' quaternions, kicks and member placement; needs `bodies`, `body_members`,
+/// `members`, `offsets` and the common buffers bound.
+const RIGID: &str = include_str!("wgsl/bodies/rigid.wgsl");
 /// The segment kernels' list sentinel and cell hash.
 const SHARED: &str = include_str!("wgsl/resident/shared.wgsl");
 
@@ -79,6 +82,14 @@ const KERNELS: &[(&str, &[&str])] = &[
     (
         "bond_sums",
         &[COMMON, SPIN, include_str!("wgsl/bonds/bond_sums.wgsl")],
+    ),
+    (
+        "bodies_first",
+        &[COMMON, RIGID, include_str!("wgsl/bodies/bodies_first.wgsl")],
+    ),
+    (
+        "bodies_last",
+        &[COMMON, RIGID, include_str!("wgsl/bodies/bodies_last.wgsl")],
     ),
 ];
 

@@ -371,6 +371,45 @@ layout! {
 }
 
 layout! {
+    /// `bodies`: one row per clump body of a segment (`dem::sim::SegmentBodies`).
+    body, "BD_", Contiguous, len 24 {
+        /// The centre of mass.
+        POSITION: 0, 3;
+        VELOCITY: 3, 3;
+        /// Body to space: the quaternion's vector part x, y, z and its scalar w.
+        ORIENTATION: 6, 3;
+        ORIENTATION_W: 9, 1;
+        /// In the space frame.
+        ANGULAR_MOMENTUM: 10, 3;
+        /// The principal moments of inertia.
+        INERTIA: 13, 3;
+        MASS: 16, 1;
+        /// The force and torque (about the centre of mass) of the last step, and the summed
+        /// constant-directional rolling limit of the members.
+        FORCE: 17, 3;
+        TORQUE: 20, 3;
+        ROLLING_LIMIT: 23, 1;
+    }
+}
+
+layout! {
+    /// `body_members` (u32): one row per body, its members as a range begin..end of `members`
+    /// (particle indices, with their rows of `offsets` at the same places).
+    body_members, "BM_", Contiguous, len 2 {
+        BEGIN: 0, 1;
+        END: 1, 1;
+    }
+}
+
+layout! {
+    /// `offsets`: one row per clump member, its offset from its body's centre of mass in the
+    /// body frame.
+    member, "MB_", Contiguous, len 3 {
+        OFFSET: 0, 3;
+    }
+}
+
+layout! {
     /// `state`, in blocks of N: what the kick and drift advance (three numbers a particle each).
     state, "S_", Contiguous, len 9 {
         POSITION: 0, 3;
@@ -431,7 +470,7 @@ layout! {
 layout! {
     /// `counts` (u32): the sizes a stage kernel works over. A segment sets every count; a stage
     /// run alone only those its kernel reads.
-    counts, "C_", Contiguous, len 6 {
+    counts, "C_", Contiguous, len 7 {
         PARTICLES: 0, 1;
         PAIRS: 1, 1;
         REVERSE: 2, 1;
@@ -441,6 +480,8 @@ layout! {
         ROW_WIDTH: 4, 1;
         /// Bonds of a segment.
         BONDS: 5, 1;
+        /// Clump bodies of a segment.
+        BODIES: 6, 1;
     }
 }
 
@@ -526,6 +567,9 @@ pub(crate) const LAYOUTS: &[Layout] = &[
     bond_ends::LAYOUT,
     bond_props::LAYOUT,
     bond_broke::LAYOUT,
+    body::LAYOUT,
+    body_members::LAYOUT,
+    member::LAYOUT,
     state::LAYOUT,
     loads::LAYOUT,
     props::LAYOUT,

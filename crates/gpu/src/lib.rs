@@ -438,11 +438,8 @@ impl Backend for GpuStages {
 
     fn remarks(&self, inputs: &StepInputs) -> Vec<String> {
         let mut r = vec![format!("on {}", self.ctx.adapter)];
-        if inputs.clumps {
-            r.push("clumps run stage by stage, with the particles copied to the device and back at every stage (slower than the CPU); only scenes without clumps keep their state on the device".to_string());
-        }
         if inputs.polyhedra.is_some() {
-            r.push("polyhedral particles' contacts run on the CPU".to_string());
+            r.push("polyhedral particles' contacts run on the CPU, and the simulation stage by stage with the particles copied to the device and back at every stage (slower than the CPU)".to_string());
         } else if !Self::runs_pairs(inputs) {
             r.push(format!(
                 "the {} contact law runs on the CPU (the GPU stages run {})",
@@ -454,7 +451,9 @@ impl Backend for GpuStages {
     }
 
     fn runs_segments(&self, inputs: &StepInputs) -> bool {
-        Self::runs_pairs(inputs) && !inputs.clumps && self.ctx.failure().is_none()
+        // Clumps run with the segment (their bodies on the device); polyhedra's contacts are the
+        // host's, which `runs_pairs` says.
+        Self::runs_pairs(inputs) && self.ctx.failure().is_none()
     }
 
     fn run_segment(&self, segment: &Segment) -> Option<SegmentEnd> {

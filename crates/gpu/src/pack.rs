@@ -92,6 +92,7 @@ pub(crate) struct Counts {
     pub reverse: usize,
     pub walls: usize,
     pub bonds: usize,
+    pub bodies: usize,
 }
 
 impl Counts {
@@ -104,6 +105,7 @@ impl Counts {
         w[c::REVERSE] = self.reverse as u32;
         w[c::WALLS] = self.walls as u32;
         w[c::BONDS] = self.bonds as u32;
+        w[c::BODIES] = self.bodies as u32;
         w[c::ROW_WIDTH] = row_width(threads);
         w
     }

@@ -270,6 +270,7 @@ impl GpuStages {
                 reverse: lists.reverse.len(),
                 walls: walls.output().len(),
                 bonds: 0,
+                bodies: 0,
             }
             .words(threads),
         );

@@ -138,6 +138,11 @@ const CASES: &[Case] = &[
         make: exploding,
         runs: &[2000],
     },
+    Case {
+        name: "tumbling clumps",
+        make: common::tumbling_clumps,
+        runs: &[1000, 1000],
+    },
 ];
 
 /// What a case ended with: the state, the geometry loads, and the error of a failed run.
@@ -271,7 +276,7 @@ fn a_batch_gives_each_simulation_the_bits_it_gets_alone() {
         "failed after {} steps",
         alone[3].steps
     );
-    for k in [0, 1, 2, 4] {
+    for k in [0, 1, 2, 4, 6] {
         let (case, a) = (&CASES[k], &alone[k]);
         assert_eq!(a.error, None, "{}", case.name);
         assert_eq!(a.steps, case.runs.iter().sum::<u64>(), "{}", case.name);

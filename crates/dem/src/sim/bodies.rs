@@ -5,7 +5,7 @@
 
 use super::Simulation;
 use crate::parallel::Shared;
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use rayon::prelude::*;
 
 /// Bodies per parallel task.
@@ -80,5 +80,109 @@ impl Simulation {
                 *torque = t;
                 *limit = lim;
             });
+    }
+}
+
+/// A segment's clumps, as the host hands them to the device ([`super::segment`]): each body's
+/// state and its last force, and its members (particle indices) with their offsets in the body
+/// frame. The device runs the clump stages of every step as the pipeline does (the first half:
+/// kick, drift, turn, members placed; after the forces: members gathered, kick, members' velocities).
+#[derive(Clone, Debug, Default)]
+pub struct SegmentBodies {
+    pub position: Vec<DVec3>,
+    pub velocity: Vec<DVec3>,
+    pub orientation: Vec<DQuat>,
+    pub angular_momentum: Vec<DVec3>,
+    pub principal_inertia: Vec<DVec3>,
+    pub mass: Vec<f64>,
+    pub force: Vec<DVec3>,
+    pub torque: Vec<DVec3>,
+    pub rolling_limit: Vec<f64>,
+    /// Body b's members are `members[member_start[b]..member_start[b + 1]]`, in the body's order.
+    pub member_start: Vec<u32>,
+    pub members: Vec<u32>,
+    /// Each member's offset from its body's centre of mass, in the body frame.
+    pub offset: Vec<DVec3>,
+}
+
+/// The clumps after a segment's last step.
+#[derive(Clone, Debug, Default)]
+pub struct SegmentBodiesEnd {
+    pub position: Vec<DVec3>,
+    pub velocity: Vec<DVec3>,
+    pub orientation: Vec<DQuat>,
+    pub angular_momentum: Vec<DVec3>,
+    pub force: Vec<DVec3>,
+    pub torque: Vec<DVec3>,
+    pub rolling_limit: Vec<f64>,
+}
+
+impl Simulation {
+    /// The clumps for a segment; None without clumps, or with polyhedra (whose contacts the
+    /// device does not have) or a member not among the particles.
+    pub(super) fn segment_bodies(&self) -> Option<SegmentBodies> {
+        let b = &self.bodies;
+        if b.is_empty() || b.polyhedra.any() {
+            return None;
+        }
+        let mut member_start = vec![0u32];
+        let mut members = Vec::new();
+        let mut offset = Vec::new();
+        for list in &b.members {
+            for &id in list {
+                let k = *self.index_of.get(id as usize)? as usize;
+                members.push(k as u32);
+                offset.push(*self.particles.body_offset.get(k)?);
+            }
+            member_start.push(members.len() as u32);
+        }
+        Some(SegmentBodies {
+            position: b.position.clone(),
+            velocity: b.velocity.clone(),
+            orientation: b.rotation.iter().map(|r| r.orientation).collect(),
+            angular_momentum: b.rotation.iter().map(|r| r.angular_momentum).collect(),
+            principal_inertia: b.rotation.iter().map(|r| r.principal_inertia).collect(),
+            mass: b.mass.clone(),
+            force: b.force.clone(),
+            torque: b.torque.clone(),
+            rolling_limit: b.rolling_limit.clone(),
+            member_start,
+            members,
+            offset,
+        })
+    }
+
+    /// Takes back the clumps after a segment; Err when the device returned another count.
+    pub(super) fn end_segment_bodies(&mut self, end: SegmentBodiesEnd) -> Result<(), String> {
+        let b = &mut self.bodies;
+        let n = b.len();
+        let lens = [
+            end.position.len(),
+            end.velocity.len(),
+            end.orientation.len(),
+            end.angular_momentum.len(),
+            end.force.len(),
+            end.torque.len(),
+            end.rolling_limit.len(),
+        ];
+        if lens.iter().any(|&l| l != n) {
+            return Err(format!(
+                "the device returned {lens:?} clump states for {n} clumps"
+            ));
+        }
+        b.position = end.position;
+        b.velocity = end.velocity;
+        for (r, (q, l)) in b
+            .rotation
+            .iter_mut()
+            .zip(end.orientation.into_iter().zip(end.angular_momentum))
+        {
+            r.orientation = q;
+            r.angular_momentum = l;
+        }
+        b.force = end.force;
+        b.torque = end.torque;
+        b.rolling_limit = end.rolling_limit;
+        Ok(())
     }
 }

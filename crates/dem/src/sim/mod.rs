@@ -34,6 +34,7 @@ mod stage_bench;
 pub mod walls;
 
 pub use backend::{Anchors, Backend, Moved, StepInputs};
+pub use bodies::{SegmentBodies, SegmentBodiesEnd};
 pub use contacts::PairContact;
 pub use cpu::{kick_spin, CpuBackend};
 pub use extension::{OnDevice, StepExtension};

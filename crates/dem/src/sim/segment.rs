@@ -9,6 +9,8 @@
 //! - the geometry motion of every step ([`GeometryTrack`]), computed on the host beforehand as
 //!   the pipeline would (`Geometry::advance`), so moving walls cost the device a copy of a few
 //!   elements per step, not a host round trip;
+//! - the clumps (their state, last force and members), whose stages the device runs with the
+//!   particles' (not polyhedra, whose contacts are the host's);
 //! - the bonds of an extension that runs on the device ([`super::OnDevice::InSegments`]), which it
 //!   takes back after the segment;
 //! - the steps at which geometry motion forces a list rebuild: the device rebuilds on its own when
@@ -21,7 +23,7 @@
 //! carries the histories over, as a rebuild always does) and runs the extensions.
 
 use super::walls::WallCandidate;
-use super::{OnDevice, SimError, StepInputs};
+use super::{OnDevice, SegmentBodies, SegmentBodiesEnd, SimError, StepInputs};
 use crate::bond::segment::{SegmentBonds, SegmentBondsEnd};
 use crate::geometry::{Element, Load, VelocityField};
 use crate::neighbour::{NeighbourList, Pair};
@@ -65,6 +67,9 @@ pub struct Segment<'a> {
     /// The bonds the device runs with the particles (an [`OnDevice::InSegments`] extension's).
     /// A back end that cannot run them declines the segment.
     pub bonds: Option<&'a SegmentBonds>,
+    /// The clumps, whose stages the device runs with the particles' (`inputs.clumps` is set).
+    /// A back end that cannot run them declines the segment.
+    pub bodies: Option<&'a SegmentBodies>,
 }
 
 /// The state after a segment's last step.
@@ -92,6 +97,8 @@ pub struct SegmentEnd {
     pub failed_at: Option<u64>,
     /// The bonds after the last step, when the segment had bonds.
     pub bonds: Option<SegmentBondsEnd>,
+    /// The clumps after the last step, when the segment had clumps.
+    pub bodies: Option<SegmentBodiesEnd>,
 }
 
 /// Most steps in one segment: segments chain, and this bounds what the host keeps per step and
@@ -110,7 +117,8 @@ impl super::Simulation {
         if left < 2
             || self.particles.is_empty()
             || self.steps < self.segments_declined_until
-            || !self.bodies.is_empty()
+            // Polyhedra's contacts are the host's.
+            || self.bodies.polyhedra.any()
             || self.extensions.iter().any(|e| match e.on_device() {
                 OnDevice::EveryStep => true,
                 OnDevice::BetweenSegments => e.adds_forces(),
@@ -123,7 +131,9 @@ impl super::Simulation {
                 .filter(|e| e.on_device() == OnDevice::InSegments)
                 .count()
                 > 1
-            || !self.backend.runs_segments(&self.inputs(false))
+            || !self
+                .backend
+                .runs_segments(&self.inputs(!self.bodies.is_empty()))
         {
             return 0;
         }
@@ -243,38 +253,47 @@ impl super::Simulation {
             .extensions
             .iter()
             .position(|e| e.on_device() == OnDevice::InSegments);
-        let bonds = match bonded
-            .map(|k| self.extensions[k].segment_bonds(&self.particles, &self.index_of))
-        {
-            None | Some(Ok(None)) => None,
-            Some(Ok(Some(b))) => Some(b),
-            // Stage by stage, the extension's forces on the host, as for a declined segment.
-            Some(Err(_)) => {
-                if let Some(g) = saved {
-                    self.geometries = g;
-                }
-                self.segment_backoff = (2 * self.segment_backoff).clamp(16, 4096);
-                self.segments_declined_until = self.steps + self.segment_backoff;
-                return Ok(false);
+        let bonds =
+            bonded.map(|k| self.extensions[k].segment_bonds(&self.particles, &self.index_of));
+        let clumps = !self.bodies.is_empty();
+        let bodies = self.segment_bodies();
+        let bonds = match bonds {
+            // Stage by stage, the extension's forces or the clumps on the host, as for a declined
+            // segment.
+            Some(Err(_)) => None,
+            None => Some(None),
+            Some(Ok(b)) => Some(b),
+        }
+        .filter(|_| !clumps || bodies.is_some());
+        let Some(bonds) = bonds else {
+            if let Some(g) = saved {
+                self.geometries = g;
             }
+            self.segment_backoff = (2 * self.segment_backoff).clamp(16, 4096);
+            self.segments_declined_until = self.steps + self.segment_backoff;
+            return Ok(false);
         };
         let segment = Segment {
             particles: &self.particles,
             lists: &self.neighbours,
             wall_start: &self.walls.start,
             wall_candidates: &self.walls.candidates,
-            inputs: self.inputs(false),
+            inputs: self.inputs(clumps),
             steps,
             track: &track,
             pair_reach: reach,
             wall_reach: reach,
             bonds: bonds.as_ref(),
+            bodies: bodies.as_ref(),
         };
         let end = self
             .backend
             .run_segment(&segment)
-            // A back end that left the bonds out has not run the segment.
-            .filter(|end| bonds.is_none() || end.bonds.is_some());
+            // A back end that left the bonds or the clumps out has not run the segment.
+            .filter(|end| {
+                (bonds.is_none() || end.bonds.is_some())
+                    && (bodies.is_none() || end.bodies.is_some())
+            });
         let Some(mut end) = end else {
             if let Some(g) = saved {
                 self.geometries = g;
@@ -287,6 +306,11 @@ impl super::Simulation {
         self.segment_backoff = 0;
         let dt = self.params.time_step;
         let (start_steps, start_time) = (self.steps, self.time);
+        if let Some(b) = end.bodies.take() {
+            let time = (start_steps + end.steps_done) as f64 * dt;
+            self.end_segment_bodies(b)
+                .map_err(|message| SimError::Extension { time, message })?;
+        }
         if let (Some(k), Some(mut b)) = (bonded, end.bonds.take()) {
             // The kernels of a world's failing step still ran on its failed state.
             if let Some(f) = end.failed_at {

@@ -250,6 +250,7 @@ impl BondBuffers {
         params: &wgpu::Buffer,
         counts_n: &wgpu::Buffer,
         ctrl: &wgpu::Buffer,
+        body: &wgpu::Buffer,
         count: usize,
         n: usize,
     ) -> [Launch<'a>; 2] {
@@ -286,6 +287,7 @@ impl BondBuffers {
                     &self.ends,
                     &self.params,
                     &self.output,
+                    body,
                 ],
                 n,
             ),

@@ -24,6 +24,7 @@ use dem::sim::{Segment, SegmentEnd};
 use crate::layout::{ctrl, overflow};
 use crate::{groups, GpuContext, GpuStages};
 
+mod bodies;
 mod bonds;
 mod run;
 pub(crate) mod world;
@@ -67,6 +68,8 @@ pub(crate) struct ResidentKernels {
     geometry_loads: wgpu::ComputePipeline,
     bond_forces: wgpu::ComputePipeline,
     bond_sums: wgpu::ComputePipeline,
+    bodies_first: wgpu::ComputePipeline,
+    bodies_last: wgpu::ComputePipeline,
 }
 
 impl ResidentKernels {
@@ -85,6 +88,8 @@ impl ResidentKernels {
             geometry_loads: take("geometry_loads"),
             bond_forces: take("bond_forces"),
             bond_sums: take("bond_sums"),
+            bodies_first: take("bodies_first"),
+            bodies_last: take("bodies_last"),
         }
     }
 }
@@ -109,6 +114,8 @@ impl GpuContext {
             (&k.geometry_loads, "geometry_loads"),
             (&k.bond_forces, "bond_forces"),
             (&k.bond_sums, "bond_sums"),
+            (&k.bodies_first, "bodies_first"),
+            (&k.bodies_last, "bodies_last"),
         ]
         .into_iter()
         .find(|(q, _)| std::ptr::eq(*q, p))

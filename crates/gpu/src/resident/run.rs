@@ -3,6 +3,7 @@
 
 use dem::sim::SegmentEnd;
 
+use super::bodies::BodyBuffers;
 use super::bonds::BondBuffers;
 use super::world::{Merged, World};
 use super::{
@@ -59,6 +60,7 @@ impl Sizes {
         ]
         .into_iter()
         .chain(m.bonds.as_ref().map(|b| b.largest()))
+        .chain(m.bodies.as_ref().map(|b| b.largest()))
         .max()
         .unwrap_or(0)
     }
@@ -105,6 +107,7 @@ struct Buffers {
     reverse_count: wgpu::Buffer,
     geometry_loads: wgpu::Buffer,
     bonds: Option<BondBuffers>,
+    bodies: Option<BodyBuffers>,
 }
 
 impl Buffers {
@@ -118,6 +121,7 @@ impl Buffers {
                 reverse: pairs,
                 walls,
                 bonds: 0,
+                bodies: 0,
             };
             c.storage(&counts.words(threads as u32))
         };
@@ -182,6 +186,7 @@ impl Buffers {
                 layout::geometry_loads::LEN * s.geometries.max(1)
             ]),
             bonds: m.bonds.as_ref().map(|mb| BondBuffers::new(c, mb, n)),
+            bodies: m.bodies.as_ref().map(|mb| BodyBuffers::new(c, mb, n)),
         }
     }
 }
@@ -196,6 +201,8 @@ struct Launches<'a> {
     forces: [Launch<'a>; 3],
     /// The bond kernel and the bond sums, after the forces, when a world has bonds.
     bonds: Option<[Launch<'a>; 2]>,
+    /// The clumps' first half (before `integrate`) and last (after the forces and bonds).
+    bodies: Option<[Launch<'a>; 2]>,
     geometry_loads: Launch<'a>,
 }
 
@@ -227,12 +234,19 @@ impl<'a> Launches<'a> {
                 &b.params,
                 &b.counts_n,
                 &b.ctrl,
+                &b.body,
                 mb.count,
                 n,
             )
         });
+        let bodies = b
+            .bodies
+            .as_ref()
+            .zip(m.bodies.as_ref())
+            .map(|(bb, mb)| bb.launches(c, &b.state, &b.props, &b.params, &b.loads, mb.count));
         Launches {
             bonds,
+            bodies,
             begin: launch(c, &k.begin, &[&b.ctrl, &b.forced, &b.params], 0),
             integrate: launch(
                 c,
@@ -471,11 +485,14 @@ impl GpuStages {
         let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
         let l = Launches::new(c, &b, &sizes, &m);
         // One step's launches, in order (the same every step).
-        let step: Vec<&Launch> = [&l.begin, &l.integrate, &l.check]
+        let step: Vec<&Launch> = [&l.begin]
             .into_iter()
+            .chain(l.bodies.iter().map(|b| &b[0]))
+            .chain([&l.integrate, &l.check])
             .chain(l.rebuild.iter())
             .chain(l.forces.iter())
             .chain(l.bonds.iter().flatten())
+            .chain(l.bodies.iter().map(|b| &b[1]))
             .collect();
 
         // The lists for the state at the start (their histories from the host's lists).
@@ -547,6 +564,9 @@ impl GpuStages {
         if let Some(bb) = &b.bonds {
             buffers.extend([&bb.state, &bb.output, &bb.broke]);
         }
+        if let Some(bb) = &b.bodies {
+            buffers.push(&bb.rows);
+        }
         let out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
         check_overflow(&out[0])?;
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
@@ -557,11 +577,19 @@ impl GpuStages {
             .collect();
         // The first rebuild, before the first step, is not the simulation's.
         let rebuilds = words[layout::ctrl::REBUILDS].saturating_sub(1) as u64;
+        let mut at = 9;
         let bonds = match &m.bonds {
-            Some(mb) => mb.split(worlds, [&out[9], &out[10], &out[11]]),
+            Some(mb) => {
+                at += 3;
+                mb.split(worlds, [&out[9], &out[10], &out[11]])
+            }
             None => worlds.iter().map(|_| None).collect(),
         };
-        Ok(m.split(worlds, &out, rebuilds, &failed, bonds))
+        let bodies = match &m.bodies {
+            Some(mb) => mb.split(worlds, &out[at]),
+            None => worlds.iter().map(|_| None).collect(),
+        };
+        Ok(m.split(worlds, &out, rebuilds, &failed, bonds, bodies))
     }
 }
 

@@ -17,6 +17,7 @@ use dem::neighbour::Pair;
 use dem::sim::walls::WallCandidate;
 use dem::sim::{Segment, SegmentEnd};
 
+use super::bodies::{MergedBodies, WorldBodies};
 use super::bonds::{MergedBonds, WorldBonds};
 use super::{Capacity, EMPTY};
 use crate::layout::{self, element, geometry, overflow};
@@ -68,6 +69,8 @@ pub(crate) struct World {
     pub longest_wall: usize,
     /// The bonds that run with it (`dem::bond::segment`).
     pub bonds: Option<WorldBonds>,
+    /// Its clumps (`dem::sim::SegmentBodies`).
+    pub bodies: Option<WorldBodies>,
 }
 
 impl World {
@@ -140,8 +143,21 @@ impl World {
             (e, v)
         };
         let params = inputs.params;
-        let mut params_block =
-            params_of(params, false, true, inputs.materials.len(), inputs.cohesive);
+        let mut params_block = params_of(
+            params,
+            inputs.clumps,
+            true,
+            inputs.materials.len(),
+            inputs.cohesive,
+        );
+        let bodies = match seg.bodies {
+            Some(b) => Some(WorldBodies::pack(b, n)?),
+            None => None,
+        };
+        // Clumps run with the segment only with their bodies.
+        if inputs.clumps != bodies.is_some() {
+            return None;
+        }
         params_block[layout::params::STEPS] = seg.steps as f64;
         let bonds = match seg.bonds {
             Some(b) => Some(WorldBonds::pack(b, n)?),
@@ -183,6 +199,7 @@ impl World {
             longest_row,
             longest_wall,
             bonds,
+            bodies,
         })
     }
 
@@ -236,6 +253,8 @@ pub(crate) struct Merged {
     pub search: [f64; layout::search::LEN],
     /// The worlds' bonds; None when none has any.
     pub bonds: Option<MergedBonds>,
+    /// The worlds' clumps; None when none has any.
+    pub bodies: Option<MergedBodies>,
 }
 
 /// An index shifted by a world's offset.
@@ -284,6 +303,7 @@ impl Merged {
             forced: vec![0; steps + 1],
             search: [0.0; search::LEN],
             bonds: MergedBonds::new(worlds, &offsets, n),
+            bodies: MergedBodies::new(worlds, &offsets),
         };
         m.search[search::HALF_SKIN_SQUARED] = f64::INFINITY;
         let mut max_radius: f64 = 0.0;
@@ -445,6 +465,7 @@ impl Merged {
         rebuilds: u64,
         failed: &[Option<u64>],
         bonds: Vec<Option<dem::bond::segment::SegmentBondsEnd>>,
+        bodies: Vec<Option<dem::sim::SegmentBodiesEnd>>,
     ) -> Vec<SegmentEnd> {
         use layout::{cands, geometry_loads, loads, pair_ij, rows as r, state};
         let n = self.n;
@@ -461,7 +482,8 @@ impl Merged {
             .zip(&self.offsets)
             .zip(failed)
             .zip(bonds)
-            .map(|(((w, off), &failed_at), bonds)| {
+            .zip(bodies)
+            .map(|((((w, off), &failed_at), bonds), bodies)| {
                 let range = off.particle..off.particle + w.n;
                 let v = |buffer: &[f64], block: usize| {
                     range
@@ -481,6 +503,7 @@ impl Merged {
                     failed_at,
                     steps_done: failed_at.map_or(w.steps, |f| f + 1),
                     bonds,
+                    bodies,
                     ..Default::default()
                 };
                 for i in range.clone() {

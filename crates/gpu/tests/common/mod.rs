@@ -124,3 +124,77 @@ pub fn heap(h: &Heap) -> Simulation {
         },
     )
 }
+
+/// 24 clumps (dumbbells and triples) falling onto a floor, tumbling (the GPU agreement and batch
+/// tests' clump scene).
+pub fn tumbling_clumps() -> Simulation {
+    use dem::clump::{Bodies, ClumpTemplate};
+    use glam::DQuat;
+    let dumbbell = ClumpTemplate::new(vec![
+        (DVec3::ZERO, 0.001),
+        (DVec3::new(0.0015, 0.0, 0.0), 0.001),
+    ])
+    .unwrap();
+    let triple = ClumpTemplate::new(vec![
+        (DVec3::ZERO, 0.001),
+        (DVec3::new(0.0012, 0.0, 0.0), 0.0008),
+        (DVec3::new(0.0, 0.0012, 0.0005), 0.0009),
+    ])
+    .unwrap();
+    let mut p = Particles::default();
+    let mut bodies = Bodies::default();
+    for k in 0..24 {
+        let t = if k % 2 == 0 { &dumbbell } else { &triple };
+        let props = t.mass_properties();
+        let at = DVec3::new(
+            0.002 * (k % 3) as f64 - 0.002,
+            0.002 * ((k / 3) % 2) as f64,
+            0.003 + 0.0035 * (k / 6) as f64,
+        );
+        let turn = DQuat::from_rotation_z(0.7 * k as f64) * DQuat::from_rotation_x(0.3 * k as f64);
+        bodies.add(
+            &mut p,
+            t,
+            &props,
+            2500.0,
+            0,
+            at,
+            turn,
+            DVec3::new(0.0, 0.0, -0.2),
+        );
+    }
+    let floor = Geometry::new(
+        "floor",
+        1,
+        vec![Element::Plane {
+            point: DVec3::ZERO,
+            normal: DVec3::Z,
+        }],
+    );
+    let mut t = MaterialTable::new();
+    let a = t.add_material(material("grain", 1e7, 2500.0));
+    let b = t.add_material(material("steel", 2e9, 7800.0));
+    let i = Interaction {
+        restitution: 0.5,
+        static_friction: 0.5,
+        rolling_friction: 0.1,
+        surface_energy: 0.0,
+    };
+    t.set_interaction(a, a, i.clone());
+    t.set_interaction(a, b, i.clone());
+    t.set_interaction(b, b, i);
+    let min_r = p.radius.iter().cloned().fold(f64::INFINITY, f64::min);
+    Simulation::new(
+        p,
+        t,
+        vec![floor],
+        SimulationParams {
+            time_step: 1e-5,
+            gravity: DVec3::new(0.0, 0.0, -9.81),
+            rolling_model: dem::contact::RollingModel::ConstantDirectionalTorque,
+            skin: 0.2 * min_r,
+            ..Default::default()
+        },
+    )
+    .with_bodies(bodies)
+}

@@ -15,6 +15,7 @@
 @group(0) @binding(6) var<storage, read> ends: array<u32>;
 @group(0) @binding(7) var<storage, read> bond_params: array<f64>;
 @group(0) @binding(8) var<storage, read> bond_output: array<f64>;
+@group(0) @binding(9) var<storage, read> body: array<u32>;
 
 fn output_at(k: u32) -> vec3<f64> {
     return vec3<f64>(bond_output[k], bond_output[k + 1u], bond_output[k + 2u]);
@@ -89,7 +90,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     put_load3(L_FORCE * n + 3u * i, f);
     put_load3(L_TORQUE * n + 3u * i, t);
-    if (param(P_KICK) != 0.0lf) {
+    // A clump's members are kicked with their body (bodies/bodies_last.wgsl).
+    if (param(P_KICK) != 0.0lf && (param(P_CLUMPS) == 0.0lf || body[i] == NO_BODY)) {
         let half = 0.5lf * param(P_DT);
         let v = velocity(i) + f * (inv_mass * half);
         let lim = loads[L_ROLLING_LIMIT * n + i];

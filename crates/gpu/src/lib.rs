@@ -4,14 +4,14 @@
 //! Design notes.
 //!
 //! - **Where it plugs in.** [`GpuStages`] implements the engine's stage boundary,
-//!   [`dem::sim::Backend`], two ways. Scenes without clumps run as *segments*
-//!   (`Backend::run_segment`, the `resident` module): `dem::sim::Simulation::run` hands over
-//!   whole runs of steps (up to the end of the call or the next step at which an extension such
-//!   as a factory has work), and the particles, pair and wall lists and contact histories stay on
-//!   the device for all of them; lists are rebuilt on the device (hashed cell buckets, fixed-capacity
+//!   [`dem::sim::Backend`], two ways. Scenes run as *segments* (`Backend::run_segment`, the
+//!   `resident` module): `dem::sim::Simulation::run` hands over whole runs of steps (up to the
+//!   end of the call or the next step at which an extension such as a factory has work), and the
+//!   particles, pair and wall lists, contact histories, clump bodies and bonds stay on the device
+//!   for all of them; lists are rebuilt on the device (hashed cell buckets, fixed-capacity
 //!   sorted rows, histories merged from the old rows); the host reads a few control words every
-//!   64 steps and the state once at the end. Scenes with clumps (whose bodies move on the host),
-//!   and any segment the device declines, run stage by stage: the pipeline in
+//!   64 steps and the state once at the end. Scenes with polyhedra (whose contacts are the
+//!   host's), and any segment the device declines, run stage by stage: the pipeline in
 //!   `Simulation::step` calls integrate, pair forces, wall forces and particle sums, and each
 //!   stage copies its arrays to the device and back (the check path).
 //! - **What runs on the GPU.** Integration, Hertz-Mindlin pair forces with or without JKR
@@ -63,8 +63,10 @@
 //!   closest point of a wall element; `resident/shared.wgsl`, the segment's cell hash). One
 //!   function, `kernels::kernel_sources`, composes every kernel; the context compiles what it
 //!   returns, and the crate's tests parse and validate the same text with naga, so a kernel that
-//!   does not compile fails `cargo test` on any machine. Clumps and geometry motion stay in the
-//!   pipeline on the host (a segment gets the geometry poses of every step from it).
+//!   does not compile fails `cargo test` on any machine. Geometry motion stays in the pipeline
+//!   on the host (a segment gets the geometry poses of every step from it); clump bodies move on
+//!   the device in segments (`resident::bodies`, `wgsl/bodies/`: the pipeline's clump stages,
+//!   quaternions in glam's order) and on the host stage by stage.
 //! - **The data contract.** Every buffer the host and the kernels share (a world's params block,
 //!   the material pair table, element and geometry rows, contact histories, the force kernels'
 //!   outputs, the particles' blocks of N in `state`, `loads`, `props`, `ints` and `rows`, the

@@ -87,9 +87,9 @@ pub trait Backend: Send + Sync {
         Vec::new()
     }
 
-    /// Whether [`Self::run_segment`] can run a simulation with these inputs (no clumps, no
+    /// Whether [`Self::run_segment`] can run a simulation with these inputs (no polyhedra, no
     /// extension forces but those of an `OnDevice::InSegments` extension, which the segment
-    /// hands over: the pipeline checks those). False by default: the pipeline calls the
+    /// hands over with the clump bodies: the pipeline checks those). False by default: the pipeline calls the
     /// stages one by one.
     fn runs_segments(&self, inputs: &StepInputs) -> bool {
         let _ = inputs;

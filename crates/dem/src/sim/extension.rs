@@ -32,7 +32,7 @@ impl OnDevice {
                 "the {name} extension works on the host between segments of steps that stay on the device"
             ),
             OnDevice::InSegments => format!(
-                "the {name} extension runs on the device with the particles where the steps run in segments (scenes without clumps), on the host where they run stage by stage"
+                "the {name} extension runs on the device with the particles where the steps run in segments (scenes without polyhedra), on the host where they run stage by stage"
             ),
             OnDevice::EveryStep => format!(
                 "the {name} extension works on the host at every step, so the simulation runs stage by stage with the particles copied to the device and back at every stage (slower than the CPU)"

@@ -111,7 +111,7 @@ const MAX_TRACKED_ELEMENTS: usize = 4_000_000;
 
 impl super::Simulation {
     /// How many of the next `left` steps can run as one segment on the back end: 0 when it cannot
-    /// (clumps, extension forces the device does not run, a back end without segments), else up
+    /// (polyhedra, extension forces the device does not run, a back end without segments), else up
     /// to the first step at which an extension has work.
     pub(super) fn segment_steps(&self, left: u64) -> u64 {
         if left < 2

@@ -355,3 +355,57 @@ fn bench_batch_prints_simulations_per_hour() {
         assert!(err.contains(&format!("{} 0", bad[0])), "{err}");
     }
 }
+
+/// A bonded bar pulled apart (examples/stalks/bonded_bar.toml, faster and shorter): on the GPU its
+/// bonds, grips and curve stay on the device between the curve's points, and the test gives the
+/// CPU's curve, peak and breakages.
+#[test]
+fn a_bonded_tension_test_on_the_gpu_gives_the_cpus_curve() {
+    let dir = temp_dir("bonded-bar");
+    let example = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/stalks/bonded_bar.toml"),
+    )
+    .unwrap();
+    let fast = example
+        .replace("\nspeed = 0.02\n", "\nspeed = 0.1\n")
+        .replace(
+            "\nmax_displacement = 0.002\n",
+            "\nmax_displacement = 0.0009\n",
+        );
+    assert_ne!(fast, example, "the example's speed and travel moved");
+    let file = dir.join("bar.toml");
+    std::fs::write(&file, fast).unwrap();
+    let result = |backend: &str| -> serde_json::Value {
+        let out = demcal()
+            .arg("test")
+            .arg(&file)
+            .args(["--json", "--backend", backend])
+            .output()
+            .unwrap();
+        if backend == "gpu" {
+            check_gpu(&String::from_utf8_lossy(&out.stderr));
+        }
+        let text = ok(out);
+        serde_json::from_str(text.lines().last().unwrap()).unwrap()
+    };
+    let (cpu, gpu) = (result("cpu"), result("gpu"));
+    let number = |v: &serde_json::Value, key: &str| v[key].as_f64().unwrap();
+    eprintln!(
+        "bonded bar: CPU peak {} N, {} broken; GPU peak {} N, {} broken",
+        cpu["peak_force_n"], cpu["bonds_broken"], gpu["peak_force_n"], gpu["bonds_broken"]
+    );
+    assert!(number(&cpu, "bonds_broken") > 0.0, "{cpu}");
+    assert_eq!(cpu["bonds_broken"], gpu["bonds_broken"]);
+    assert_eq!(cpu["bonds_broken_tension"], gpu["bonds_broken_tension"]);
+    for key in [
+        "peak_force_n",
+        "mean_force_n",
+        "stiffness_n_per_m",
+        "displacement_at_peak_m",
+        "work_j",
+    ] {
+        let (a, b) = (number(&cpu, key), number(&gpu, key));
+        assert!((a - b).abs() <= 1e-9 * a.abs(), "{key}: GPU {b}, CPU {a}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

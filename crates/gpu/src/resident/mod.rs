@@ -15,7 +15,8 @@
 //! it) with twice the capacity.
 //!
 //! The host reads a few control words every [`CHUNK`] steps (to stop a failed run early), and
-//! the state once at the end of the segment.
+//! the state once at the end of the segment. It encodes and submits each chunk before it waits for
+//! the one before, so that encoding overlaps the device's work.
 
 use std::sync::Arc;
 
@@ -123,6 +124,15 @@ impl GpuContext {
     }
 }
 
+/// Copies submitted after some work, read once that submission is done
+/// ([`GpuContext::wait_read`]).
+pub(crate) struct PendingRead {
+    staging: Vec<wgpu::Buffer>,
+    index: wgpu::SubmissionIndex,
+    /// The first mapping error, set by the map callbacks during the wait.
+    unmapped: Arc<std::sync::Mutex<Option<String>>>,
+}
+
 /// One kernel launch of a step: pipeline, bind group, threads.
 struct Launch<'a> {
     /// The kernel's name, for the profile.
@@ -159,9 +169,20 @@ impl GpuContext {
     /// device-lost callback and the error handler run during the wait).
     pub(crate) fn read_back(
         &self,
-        mut encoder: wgpu::CommandEncoder,
+        encoder: wgpu::CommandEncoder,
         buffers: &[&wgpu::Buffer],
     ) -> Result<Vec<Vec<u8>>, String> {
+        let pending = self.submit_read(encoder, buffers);
+        self.wait_read(pending)
+    }
+
+    /// Submits what `encoder` holds with copies of `buffers` after it, to be read with
+    /// [`Self::wait_read`]; meanwhile more work may be submitted.
+    pub(crate) fn submit_read(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        buffers: &[&wgpu::Buffer],
+    ) -> PendingRead {
         let staging: Vec<wgpu::Buffer> = buffers
             .iter()
             .map(|b| {
@@ -175,7 +196,7 @@ impl GpuContext {
                 s
             })
             .collect();
-        self.queue.submit([encoder.finish()]);
+        let index = self.queue.submit([encoder.finish()]);
         let unmapped = Arc::new(std::sync::Mutex::new(None::<String>));
         for s in &staging {
             let unmapped = unmapped.clone();
@@ -188,7 +209,25 @@ impl GpuContext {
                 }
             });
         }
-        let waited = self.device.poll(wgpu::PollType::wait_indefinitely());
+        PendingRead {
+            staging,
+            index,
+            unmapped,
+        }
+    }
+
+    /// Waits for the submission of `pending` (not for any submitted after it) and reads its
+    /// copies; Err as [`Self::read_back`].
+    pub(crate) fn wait_read(&self, pending: PendingRead) -> Result<Vec<Vec<u8>>, String> {
+        let PendingRead {
+            staging,
+            index,
+            unmapped,
+        } = pending;
+        let waited = self.device.poll(wgpu::PollType::Wait {
+            submission_index: Some(index),
+            timeout: None,
+        });
         let failed = |what: String| {
             let what = format!("the GPU {} failed: {what}", self.adapter);
             self.failure.record(what.clone());

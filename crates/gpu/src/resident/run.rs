@@ -6,6 +6,7 @@ use dem::sim::SegmentEnd;
 use super::bodies::BodyBuffers;
 use super::bonds::BondBuffers;
 use super::world::{Merged, World};
+use super::PendingRead;
 use super::{
     check_overflow, encode, encode_timed, Capacity, Launch, Retry, BUCKETS_PER_PARTICLE, CHUNK,
     EMPTY,
@@ -508,7 +509,20 @@ impl GpuStages {
         };
         let mut done = 0usize;
         let timer = Timer::new(c, step.len() * CHUNK as usize);
-        while done < sizes.steps {
+        // The chunk in flight and the steps encoded through it. Without the profile the next
+        // chunk is encoded and submitted before the one in flight is waited for, so that the
+        // host's encoding overlaps the device's work (a chunk run after every world is over
+        // steps none of them).
+        let mut in_flight: Option<(PendingRead, usize)> = None;
+        loop {
+            if done >= sizes.steps {
+                // Every step is encoded: the last chunk's words say only whether it overflowed.
+                if let Some((p, _)) = in_flight.take() {
+                    let out = c.wait_read(p).map_err(Retry::Failed)?;
+                    check_overflow(&out[0])?;
+                }
+                break;
+            }
             let chunk = (sizes.steps - done).min(CHUNK as usize);
             let mut encoder = c.device.create_command_encoder(&Default::default());
             for s in done..done + chunk {
@@ -524,8 +538,9 @@ impl GpuStages {
                 }
             }
             done += chunk;
-            let out = match &timer {
+            let (out, at) = match &timer {
                 Some(t) => {
+                    // One chunk at a time: the stamps' query set is reused.
                     let queries = (2 * chunk * step.len()) as u32;
                     encoder.resolve_query_set(&t.stamps, 0..queries, &t.resolved, 0);
                     let out = c
@@ -536,13 +551,19 @@ impl GpuStages {
                         .flat_map(|_| step.iter().map(|l| l.name))
                         .collect();
                     crate::profile::add(&names, &stamps, c.queue.get_timestamp_period());
-                    out
+                    (out, done)
                 }
-                None => c.read_back(encoder, &[&b.ctrl]).map_err(Retry::Failed)?,
+                None => {
+                    let next = (c.submit_read(encoder, &[&b.ctrl]), done);
+                    let Some((p, at)) = in_flight.replace(next) else {
+                        continue;
+                    };
+                    (c.wait_read(p).map_err(Retry::Failed)?, at)
+                }
             };
             check_overflow(&out[0])?;
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
-            if over(&words, done) {
+            if over(&words, at) {
                 break;
             }
         }

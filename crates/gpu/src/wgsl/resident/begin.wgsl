@@ -8,13 +8,15 @@
 @group(0) @binding(2) var<storage, read_write> params: array<f64>;
 
 
-@compute @workgroup_size(1)
-fn main() {
+// One workgroup: its threads share the worlds, and all of them read the step before the first
+// thread moves it on (one thread looped over every world of a batch).
+const BEGIN_THREADS = 256;
+
+@compute @workgroup_size(BEGIN_THREADS)
+fn main(@builtin(local_invocation_index) lid: u32) {
     let s = atomicLoad(&ctrl[K_STEPS_BEGUN]);
-    atomicStore(&ctrl[K_REBUILD], forced[s]);
-    atomicStore(&ctrl[K_STEPS_BEGUN], s + 1u);
     let worlds = atomicLoad(&ctrl[K_WORLDS]);
-    for (var w = 0u; w < worlds; w++) {
+    for (var w = lid; w < worlds; w += u32(BEGIN_THREADS)) {
         let steps = u32(params[P_LEN * w + P_STEPS]);
         var flag = 0.0lf;
         if (atomicLoad(&ctrl[K_FAILED + w]) == 0xffffffffu) {
@@ -25,5 +27,11 @@ fn main() {
             }
         }
         params[P_LEN * w + P_STEPPING] = flag;
+    }
+    workgroupBarrier();
+    storageBarrier();
+    if (lid == 0u) {
+        atomicStore(&ctrl[K_REBUILD], forced[s]);
+        atomicStore(&ctrl[K_STEPS_BEGUN], s + 1u);
     }
 }

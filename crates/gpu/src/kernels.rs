@@ -75,6 +75,7 @@ const KERNELS: &[(&str, &[&str])] = &[
         "geometry_loads",
         &[include_str!("wgsl/resident/geometry_loads.wgsl")],
     ),
+    ("poses", &[include_str!("wgsl/resident/poses.wgsl")]),
     (
         "bond_forces",
         &[COMMON, include_str!("wgsl/bonds/bond_forces.wgsl")],

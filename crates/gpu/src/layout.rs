@@ -487,7 +487,7 @@ layout! {
 
 layout! {
     /// `dims` (u32): the sizes of a segment's fixed-capacity lists.
-    dims, "D_", Contiguous, len 7 {
+    dims, "D_", Contiguous, len 8 {
         PARTICLES: 0, 1;
         /// Slots of a particle's pair row, and of its reverse row.
         PAIR_CAPACITY: 1, 1;
@@ -497,6 +497,8 @@ layout! {
         BUCKET_CAPACITY: 4, 1;
         GEOMETRIES: 5, 1;
         ELEMENTS: 6, 1;
+        /// Elements of moving geometries (the rows of each step in the element track).
+        MOVING_ELEMENTS: 7, 1;
     }
 }
 

@@ -8,7 +8,7 @@
 //! - the particles, the pair and wall lists with their contact histories, at the segment's start;
 //! - the geometry motion of every step ([`GeometryTrack`]), computed on the host beforehand as
 //!   the pipeline would (`Geometry::advance`), so moving walls cost the device a copy of a few
-//!   elements per step, not a host round trip;
+//!   elements per step (by a kernel that reads the step's rows), not a host round trip;
 //! - the clumps (their state, last force and members), whose stages the device runs with the
 //!   particles' (not polyhedra, whose contacts are the host's);
 //! - the bonds of an extension that runs on the device ([`super::OnDevice::InSegments`]), which it

@@ -99,6 +99,9 @@ struct Buffers {
     geoms: wgpu::Buffer,
     element_track: wgpu::Buffer,
     geoms_track: wgpu::Buffer,
+    /// The element of each moving row, and `counts` for the poses' launch.
+    pose_table: wgpu::Buffer,
+    counts_poses: wgpu::Buffer,
     forced: wgpu::Buffer,
     ctrl: wgpu::Buffer,
     dims: wgpu::Buffer,
@@ -144,6 +147,7 @@ impl Buffers {
         dims[layout::dims::BUCKET_CAPACITY] = cap.bucket as u32;
         dims[layout::dims::GEOMETRIES] = s.geometries as u32;
         dims[layout::dims::ELEMENTS] = s.elements as u32;
+        dims[layout::dims::MOVING_ELEMENTS] = m.moving_rows() as u32;
         let body = layout::ints::BODY * n..(layout::ints::BODY + 1) * n;
         Buffers {
             state: c.storage(&m.state),
@@ -175,6 +179,8 @@ impl Buffers {
             geoms: storage_rw(bytemuck::cast_slice(&m.geoms)),
             element_track: track(&m.element_track),
             geoms_track: track(&m.geoms_track),
+            pose_table: c.storage(&m.pose_table()),
+            counts_poses: counts(m.moving_rows() + s.geometries),
             forced: c.storage(&m.forced),
             ctrl: c.storage(&words),
             dims: c.storage(&dims),
@@ -204,6 +210,8 @@ struct Launches<'a> {
     bonds: Option<[Launch<'a>; 2]>,
     /// The clumps' first half (before `integrate`) and last (after the forces and bonds).
     bodies: Option<[Launch<'a>; 2]>,
+    /// The step's geometry poses, after `begin`, where geometries move.
+    poses: Option<Launch<'a>>,
     geometry_loads: Launch<'a>,
 }
 
@@ -245,9 +253,27 @@ impl<'a> Launches<'a> {
             .as_ref()
             .zip(m.bodies.as_ref())
             .map(|(bb, mb)| bb.launches(c, &b.state, &b.props, &b.params, &b.loads, mb.count));
+        let poses = (!m.moving.is_empty()).then(|| {
+            launch(
+                c,
+                &k.poses,
+                &[
+                    &b.ctrl,
+                    &b.dims,
+                    &b.counts_poses,
+                    &b.pose_table,
+                    &b.element_track,
+                    &b.geoms_track,
+                    &b.elements,
+                    &b.geoms,
+                ],
+                m.moving_rows() + s.geometries,
+            )
+        });
         Launches {
             bonds,
             bodies,
+            poses,
             begin: launch(c, &k.begin, &[&b.ctrl, &b.forced, &b.params], 0),
             integrate: launch(
                 c,
@@ -488,6 +514,7 @@ impl GpuStages {
         // One step's launches, in order (the same every step).
         let step: Vec<&Launch> = [&l.begin]
             .into_iter()
+            .chain(l.poses.iter())
             .chain(l.bodies.iter().map(|b| &b[0]))
             .chain([&l.integrate, &l.check])
             .chain(l.rebuild.iter())
@@ -525,16 +552,18 @@ impl GpuStages {
             }
             let chunk = (sizes.steps - done).min(CHUNK as usize);
             let mut encoder = c.device.create_command_encoder(&Default::default());
-            for s in done..done + chunk {
-                if !m.moving.is_empty() {
-                    move_geometries(&mut encoder, &b, &m, &sizes, s);
-                }
-                match &timer {
-                    Some(t) => {
-                        let first = ((s - done) * step.len()) as u32;
-                        encode_timed(&mut encoder, &step, &t.stamps, first)
+            match &timer {
+                Some(t) => {
+                    for s in 0..chunk {
+                        let first = (s * step.len()) as u32;
+                        encode_timed(&mut encoder, &step, &t.stamps, first);
                     }
-                    None => encode(&mut encoder, &step),
+                }
+                // The chunk's steps in one pass (the poses are a launch of the step's own).
+                None => {
+                    let launches: Vec<&Launch> =
+                        (0..chunk).flat_map(|_| step.iter().copied()).collect();
+                    encode(&mut encoder, &launches);
                 }
             }
             done += chunk;
@@ -612,39 +641,6 @@ impl GpuStages {
         };
         Ok(m.split(worlds, &out, rebuilds, &failed, bonds, bodies))
     }
-}
-
-/// Step `s`'s poses of the moving elements and every geometry's velocity, copied from the
-/// tracks into the rows the kernels read.
-fn move_geometries(
-    encoder: &mut wgpu::CommandEncoder,
-    b: &Buffers,
-    m: &Merged,
-    sizes: &Sizes,
-    s: usize,
-) {
-    use layout::{element, geometry};
-    // Numbers, not bytes, until the copy.
-    let mut from = element::LEN * m.moving_rows() * s;
-    for &(g, count) in &m.moving {
-        let first = m.geoms[geometry::LEN * g + geometry::FIRST_ELEMENT] as usize;
-        encoder.copy_buffer_to_buffer(
-            &b.element_track,
-            8 * from as u64,
-            &b.elements,
-            8 * (element::LEN * first) as u64,
-            8 * (element::LEN * count) as u64,
-        );
-        from += element::LEN * count;
-    }
-    let row = geometry::LEN * sizes.geometries;
-    encoder.copy_buffer_to_buffer(
-        &b.geoms_track,
-        8 * (row * s) as u64,
-        &b.geoms,
-        0,
-        8 * row as u64,
-    );
 }
 
 /// The timestamp queries of a profiled segment (`crate::profile`): None unless profiling was

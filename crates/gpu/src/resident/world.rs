@@ -456,6 +456,24 @@ impl Merged {
         self.moving.iter().map(|&(_, e)| e).sum()
     }
 
+    /// The element each moving row of the element track goes to, in its order (empty without
+    /// moving geometries: a binding of one zero).
+    pub fn pose_table(&self) -> Vec<u32> {
+        let table: Vec<u32> = self
+            .moving
+            .iter()
+            .flat_map(|&(g, count)| {
+                let first = self.geoms[geometry::LEN * g + geometry::FIRST_ELEMENT] as u32;
+                first..first + count as u32
+            })
+            .collect();
+        if table.is_empty() {
+            vec![0]
+        } else {
+            table
+        }
+    }
+
     /// Each world's end from what the device held at the end: `out` is ctrl, state, loads, pair
     /// ij, pair history, rows, wall candidates, wall history, geometry loads.
     pub fn split(

@@ -375,6 +375,10 @@ pub struct GpuStages {
     segments: Arc<[AtomicUsize; 3]>,
     /// The batch group these stages joined, if any (see [`batch`]).
     member: Option<Arc<batch::Member>>,
+    /// The largest list capacities (pair row, wall row, bucket) a segment of these stages has
+    /// needed: the next segments start from them, so that a scene whose rows grew past its first
+    /// capacities reruns one segment, not each.
+    grown: Arc<std::sync::Mutex<[usize; 3]>>,
 }
 
 impl GpuStages {
@@ -388,6 +392,7 @@ impl GpuStages {
             ctx,
             handed_to_cpu: Arc::new(AtomicUsize::new(0)),
             segments: Arc::default(),
+            grown: Arc::default(),
             member: None,
         }
     }

@@ -443,6 +443,15 @@ fn crowded_lists_grow_and_still_match_the_cpu() {
     let dv = largest_difference(&cpu, &gpu, |p| &p.velocity);
     eprintln!("crowded: position {dx:.3e} m, velocity {dv:.3e} m/s");
     assert!(dx < 1e-12 && dv < 1e-9, "{dx:e} m, {dv:e} m/s");
+    // The same stages start the same scene again from the capacities that sufficed: no retry.
+    let mut again = make().with_backend(Box::new(stages.clone()));
+    again.run(600).unwrap();
+    assert_eq!(
+        stages.segments(),
+        (2, 0, retried),
+        "the second run tried again"
+    );
+    assert_eq!(again.particles.position, gpu.particles.position);
 }
 
 /// The lifted-cylinder heap in small: spheres in a cylinder on a plate, the cylinder lifted, with

@@ -12,7 +12,8 @@
 //! order and results are deterministic on a given device. Cells are hashed into a power-of-two
 //! table of fixed-capacity buckets (no grid bounds to know). A row or bucket that overflows is
 //! reported through `ctrl`; the segment is then run again from its start (the host still holds
-//! it) with twice the capacity.
+//! it) with twice the capacity, and the same stages' later segments start from the capacities
+//! that sufficed.
 //!
 //! The host reads a few control words every [`CHUNK`] steps (to stop a failed run early), and
 //! the state once at the end of the segment. It encodes and submits each chunk before it waits for
@@ -281,10 +282,11 @@ impl GpuStages {
     pub(crate) fn run_worlds(&self, worlds: &[World]) -> Result<Vec<SegmentEnd>, String> {
         let longest_row = worlds.iter().map(|w| w.longest_row).max().unwrap_or(0);
         let longest_wall = worlds.iter().map(|w| w.longest_wall).max().unwrap_or(0);
+        let [pair, wall, bucket] = *self.grown.lock().unwrap_or_else(|e| e.into_inner());
         let mut cap = Capacity {
-            pair: longest_row + longest_row / 4 + 4,
-            wall: longest_wall + 4,
-            bucket: 16,
+            pair: (longest_row + longest_row / 4 + 4).max(pair),
+            wall: (longest_wall + 4).max(wall),
+            bucket: bucket.max(16),
         };
         for _ in 0..12 {
             // A panic inside wgpu (a lost device) is the device's failure, not the process's.
@@ -297,7 +299,11 @@ impl GpuStages {
                 self.segments[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             }
             match tried {
-                Ok(ends) => return Ok(ends),
+                Ok(ends) => {
+                    let mut g = self.grown.lock().unwrap_or_else(|e| e.into_inner());
+                    *g = [g[0].max(cap.pair), g[1].max(cap.wall), g[2].max(cap.bucket)];
+                    return Ok(ends);
+                }
                 Err(Retry::Overflow(overflow::BUCKET)) => cap.bucket *= 2,
                 // A reverse row has the pair rows' capacity.
                 Err(Retry::Overflow(overflow::PAIR_ROW | overflow::REVERSE_ROW)) => cap.pair *= 2,

@@ -114,7 +114,8 @@ layout! {
         DOMAIN_LOW: 5, 3;
         DOMAIN_HIGH: 8, 3;
         /// 1 when the scene has clumps: the members of one body skip each other in the pair
-        /// kernel and are moved by their body on the host, not by the kick and drift.
+        /// kernel and are moved by their body (on the device in a segment, on the host stage by
+        /// stage), not by the kick and drift.
         CLUMPS: 11, 1;
         /// 1 when the particle sums give the second half kick.
         KICK: 12, 1;

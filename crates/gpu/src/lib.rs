@@ -11,7 +11,8 @@
 //!   for all of them; lists are rebuilt on the device (hashed cell buckets, fixed-capacity
 //!   sorted rows, histories merged from the old rows); the host reads a few control words every
 //!   64 steps and the state once at the end. Scenes with polyhedra (whose contacts are the
-//!   host's), and any segment the device declines, run stage by stage: the pipeline in
+//!   host's), the Hooke law or an extension that works on the host at every step, and any
+//!   segment the device declines, run stage by stage: the pipeline in
 //!   `Simulation::step` calls integrate, pair forces, wall forces and particle sums, and each
 //!   stage copies its arrays to the device and back (the check path).
 //! - **What runs on the GPU.** Integration, Hertz-Mindlin pair forces with or without JKR
@@ -44,7 +45,8 @@
 //!   every thread writes its own slots and every particle sums its slots in a fixed order.
 //! - **Failures.** A context that cannot be made (no Vulkan adapter with f64 shaders, a kernel the
 //!   driver refuses) is an error naming the adapter. A particle that stops being finite or leaves
-//!   the domain in a segment stops it within 64 steps, with the step it happened in. A device
+//!   the domain in a segment stops its world at once and the segment within two chunks of 64
+//!   steps (the host reads one chunk's words while the next runs), with the step it happened in. A device
 //!   lost in the middle of a run (a driver reset), memory the driver refuses, or any error wgpu
 //!   reports outside a scope is recorded as the context's failure ([`GpuContext::failure`],
 //!   the `failure` module), said once on stderr, and never a panic: from then on each stage runs
@@ -101,7 +103,7 @@ use wgpu::util::DeviceExt;
 /// Bytes of `state` per particle, the largest of the per-particle buffers.
 pub(crate) const STATE_BYTES: usize = 8 * layout::state::LEN;
 
-/// Threads per workgroup, as the kernels declare.
+/// Threads per workgroup, as the kernels declare (all but `begin`, one workgroup of its own).
 const WORKGROUP: u32 = 64;
 /// Most workgroups along one dispatch dimension (WebGPU's guaranteed limit).
 const MAX_GROUPS: u32 = 65_535;
@@ -449,7 +451,7 @@ impl Backend for GpuStages {
             r.push("polyhedral particles' contacts run on the CPU, and the simulation stage by stage with the particles copied to the device and back at every stage (slower than the CPU)".to_string());
         } else if !Self::runs_pairs(inputs) {
             r.push(format!(
-                "the {} contact law runs on the CPU (the GPU stages run {})",
+                "the {} contact law runs on the CPU (the GPU stages run {}), and the simulation stage by stage with the particles copied to the device and back at every stage (slower than the CPU)",
                 inputs.params.contact_model.name(),
                 laws_on_gpu().join(", ")
             ));

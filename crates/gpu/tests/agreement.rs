@@ -385,7 +385,7 @@ fn cohesive_spheres_in_a_stirred_bucket_match_the_cpu() {
 }
 
 /// Dumbbells and three-sphere clumps tumbling onto a floor and onto each other: clump members
-/// skip each other and are moved by their bodies (on the host), their contacts are the GPU's.
+/// skip each other and are moved by their bodies, on the device with their contacts.
 #[test]
 fn tumbling_clumps_match_the_cpu() {
     let loads = compare("clumps, cdt", common::tumbling_clumps, 3000, 1e-9);

@@ -167,7 +167,7 @@ impl Simulation {
         ];
         if lens.iter().any(|&l| l != n) {
             return Err(format!(
-                "the device returned {lens:?} clump states for {n} clumps"
+                "clump bodies: the device returned {lens:?} states for {n} clumps"
             ));
         }
         b.position = end.position;

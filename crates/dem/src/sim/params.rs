@@ -73,7 +73,8 @@ pub enum SimError {
         particle: u32,
         position: DVec3,
     },
-    /// A step extension stopped the run (bonds that cannot form, say): its one-line reason.
+    /// A step extension stopped the run (bonds that cannot form, say), or a device segment handed
+    /// back what the host cannot take: its one-line reason.
     #[error("stopped at t = {time:.6} s: {message}")]
     Extension { time: f64, message: String },
 }

@@ -198,8 +198,9 @@ impl Buffers {
     }
 }
 
-/// The launches of one try: a step runs `begin`, `integrate`, `check`, the rebuild and the
-/// forces in that order; the end runs `begin`, `check` and the geometry loads.
+/// The launches of one try: a step runs `begin`, the poses, the clumps' first half,
+/// `integrate`, `check`, the rebuild, the forces, the bonds and the clumps' last half in that
+/// order (those a run has); the end runs `begin`, `check` and the geometry loads.
 struct Launches<'a> {
     begin: Launch<'a>,
     integrate: Launch<'a>,

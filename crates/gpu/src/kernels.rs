@@ -76,6 +76,7 @@ const KERNELS: &[(&str, &[&str])] = &[
         &[include_str!("wgsl/resident/geometry_loads.wgsl")],
     ),
     ("poses", &[include_str!("wgsl/resident/poses.wgsl")]),
+    ("plan", &[include_str!("wgsl/resident/plan.wgsl")]),
     (
         "bond_forces",
         &[COMMON, include_str!("wgsl/bonds/bond_forces.wgsl")],

@@ -70,6 +70,7 @@ pub(crate) struct ResidentKernels {
     commit: wgpu::ComputePipeline,
     geometry_loads: wgpu::ComputePipeline,
     poses: wgpu::ComputePipeline,
+    plan: wgpu::ComputePipeline,
     bond_forces: wgpu::ComputePipeline,
     bond_sums: wgpu::ComputePipeline,
     bodies_first: wgpu::ComputePipeline,
@@ -91,6 +92,7 @@ impl ResidentKernels {
             commit: take("commit"),
             geometry_loads: take("geometry_loads"),
             poses: take("poses"),
+            plan: take("plan"),
             bond_forces: take("bond_forces"),
             bond_sums: take("bond_sums"),
             bodies_first: take("bodies_first"),
@@ -118,6 +120,7 @@ impl GpuContext {
             (&k.commit, "commit"),
             (&k.geometry_loads, "geometry_loads"),
             (&k.poses, "poses"),
+            (&k.plan, "plan"),
             (&k.bond_forces, "bond_forces"),
             (&k.bond_sums, "bond_sums"),
             (&k.bodies_first, "bodies_first"),
@@ -145,6 +148,9 @@ struct Launch<'a> {
     pipeline: &'a wgpu::ComputePipeline,
     group: wgpu::BindGroup,
     threads: u32,
+    /// Where its workgroup counts are read from at dispatch (a buffer and a byte offset), for
+    /// the rebuild kernels (`plan.wgsl`); None: from `threads`.
+    indirect: Option<(wgpu::Buffer, u64)>,
 }
 
 /// Launch helpers, shared with the stage-by-stage path in `lib.rs`.
@@ -345,7 +351,10 @@ impl Launch<'_> {
         };
         pass.set_pipeline(self.pipeline);
         pass.set_bind_group(0, &self.group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+        match &self.indirect {
+            Some((args, offset)) => pass.dispatch_workgroups_indirect(args, *offset),
+            None => pass.dispatch_workgroups(x, y, 1),
+        }
     }
 }
 

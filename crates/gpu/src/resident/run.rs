@@ -228,6 +228,7 @@ pub(super) fn launch<'a>(
         pipeline,
         group: c.bind(pipeline, buffers),
         threads: threads as u32,
+        indirect: None,
     }
 }
 
@@ -511,13 +512,35 @@ impl GpuStages {
             )));
         }
         let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
-        let l = Launches::new(c, &b, &sizes, &m);
+        let mut l = Launches::new(c, &b, &sizes, &m);
+        // The rebuild kernels start their threads only in a step with a rebuild (`plan`): their
+        // workgroups as indirect arguments, all of them at first (the lists are built before the
+        // first step).
+        let full: Vec<u32> = l
+            .rebuild
+            .iter()
+            .flat_map(|r| {
+                let (x, y) = crate::groups(r.threads);
+                [x, y, 1]
+            })
+            .collect();
+        let args = c.storage_with(bytemuck::cast_slice(&full), wgpu::BufferUsages::INDIRECT);
+        let full_buffer = c.storage(&full);
+        for (k, r) in l.rebuild.iter_mut().enumerate() {
+            r.indirect = Some((args.clone(), 12 * k as u64));
+        }
+        let plan = launch(
+            c,
+            &c.resident.plan,
+            &[&b.ctrl, &full_buffer, &args],
+            full.len(),
+        );
         // One step's launches, in order (the same every step).
         let step: Vec<&Launch> = [&l.begin]
             .into_iter()
             .chain(l.poses.iter())
             .chain(l.bodies.iter().map(|b| &b[0]))
-            .chain([&l.integrate, &l.check])
+            .chain([&l.integrate, &l.check, &plan])
             .chain(l.rebuild.iter())
             .chain(l.forces.iter())
             .chain(l.bonds.iter().flatten())

@@ -46,8 +46,8 @@
 //! - **Failures.** A context that cannot be made (no Vulkan adapter with f64 shaders, a kernel the
 //!   driver refuses) is an error naming the adapter. A particle that stops being finite or leaves
 //!   the domain in a segment stops its world at once and the segment within two chunks of 64
-//!   steps (the host reads one chunk's words while the next runs), with the step it happened in. A device
-//!   lost in the middle of a run (a driver reset), memory the driver refuses, or any error wgpu
+//!   steps (the host reads one chunk's words while the next runs), with the step it happened
+//!   in. A device lost in the middle of a run (a driver reset), memory the driver refuses, or any error wgpu
 //!   reports outside a scope is recorded as the context's failure ([`GpuContext::failure`],
 //!   the `failure` module), said once on stderr, and never a panic: from then on each stage runs
 //!   on the CPU from the state the host holds, segments are declined, and a new simulation that

@@ -89,8 +89,8 @@ pub trait Backend: Send + Sync {
 
     /// Whether [`Self::run_segment`] can run a simulation with these inputs (no polyhedra, no
     /// extension forces but those of an `OnDevice::InSegments` extension, which the segment
-    /// hands over with the clump bodies: the pipeline checks those). False by default: the pipeline calls the
-    /// stages one by one.
+    /// hands over with the clump bodies: the pipeline checks those). False by default: the
+    /// pipeline calls the stages one by one.
     fn runs_segments(&self, inputs: &StepInputs) -> bool {
         let _ = inputs;
         false

@@ -86,7 +86,8 @@ impl Simulation {
 /// A segment's clumps, as the host hands them to the device ([`super::segment`]): each body's
 /// state and its last force, and its members (particle indices) with their offsets in the body
 /// frame. The device runs the clump stages of every step as the pipeline does (the first half:
-/// kick, drift, turn, members placed; after the forces: members gathered, kick, members' velocities).
+/// kick, drift, turn, members placed; after the forces: members gathered, kick, members'
+/// velocities).
 #[derive(Clone, Debug, Default)]
 pub struct SegmentBodies {
     pub position: Vec<DVec3>,

@@ -4,9 +4,11 @@
 //! Each step is one run of kernels with no host round trip: `begin` (the host's forced-rebuild
 //! flag for the step), `poses` where geometries move, `bodies_first` where there are clumps,
 //! `integrate`, `check` (half-skin displacement, failures), the rebuild kernels (`clear`, `bin`,
-//! `build_pairs`, `build_walls`, `sort_reverse`, `commit`; each returns at once when no rebuild
-//! is due), then `pair_forces`, `wall_forces` and `particle_sums` with the second half kick, and
-//! where a world has them `bond_forces` and `bond_sums` (`bonds`) and `bodies_last` (`bodies`). The kernels of the check path are reused as they are; the lists they read
+//! `build_pairs`, `build_walls`, `sort_reverse`, `commit`, dispatched with the workgroups `plan`
+//! writes after `check`: none without a rebuild; each also returns at once when none is due),
+//! then `pair_forces`, `wall_forces` and `particle_sums` with the second half kick, and where a
+//! world has them `bond_forces` and `bond_sums` (`bonds`) and `bodies_last` (`bodies`). The
+//! kernels of the check path are reused as they are; the lists they read
 //! have a fixed capacity per particle, so a rebuild needs no prefix sums and no host: a particle's
 //! pair row holds its j > i sorted by j (its history found by a merge with the old row), its
 //! reverse row the sorted slots where it is j, so every particle sums its contacts in a fixed

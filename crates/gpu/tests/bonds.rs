@@ -3,7 +3,6 @@
 //! load, and the same breakages in the same order at the same steps), alone and in a batch with
 //! other worlds, bonded or not. On lavapipe in CI (`DEMCAL_REQUIRE_GPU=1`).
 
-use std::f64::consts::PI;
 use std::sync::Arc;
 
 use dem::bond::{BondParams, BondRadius, Bonds, BreakMode, Breakage, ContactRadius};
@@ -581,7 +580,6 @@ fn the_device_breaks_v7_bonds_at_the_analytic_time() {
         assert!((b.time - analytic).abs() < 1e-3 * analytic);
         assert_eq!(b.ids, [0, 1]);
     }
-    let _ = PI;
 }
 
 fn together(ctx: &Arc<GpuContext>, cases: &[&Case]) -> Vec<End> {

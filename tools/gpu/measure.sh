@@ -4,6 +4,7 @@
 #
 #   bash tools/gpu/measure.sh            # the full set (under 8 minutes on an H100 box)
 #   bash tools/gpu/measure.sh --quick    # small sizes, to check the script end to end (lavapipe)
+#   bash tools/gpu/measure.sh --gpu-only # the GPU steps alone (a rerun after tuning the GPU)
 #   DEMCAL=target/debug/demcal bash tools/gpu/measure.sh --quick   # with a binary already built
 #
 # What it runs (each line of output is a demcal bench line, so the numbers can be pasted):
@@ -16,18 +17,21 @@
 #   5. bench worlds: 32 seed-000-sized worlds (4 000 spheres) for 2 000 steps, all at once, on the
 #      GPU and on the CPU; the kernels' shares of the device time (timestamp queries,
 #      DEMCAL_GPU_PROFILE=1) in settle and in worlds;
-#   6. the CPU settle and settle x8 at 1, 2, 4, 8 and 16 threads (those the machine has).
+#   6. the CPU settle and settle x8 at 1, 2, 4, 8 and 16 threads (those the machine has);
+#      `--gpu-only` leaves out these and `bench worlds` on the CPU.
 # Each step has a time limit (MEASURE_LIMIT seconds, 600 by default, 120 with --quick); a step
 # that fails or passes it is reported and the rest still run; the exit status counts them.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 
 quick=0
+gpu_only=0
 for a in "$@"; do
   case "$a" in
     --quick) quick=1 ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
-    *) echo "unknown option $a (expected --quick)" >&2; exit 2 ;;
+    --gpu-only) gpu_only=1 ;;
+    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    *) echo "unknown option $a (expected --quick or --gpu-only)" >&2; exit 2 ;;
   esac
 done
 
@@ -67,11 +71,11 @@ fi
 echo "cpu: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $cores cores"
 
 if [ "$quick" = 1 ]; then
-  settle_steps=200; wide_scale=2; wide_steps=50; bonded_steps=200
+  settle_steps=200; profile_steps=200; wide_scale=2; wide_steps=50; bonded_steps=200
   batch_runs=2; world_runs=4; world_steps=100; cpu_steps=500; cpu_wide_steps=50
   batch_test=(--test tools/gpu/small-repose.toml)
 else
-  settle_steps=20000; wide_scale=8; wide_steps=5000; bonded_steps=20000
+  settle_steps=20000; profile_steps=2000; wide_scale=8; wide_steps=500; bonded_steps=20000
   batch_runs=32; world_runs=32; world_steps=2000; cpu_steps=20000; cpu_wide_steps=500
   batch_test=()
 fi
@@ -83,8 +87,13 @@ step "bonded gpu" "$DEMCAL" bench bonded --backend gpu --steps "$bonded_steps"
 step "batch gpu vs cpu" "$DEMCAL" bench batch --backend gpu --runs "$batch_runs" --cpu-jobs "$cores" ${batch_test[@]+"${batch_test[@]}"}
 step "worlds gpu" "$DEMCAL" bench worlds --backend gpu --runs "$world_runs" --steps "$world_steps"
 # Kernel time shares from timestamp queries (each launch in a pass of its own, so a little slower).
-step "kernel shares, settle gpu" env DEMCAL_GPU_PROFILE=1 "$DEMCAL" bench settle --backend gpu --steps "$settle_steps"
+step "kernel shares, settle gpu" env DEMCAL_GPU_PROFILE=1 "$DEMCAL" bench settle --backend gpu --steps "$profile_steps"
 step "kernel shares, worlds gpu" env DEMCAL_GPU_PROFILE=1 "$DEMCAL" bench worlds --backend gpu --runs "$world_runs" --steps "$world_steps"
+if [ "$gpu_only" = 1 ]; then
+  echo "== measure.sh: $failed step(s) failed, $(( $(date +%s) - started )) s in all"
+  [ "$failed" -eq 0 ]
+  exit
+fi
 step "worlds cpu" "$DEMCAL" bench worlds --backend cpu --runs "$world_runs" --steps "$world_steps"
 for t in 1 2 4 8 16; do
   [ "$t" -le "$cores" ] || continue

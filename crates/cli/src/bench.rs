@@ -56,11 +56,13 @@ pub fn batch(
             String::new()
         } else {
             format!(
-                ", {} batches of {:.1} simulations on average (largest {})",
+                ", {} batches of {:.1} simulations on average (largest {}; the most device memory one took {:.1} MB; packed to the memory {} times)",
                 after.batches - before.batches,
                 (after.worlds - before.worlds) as f64
                     / (after.batches - before.batches).max(1) as f64,
-                after.largest
+                after.largest,
+                after.most_bytes as f64 * 1e-6,
+                after.packed - before.packed
             )
         };
         println!(

@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 use dem::sim::SegmentEnd;
 
 use crate::resident::world::World;
+use crate::resident::Declined;
 use crate::GpuStages;
 
 /// Longest wait of the first arrival for members that do not come (a member busy with host work:
@@ -43,14 +44,18 @@ impl Drop for Member {
 }
 
 /// Batches run so far in this process: runs of launches shared by more than one world, the
-/// worlds in them, the most worlds in one, and sets of worlds that could not run together (then
-/// halved until they could, or run alone).
+/// worlds in them, the most worlds in one, sets of worlds that could not run together (then
+/// halved until they could, or run alone), sets packed into several batches because together they
+/// needed more device memory than the context's budget ([`crate::GpuContext::memory_budget`]), and
+/// the most device memory a batch that ran took, in bytes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BatchStats {
     pub batches: usize,
     pub worlds: usize,
     pub largest: usize,
     pub split: usize,
+    pub packed: usize,
+    pub most_bytes: u64,
 }
 
 /// This process's batch counts.
@@ -61,7 +66,36 @@ pub fn batch_stats() -> BatchStats {
         worlds: c.worlds.load(Ordering::Relaxed),
         largest: c.largest.load(Ordering::Relaxed),
         split: c.split.load(Ordering::Relaxed),
+        packed: c.packed.load(Ordering::Relaxed),
+        most_bytes: c.most_bytes.load(Ordering::Relaxed),
     }
+}
+
+/// Notes the device memory a batch of `worlds` worlds took (`resident::run`).
+pub(crate) fn note_bytes(worlds: usize, bytes: u64) {
+    if worlds > 1 {
+        coordinator().most_bytes.fetch_max(bytes, Ordering::Relaxed);
+    }
+}
+
+/// Consecutive groups of `worlds` that fit `room` bytes each, where all of them together need
+/// `needed`: each world's share of `needed` is its share of the particles (the buffers are
+/// mostly per particle and per pair slot), and a world whose share alone passes `room` is a group
+/// of its own. With `needed` over `room` there are at least two groups.
+fn pack(worlds: &[World], needed: u64, room: u64) -> Vec<std::ops::Range<usize>> {
+    let total: usize = worlds.iter().map(|w| w.n.max(1)).sum();
+    let mut groups = Vec::new();
+    let (mut first, mut taken) = (0, 0.0);
+    for (k, w) in worlds.iter().enumerate() {
+        let share = needed as f64 * w.n.max(1) as f64 / total as f64;
+        if k > first && taken + share > room as f64 {
+            groups.push(first..k);
+            (first, taken) = (k, 0.0);
+        }
+        taken += share;
+    }
+    groups.push(first..worlds.len());
+    groups
 }
 
 /// A world handed in: its ticket (one per hand-in, so that clones of one back end sharing a
@@ -124,6 +158,8 @@ struct Coordinator {
     worlds: AtomicUsize,
     largest: AtomicUsize,
     split: AtomicUsize,
+    packed: AtomicUsize,
+    most_bytes: AtomicU64,
 }
 
 fn coordinator() -> &'static Coordinator {
@@ -136,6 +172,8 @@ fn coordinator() -> &'static Coordinator {
         worlds: AtomicUsize::new(0),
         largest: AtomicUsize::new(0),
         split: AtomicUsize::new(0),
+        packed: AtomicUsize::new(0),
+        most_bytes: AtomicU64::new(0),
     })
 }
 
@@ -258,9 +296,10 @@ impl GpuStages {
         }
     }
 
-    /// Runs worlds together; a set that cannot run together (too large for one binding) is
-    /// halved until it can, and a world that cannot run even alone is declined (it then steps
-    /// stage by stage).
+    /// Runs worlds together; a set that needs more device memory than there is room for is
+    /// packed into consecutive groups that fit ([`pack`]), a set that cannot run together for
+    /// another reason (too large for one binding) is halved until it can, and a world that cannot
+    /// run even alone is declined (it then steps stage by stage).
     fn run_batch(&self, worlds: &[World]) -> Vec<Option<SegmentEnd>> {
         let c = coordinator();
         match self.run_worlds(worlds) {
@@ -274,7 +313,14 @@ impl GpuStages {
             }
             // A failed device: every world's steps go to the CPU, nothing left to split.
             Err(_) if self.ctx.failure().is_some() => worlds.iter().map(|_| None).collect(),
-            Err(why) if worlds.len() == 1 => vec![self.decline(why)],
+            Err(why) if worlds.len() == 1 => vec![self.decline(why.to_string())],
+            Err(Declined::Memory { needed, room }) => {
+                c.packed.fetch_add(1, Ordering::Relaxed);
+                pack(worlds, needed, room)
+                    .into_iter()
+                    .flat_map(|group| self.run_batch(&worlds[group]))
+                    .collect()
+            }
             Err(_) => {
                 c.split.fetch_add(1, Ordering::Relaxed);
                 let (a, b) = worlds.split_at(worlds.len() / 2);

@@ -108,6 +108,49 @@ const WORKGROUP: u32 = 64;
 /// Most workgroups along one dispatch dimension (WebGPU's guaranteed limit).
 const MAX_GROUPS: u32 = 65_535;
 
+/// The share of the device's memory a batch may take where `DEMCAL_GPU_MEMORY` does not say: the
+/// rest is the driver's, the read-back copies' and other programs'.
+const MEMORY_SHARE: f64 = 0.75;
+
+/// The device memory a batch may take, in bytes: `DEMCAL_GPU_MEMORY` where it is set (bytes, as
+/// `8e9` or `8000000000`), else [`MEMORY_SHARE`] of the adapter's largest device-local heap (a
+/// CPU driver's is the host's memory), else no bound (the driver's out-of-memory error then
+/// splits a batch, `resident::run`).
+fn memory_budget(adapter: &wgpu::Adapter) -> Result<u64, String> {
+    if let Ok(v) = std::env::var("DEMCAL_GPU_MEMORY") {
+        return memory_from(&v);
+    }
+    Ok(device_local_heap(adapter).map_or(u64::MAX, |h| (h as f64 * MEMORY_SHARE) as u64))
+}
+
+/// `DEMCAL_GPU_MEMORY`'s value as bytes.
+fn memory_from(v: &str) -> Result<u64, String> {
+    match v.trim().parse::<f64>() {
+        Ok(b) if b.is_finite() && b >= 1.0 && b < u64::MAX as f64 => Ok(b as u64),
+        _ => Err(format!(
+            "DEMCAL_GPU_MEMORY={v}: expected the bytes of device memory a batch may take, a number of at least 1 (such as 8e9)"
+        )),
+    }
+}
+
+/// The size of the adapter's largest device-local memory heap, in bytes, from Vulkan (wgpu does
+/// not report it); None where the adapter is not Vulkan's or reports none.
+fn device_local_heap(adapter: &wgpu::Adapter) -> Option<u64> {
+    // SAFETY: the Vulkan adapter is only read, through its own instance, while wgpu holds it; no
+    // handle is created or destroyed.
+    let hal = unsafe { adapter.as_hal::<wgpu::hal::api::Vulkan>() }?;
+    let instance = hal.shared_instance().raw_instance();
+    // SAFETY: the physical device belongs to this instance, which outlives the call.
+    let props =
+        unsafe { instance.get_physical_device_memory_properties(hal.raw_physical_device()) };
+    props
+        .memory_heaps_as_slice()
+        .iter()
+        .filter(|h| h.flags.contains(ash::vk::MemoryHeapFlags::DEVICE_LOCAL))
+        .map(|h| h.size)
+        .max()
+}
+
 /// A GPU with f64 shaders and the compiled kernels.
 pub struct GpuContext {
     device: wgpu::Device,
@@ -115,6 +158,8 @@ pub struct GpuContext {
     adapter: String,
     /// The largest storage buffer a kernel can bind, in bytes.
     max_binding: u64,
+    /// The device memory a batch of worlds may take, in bytes ([`memory_budget`]).
+    memory: u64,
     /// The device's first failure; from then on nothing runs on it (`failure`).
     failure: Arc<failure::Failure>,
     integrate: wgpu::ComputePipeline,
@@ -214,6 +259,7 @@ impl GpuContext {
             ));
         }
         let max_binding = device.limits().max_storage_buffer_binding_size;
+        let memory = memory_budget(&adapter)?;
         // From here on a lost device or an error outside a scope is recorded, not a panic.
         let failure = Arc::new(failure::Failure::default());
         {
@@ -234,6 +280,7 @@ impl GpuContext {
         }
         Ok(GpuContext {
             max_binding,
+            memory,
             failure,
             adapter: format!("{} ({:?})", info.name, info.backend),
             device,
@@ -249,6 +296,19 @@ impl GpuContext {
     /// The adapter's name and API, for logs and benchmarks.
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+
+    /// The device memory a batch of worlds may take, in bytes: a batch that needs more is packed
+    /// into several that fit ([`memory_budget`]).
+    pub fn memory_budget(&self) -> u64 {
+        self.memory
+    }
+
+    /// This context with `bytes` of room for a batch instead (as `DEMCAL_GPU_MEMORY` sets it):
+    /// for a GPU shared with other programs, and the tests of the packing.
+    pub fn with_memory_budget(mut self, bytes: u64) -> GpuContext {
+        self.memory = bytes;
+        self
     }
 
     /// Whether the device has timestamp queries, which the kernel profile needs
@@ -581,5 +641,18 @@ mod tests {
         let (x, y) = groups(big);
         assert!(x * WORKGROUP * y >= big);
         assert_eq!(row_width(big), MAX_GROUPS * WORKGROUP);
+    }
+
+    #[test]
+    fn the_memory_budget_is_read_as_bytes_and_a_wrong_one_is_named() {
+        assert_eq!(memory_from("8e9"), Ok(8_000_000_000));
+        assert_eq!(memory_from(" 123456 "), Ok(123_456));
+        for wrong in ["", "8GB", "0", "-1", "nan", "inf", "1e30"] {
+            let e = memory_from(wrong).unwrap_err();
+            assert!(
+                e.starts_with(&format!("DEMCAL_GPU_MEMORY={wrong}: expected the bytes")),
+                "{e}"
+            );
+        }
     }
 }

@@ -2,18 +2,16 @@
 //! each ends exactly as it would alone, whatever its neighbours (their parameters, time steps,
 //! particle counts, moving walls, numbers of steps, or a failure among them).
 
-use std::sync::Arc;
-
 use dem::contact::RollingModel;
 use dem::material::{Interaction, MaterialTable};
 use dem::particles::Particles;
 use dem::sim::{Simulation, SimulationParams};
 use dem_gpu::batch::batch_stats;
-use dem_gpu::{GpuContext, GpuStages};
+use dem_gpu::GpuStages;
 use glam::DVec3;
 
 mod common;
-use common::{gpu, heap, material, Heap};
+use common::{gpu, heap, material, together, Heap};
 
 /// A scene and the steps it runs, in calls to `run`.
 struct Case {
@@ -207,20 +205,6 @@ fn run(case: &Case, stages: GpuStages) -> End {
     }
 }
 
-fn together(ctx: &Arc<GpuContext>) -> Vec<End> {
-    let group = dem::sim::new_batch_group();
-    std::thread::scope(|scope| {
-        let threads: Vec<_> = CASES
-            .iter()
-            .map(|case| {
-                let stages = GpuStages::with_context(ctx.clone()).in_batch_group(group);
-                scope.spawn(move || run(case, stages))
-            })
-            .collect();
-        threads.into_iter().map(|t| t.join().unwrap()).collect()
-    })
-}
-
 #[test]
 fn a_batch_gives_each_simulation_the_bits_it_gets_alone() {
     let Some(ctx) = gpu() else {
@@ -234,7 +218,7 @@ fn a_batch_gives_each_simulation_the_bits_it_gets_alone() {
     let alone_s = t.elapsed().as_secs_f64();
     let before = batch_stats();
     let t = std::time::Instant::now();
-    let batched = together(&ctx);
+    let batched = together(&ctx, CASES, run);
     let together_s = t.elapsed().as_secs_f64();
     let after = batch_stats();
     eprintln!(

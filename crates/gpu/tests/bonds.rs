@@ -3,19 +3,17 @@
 //! load, and the same breakages in the same order at the same steps), alone and in a batch with
 //! other worlds, bonded or not. On lavapipe in CI (`DEMCAL_REQUIRE_GPU=1`).
 
-use std::sync::Arc;
-
 use dem::bond::{BondParams, BondRadius, Bonds, BreakMode, Breakage, ContactRadius};
 use dem::contact::RollingModel;
 use dem::geometry::{Element, Geometry, Motion};
 use dem::material::{Interaction, MaterialTable};
 use dem::particles::Particles;
 use dem::sim::{Simulation, SimulationParams};
-use dem_gpu::{GpuContext, GpuStages};
+use dem_gpu::GpuStages;
 use glam::DVec3;
 
 mod common;
-use common::{gpu, material, uniform};
+use common::{gpu, material, together, uniform};
 
 const R: f64 = 0.001;
 const DENSITY: f64 = 1000.0;
@@ -582,20 +580,6 @@ fn the_device_breaks_v7_bonds_at_the_analytic_time() {
     }
 }
 
-fn together(ctx: &Arc<GpuContext>, cases: &[&Case]) -> Vec<End> {
-    let group = dem::sim::new_batch_group();
-    std::thread::scope(|scope| {
-        let threads: Vec<_> = cases
-            .iter()
-            .map(|case| {
-                let stages = GpuStages::with_context(ctx.clone()).in_batch_group(group);
-                scope.spawn(move || run_gpu(case, stages))
-            })
-            .collect();
-        threads.into_iter().map(|t| t.join().unwrap()).collect()
-    })
-}
-
 /// Bonded worlds batched with each other and with a world without bonds give each the bits it
 /// gets alone.
 #[test]
@@ -609,7 +593,7 @@ fn a_batch_of_bonded_worlds_gives_each_its_own_result() {
         .map(|case| run_gpu(case, GpuStages::with_context(ctx.clone())))
         .collect();
     let before = dem_gpu::batch::batch_stats();
-    let batched = together(&ctx, &cases);
+    let batched = together(&ctx, &cases, |case, stages| run_gpu(case, stages));
     let after = dem_gpu::batch::batch_stats();
     eprintln!(
         "{} batches of {} worlds (largest {})",

@@ -131,6 +131,13 @@ impl MergedBodies {
     }
 
     /// The largest of its buffers, in bytes.
+    /// The device memory of the clumps' buffers ([`BodyBuffers::new`]), in bytes.
+    pub fn bytes(&self) -> usize {
+        4 * 16
+            + 4 * (self.ranges.len() + self.members.len()).max(4)
+            + 8 * (self.rows.len() + self.offsets.len()).max(2)
+    }
+
     pub fn largest(&self) -> usize {
         (8 * self.rows.len()).max(8 * self.offsets.len())
     }
@@ -174,6 +181,17 @@ pub(crate) struct BodyBuffers {
 }
 
 impl BodyBuffers {
+    /// Every buffer, for the count of device memory.
+    pub fn all(&self) -> [&wgpu::Buffer; 5] {
+        [
+            &self.counts,
+            &self.rows,
+            &self.ranges,
+            &self.members,
+            &self.offsets,
+        ]
+    }
+
     pub fn new(c: &GpuContext, m: &MergedBodies, n: usize) -> BodyBuffers {
         let words = Counts {
             particles: n,

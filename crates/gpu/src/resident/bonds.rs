@@ -145,6 +145,13 @@ impl MergedBonds {
     }
 
     /// The largest of its buffers, in bytes.
+    /// The device memory of the bonds' buffers ([`BondBuffers::new`]), in bytes.
+    pub fn bytes(&self) -> usize {
+        let words = 4 * 16 + 4 * (self.ends.len() + self.rows.len()).max(4);
+        let f64s = self.props.len() + self.params.len() + self.state.len();
+        words + 8 * (f64s.max(3) + (bond_output::LEN + bond_broke::LEN) * self.count.max(1))
+    }
+
     pub fn largest(&self) -> usize {
         [
             8 * self.state.len(),
@@ -213,6 +220,20 @@ pub(crate) struct BondBuffers {
 }
 
 impl BondBuffers {
+    /// Every buffer, for the count of device memory.
+    pub fn all(&self) -> [&wgpu::Buffer; 8] {
+        [
+            &self.counts,
+            &self.ends,
+            &self.props,
+            &self.params,
+            &self.state,
+            &self.output,
+            &self.broke,
+            &self.rows,
+        ]
+    }
+
     pub fn new(c: &GpuContext, m: &MergedBonds, n: usize) -> BondBuffers {
         let count = m.count;
         let mut broke = vec![0.0f64; bond_broke::LEN * count];

@@ -35,8 +35,31 @@ mod run;
 pub(crate) mod world;
 use world::World;
 
-/// Steps between reads of the control words.
+/// Steps between reads of the control words, unless `DEMCAL_GPU_CHUNK` says otherwise.
 const CHUNK: u64 = 64;
+/// The most steps a chunk may hold (`DEMCAL_GPU_CHUNK`): a chunk's launches are encoded in one
+/// pass, and a failed world runs on to its chunk's end.
+const MOST_CHUNK: u64 = 1024;
+
+/// Steps between reads of the control words: [`CHUNK`], or `DEMCAL_GPU_CHUNK` (1 to
+/// [`MOST_CHUNK`]) where it is set, so the trade between the host's waits and a failed world's
+/// wasted steps can be measured on a device without a rebuild. A value out of range is refused
+/// with a warning, once.
+fn chunk_steps() -> u64 {
+    static STEPS: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *STEPS.get_or_init(|| match std::env::var("DEMCAL_GPU_CHUNK") {
+        Err(_) => CHUNK,
+        Ok(v) => match v.trim().parse::<u64>() {
+            Ok(n) if (1..=MOST_CHUNK).contains(&n) => n,
+            _ => {
+                eprintln!(
+                    "warning: DEMCAL_GPU_CHUNK={v}: expected 1 to {MOST_CHUNK} steps; using {CHUNK}"
+                );
+                CHUNK
+            }
+        },
+    })
+}
 /// Buckets per particle in the cell hash (rounded up to a power of two).
 const BUCKETS_PER_PARTICLE: usize = 2;
 pub(crate) const EMPTY: u32 = u32::MAX;
@@ -58,6 +81,33 @@ enum Retry {
     Decline(String),
     /// The device failed (`crate::failure`): nothing more runs on it.
     Failed(String),
+    /// The worlds together need `needed` bytes of device memory, more than the `room` there is
+    /// (the context's budget, or half of `needed` where the driver ran out of memory).
+    Memory { needed: u64, room: u64 },
+}
+
+/// Why worlds cannot run on the device together.
+#[derive(Debug)]
+pub(crate) enum Declined {
+    /// They need `needed` bytes of device memory and there is room for `room`: fewer at a time
+    /// may fit (`batch::pack`).
+    Memory { needed: u64, room: u64 },
+    /// Anything else: too large for one binding, lists that kept overflowing, a failed device.
+    Why(String),
+}
+
+impl std::fmt::Display for Declined {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Declined::Memory { needed, room } => write!(
+                f,
+                "it needs {:.3} GB of device memory and there is room for {:.3} GB (DEMCAL_GPU_MEMORY sets the room)",
+                *needed as f64 * 1e-9,
+                *room as f64 * 1e-9
+            ),
+            Declined::Why(why) => f.write_str(why),
+        }
+    }
 }
 
 /// The pipelines of the resident kernels.
@@ -281,14 +331,14 @@ impl GpuStages {
             Some(member) => self.run_in_batch(member, world),
             None => match self.run_worlds(std::slice::from_ref(&world)) {
                 Ok(mut ends) => ends.pop(),
-                Err(why) => self.decline(why),
+                Err(why) => self.decline(why.to_string()),
             },
         }
     }
 
     /// Runs worlds side by side in the same launches, each for its own steps (see
     /// [`world`]); Err says why they cannot run here together.
-    pub(crate) fn run_worlds(&self, worlds: &[World]) -> Result<Vec<SegmentEnd>, String> {
+    pub(crate) fn run_worlds(&self, worlds: &[World]) -> Result<Vec<SegmentEnd>, Declined> {
         let longest_row = worlds.iter().map(|w| w.longest_row).max().unwrap_or(0);
         let longest_wall = worlds.iter().map(|w| w.longest_wall).max().unwrap_or(0);
         let [pair, wall, bucket] = *self.grown.lock().unwrap_or_else(|e| e.into_inner());
@@ -318,15 +368,18 @@ impl GpuStages {
                 Err(Retry::Overflow(overflow::PAIR_ROW | overflow::REVERSE_ROW)) => cap.pair *= 2,
                 Err(Retry::Overflow(overflow::WALL_ROW)) => cap.wall *= 2,
                 Err(Retry::Overflow(code)) => {
-                    return Err(format!("an unknown overflow code {code}"))
+                    return Err(Declined::Why(format!("an unknown overflow code {code}")))
                 }
-                Err(Retry::Decline(why) | Retry::Failed(why)) => return Err(why),
+                Err(Retry::Decline(why) | Retry::Failed(why)) => return Err(Declined::Why(why)),
+                Err(Retry::Memory { needed, room }) => {
+                    return Err(Declined::Memory { needed, room })
+                }
             }
         }
-        Err(format!(
+        Err(Declined::Why(format!(
             "its lists kept overflowing (pair rows of {}, wall rows of {}, buckets of {})",
             cap.pair, cap.wall, cap.bucket
-        ))
+        )))
     }
 
     /// Declines a segment: says why once per process (the steps then run stage by stage).

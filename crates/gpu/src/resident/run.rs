@@ -8,8 +8,8 @@ use super::bonds::BondBuffers;
 use super::world::{Merged, World};
 use super::PendingRead;
 use super::{
-    check_overflow, encode, encode_timed, Capacity, Launch, Retry, BUCKETS_PER_PARTICLE, CHUNK,
-    EMPTY,
+    check_overflow, chunk_steps, encode, encode_timed, Capacity, Launch, Retry,
+    BUCKETS_PER_PARTICLE, CHUNK, EMPTY,
 };
 use crate::layout;
 use crate::pack::Counts;
@@ -67,6 +67,56 @@ impl Sizes {
     }
 }
 
+/// Room for the small buffers of a try (counts, dimensions, control words, dispatch arguments),
+/// which [`Sizes::bytes`] does not count one by one.
+const SMALL_BUFFERS: u64 = 64 * 1024;
+
+impl Sizes {
+    /// The device memory the buffers of a try take, in bytes: [`Buffers::new`]'s buffers, the
+    /// uploaded ones by their data and the others by their sizes, plus [`SMALL_BUFFERS`]. The
+    /// debug builds check it against the buffers made (`try_run`).
+    fn bytes(&self, m: &Merged, cap: Capacity, worlds: usize) -> u64 {
+        use layout::{cands, history, pair_ij, pair_output, wall_output};
+        let f64s = |len: usize| 8 * len.max(1);
+        let u32s = |len: usize| 4 * len.max(2);
+        let (n, pairs, walls) = (self.n, self.pairs, self.walls);
+        let particles = f64s(m.state.len())
+            + f64s(m.loads.len())
+            + f64s(m.props.len())
+            + u32s(m.ints.len())
+            + u32s(n)
+            + f64s(3 * n)
+            + f64s(n)
+            + 3 * u32s(n);
+        let pair_slots = u32s(m.pair_ij.len())
+            + f64s(m.pair_history.len())
+            + f64s(pair_output::LEN * pairs)
+            + u32s(pair_ij::LEN * pairs)
+            + f64s(history::LEN * pairs)
+            + u32s(m.rows.len());
+        let wall_slots = u32s(m.cands.len())
+            + f64s(m.wall_history.len())
+            + f64s(wall_output::LEN * walls)
+            + u32s(cands::LEN * walls)
+            + f64s(history::LEN * walls);
+        let walls_and_cells = f64s(m.table.len())
+            + f64s(m.params.len())
+            + f64s(m.elements.len())
+            + f64s(m.geoms.len())
+            + f64s(m.element_track.len())
+            + f64s(m.geoms_track.len())
+            + u32s(m.moving_rows() + self.geometries)
+            + u32s(m.forced.len())
+            + u32s(layout::ctrl::LEN + worlds)
+            + u32s(self.buckets)
+            + u32s(self.buckets * cap.bucket)
+            + f64s(layout::geometry_loads::LEN * self.geometries.max(1));
+        let extensions =
+            m.bonds.as_ref().map_or(0, |b| b.bytes()) + m.bodies.as_ref().map_or(0, |b| b.bytes());
+        (particles + pair_slots + wall_slots + walls_and_cells + extensions) as u64 + SMALL_BUFFERS
+    }
+}
+
 /// The device buffers of one try, named as the kernels bind them.
 struct Buffers {
     state: wgpu::Buffer,
@@ -115,6 +165,58 @@ struct Buffers {
 }
 
 impl Buffers {
+    /// The bytes of every buffer (what [`Sizes::bytes`] must not fall short of).
+    fn bytes(&self) -> u64 {
+        let mut all = vec![
+            &self.state,
+            &self.loads,
+            &self.props,
+            &self.body,
+            &self.ints,
+            &self.built,
+            &self.params,
+            &self.counts_n,
+            &self.counts_pairs,
+            &self.counts_buckets,
+            &self.moved,
+            &self.outside,
+            &self.status,
+            &self.pair_ij,
+            &self.pair_history,
+            &self.pair_output,
+            &self.new_ij,
+            &self.new_pair_history,
+            &self.rows,
+            &self.cands,
+            &self.wall_history,
+            &self.wall_output,
+            &self.new_cands,
+            &self.new_wall_history,
+            &self.table,
+            &self.elements,
+            &self.geoms,
+            &self.element_track,
+            &self.geoms_track,
+            &self.pose_table,
+            &self.counts_poses,
+            &self.forced,
+            &self.ctrl,
+            &self.dims,
+            &self.search,
+            &self.bucket_count,
+            &self.bucket_items,
+            &self.reverse_count,
+            &self.geometry_loads,
+        ];
+        if let Some(b) = &self.bonds {
+            all.extend(b.all());
+        }
+        if let Some(b) = &self.bodies {
+            all.extend(b.all());
+        }
+        all.iter().map(|b| b.size()).sum()
+    }
+
     fn new(c: &GpuContext, m: &Merged, worlds: usize, s: &Sizes, cap: Capacity) -> Buffers {
         let (n, pairs, walls) = (s.n, s.pairs, s.walls);
         let storage_rw = |data: &[u8]| c.storage_with(data, wgpu::BufferUsages::COPY_DST);
@@ -511,7 +613,37 @@ impl GpuStages {
                 c.max_binding as f64 * 1e-9
             )));
         }
+        // A batch that needs more memory than there is room for is packed into smaller ones
+        // (`batch::pack`); a world alone tries, and the driver says whether it fits.
+        let needed = sizes.bytes(&m, cap, worlds.len());
+        if worlds.len() > 1 && needed > c.memory {
+            return Err(Retry::Memory {
+                needed,
+                room: c.memory,
+            });
+        }
+        let scope = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            // Out of memory at the driver's count: half as much may fit.
+            eprintln!(
+                "warning: the GPU {} ran out of memory for {} world(s) needing {:.3} GB: {}",
+                c.adapter,
+                worlds.len(),
+                needed as f64 * 1e-9,
+                crate::failure::one_line(&e.to_string())
+            );
+            return Err(Retry::Memory {
+                needed,
+                room: needed / 2,
+            });
+        }
+        debug_assert!(
+            b.bytes() <= needed,
+            "the buffers take {} bytes, over the {needed} counted",
+            b.bytes()
+        );
+        crate::batch::note_bytes(worlds.len(), b.bytes());
         let mut l = Launches::new(c, &b, &sizes, &m);
         // The rebuild kernels start their threads only in a step with a rebuild (`plan`): their
         // workgroups as indirect arguments, all of them at first (the lists are built before the
@@ -559,7 +691,12 @@ impl GpuStages {
             })
         };
         let mut done = 0usize;
+        // A profiled chunk holds at most [`CHUNK`] steps (its stamps' query set is sized so).
         let timer = Timer::new(c, step.len() * CHUNK as usize);
+        let most = match &timer {
+            Some(_) => CHUNK.min(chunk_steps()) as usize,
+            None => chunk_steps() as usize,
+        };
         // The chunk in flight and the steps encoded through it. Without the profile the next
         // chunk is encoded and submitted before the one in flight is waited for, so that the
         // host's encoding overlaps the device's work (a chunk run after every world is over
@@ -574,7 +711,7 @@ impl GpuStages {
                 }
                 break;
             }
-            let chunk = (sizes.steps - done).min(CHUNK as usize);
+            let chunk = (sizes.steps - done).min(most);
             let mut encoder = c.device.create_command_encoder(&Default::default());
             match &timer {
                 Some(t) => {

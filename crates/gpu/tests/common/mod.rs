@@ -8,7 +8,7 @@ use dem::geometry::{Element, Geometry};
 use dem::material::{Interaction, Material, MaterialTable};
 use dem::particles::Particles;
 use dem::sim::{Simulation, SimulationParams};
-use dem_gpu::GpuContext;
+use dem_gpu::{GpuContext, GpuStages};
 use glam::DVec3;
 
 /// One context per test binary: compiling the kernels on lavapipe takes a moment.
@@ -27,6 +27,27 @@ pub fn gpu() -> Option<Arc<GpuContext>> {
             None
         }
     }
+}
+
+/// Runs each of `cases` on a thread of its own, all in one new batch group on `ctx`, by `run`
+/// (which gets the case and its back end); their results in the cases' order.
+pub fn together<C: Sync, E: Send>(
+    ctx: &Arc<GpuContext>,
+    cases: &[C],
+    run: impl Fn(&C, GpuStages) -> E + Sync,
+) -> Vec<E> {
+    let group = dem::sim::new_batch_group();
+    let run = &run;
+    std::thread::scope(|scope| {
+        let threads: Vec<_> = cases
+            .iter()
+            .map(|case| {
+                let stages = GpuStages::with_context(ctx.clone()).in_batch_group(group);
+                scope.spawn(move || run(case, stages))
+            })
+            .collect();
+        threads.into_iter().map(|t| t.join().unwrap()).collect()
+    })
 }
 
 pub fn material(name: &str, youngs: f64, density: f64) -> Material {

@@ -432,9 +432,11 @@ pub struct GpuStages {
     /// Stage calls handed to the CPU back end (a cohesive scene, the Hooke law, arrays too large
     /// for one binding, a particle touching more walls than the wall kernel keeps).
     handed_to_cpu: Arc<AtomicUsize>,
-    /// Segments run on the device, segments declined (then stepped stage by stage), and tries
-    /// run again with more room after a list overflowed.
-    segments: Arc<[AtomicUsize; 3]>,
+    /// Segments run on the device, segments declined (then stepped stage by stage), tries run
+    /// again with more room after a list overflowed, and segments an overflow ended early.
+    segments: Arc<[AtomicUsize; 4]>,
+    /// Lists start with no room to spare ([`Self::with_tight_lists`]).
+    tight: bool,
     /// The batch group these stages joined, if any (see [`batch`]).
     member: Option<Arc<batch::Member>>,
     /// The largest list capacities (pair row, wall row, bucket) a segment of these stages has
@@ -456,7 +458,18 @@ impl GpuStages {
             segments: Arc::default(),
             grown: Arc::default(),
             member: None,
+            tight: false,
         }
+    }
+
+    /// These stages with lists that start with no room to spare (each row as long as the longest
+    /// at the start), so that they overflow as soon as one grows, and chunks of 8 steps: what the
+    /// tests of the overflow paths use (a run again, a segment ended early). The results are the
+    /// same.
+    #[doc(hidden)]
+    pub fn with_tight_lists(mut self) -> GpuStages {
+        self.tight = true;
+        self
     }
 
     /// These stages, joined to batch `group`: their segments run in the same launches as those of
@@ -471,11 +484,18 @@ impl GpuStages {
         self.handed_to_cpu.load(Ordering::Relaxed)
     }
 
+    /// Segments that an overflow ended early, at the start of the chunk in which it happened
+    /// (the next segment went on from there with more room) instead of running again from their
+    /// start; these are not among the tries of [`Self::segments`].
+    pub fn segments_ended_early(&self) -> usize {
+        self.segments[3].load(Ordering::Relaxed)
+    }
+
     /// Segments of steps run with the state on the device, segments declined (a list too large
     /// for one binding, a particle touching more walls than the wall kernel keeps), and tries run
     /// again with more room after a pair row, reverse row, wall row or cell bucket overflowed.
     pub fn segments(&self) -> (usize, usize, usize) {
-        let [run, declined, retried] = &*self.segments;
+        let [run, declined, retried, _] = &*self.segments;
         (
             run.load(Ordering::Relaxed),
             declined.load(Ordering::Relaxed),

@@ -392,45 +392,74 @@ fn tumbling_clumps_match_the_cpu() {
     assert!(loads.is_empty() || loads[0] > 0.0, "{loads:?}");
 }
 
-/// One large sphere among many small ones, all drawn together: the small ones crowd the large
-/// one's cells and its row, so the buckets and rows of the first try overflow and the segment runs
-/// again with more room, giving the CPU's numbers all the same.
+/// One large sphere among many small ones, all drawn towards it; with `floor`, a plane under
+/// them rising at 1 m/s that pushes into them.
+fn crowded(floor: bool) -> Simulation {
+    let mut p = Particles::default();
+    p.push(DVec3::ZERO, DVec3::ZERO, 0.006, 2500.0, 0);
+    let mut k = 0;
+    for a in -4..=4 {
+        for b in -4..=4 {
+            for c in -4..=4 {
+                let x = DVec3::new(a as f64, b as f64, c as f64) * 0.0016;
+                if x.length() < 0.0075 {
+                    continue;
+                }
+                k += 1;
+                // Each drawn towards the large sphere.
+                p.push(x, -x * 40.0, 0.0006 + 1e-6 * (k % 7) as f64, 2500.0, 0);
+            }
+        }
+    }
+    let geometries = if floor {
+        vec![Geometry::new(
+            "floor",
+            1,
+            vec![Element::Plane {
+                point: DVec3::new(0.0, 0.0, -0.0085),
+                normal: DVec3::Z,
+            }],
+        )
+        .with_motion(vec![dem::geometry::Motion::Translation {
+            velocity: DVec3::new(0.0, 0.0, 1.0),
+            start: 0.0,
+            end: 1.0,
+        }])]
+    } else {
+        vec![]
+    };
+    sim(
+        p,
+        geometries,
+        RollingModel::ConstantDirectionalTorque,
+        DVec3::ZERO,
+    )
+}
+
+/// The small spheres crowd the large one's cells and its row, so the buckets and rows of the
+/// first try overflow and the segment runs again with more room, then overflow again later,
+/// which ends the segment at the start of that chunk (the next goes on from there with more
+/// room), giving the CPU's numbers all the same.
 #[test]
 fn crowded_lists_grow_and_still_match_the_cpu() {
     let Some(ctx) = gpu() else { return };
-    let make = || {
-        let mut p = Particles::default();
-        p.push(DVec3::ZERO, DVec3::ZERO, 0.006, 2500.0, 0);
-        let mut k = 0;
-        for a in -4..=4 {
-            for b in -4..=4 {
-                for c in -4..=4 {
-                    let x = DVec3::new(a as f64, b as f64, c as f64) * 0.0016;
-                    if x.length() < 0.0075 {
-                        continue;
-                    }
-                    k += 1;
-                    // Each drawn towards the large sphere.
-                    p.push(x, -x * 40.0, 0.0006 + 1e-6 * (k % 7) as f64, 2500.0, 0);
-                }
-            }
-        }
-        sim(
-            p,
-            vec![],
-            RollingModel::ConstantDirectionalTorque,
-            DVec3::ZERO,
-        )
-    };
-    let mut cpu = make();
+    let mut cpu = crowded(false);
     let stages = GpuStages::with_context(ctx);
-    let mut gpu = make().with_backend(Box::new(stages.clone()));
+    let mut gpu = crowded(false).with_backend(Box::new(stages.clone()));
     cpu.run(600).unwrap();
     gpu.run(600).unwrap();
     let (segments, declined, retried) = stages.segments();
-    eprintln!("crowded: {segments} segment, {declined} declined, {retried} tries again");
-    assert_eq!((segments, declined), (1, 0));
-    assert!(retried > 0, "the first capacities were enough");
+    let early = stages.segments_ended_early();
+    eprintln!(
+        "crowded: {segments} segments, {declined} declined, {retried} tries again, {early} ended early"
+    );
+    // An overflow in the first chunk runs the segment again with more room; a later one ends
+    // the segment at its chunk's start, and the next goes on from there.
+    assert_eq!((segments, declined), (1 + early, 0));
+    assert!(
+        retried > 0 && early > 0,
+        "the lists did not overflow in the first chunk and later"
+    );
     // Without gravity a force comes from a contact: the small spheres reached the large one.
     let touching = cpu
         .particles
@@ -444,14 +473,54 @@ fn crowded_lists_grow_and_still_match_the_cpu() {
     eprintln!("crowded: position {dx:.3e} m, velocity {dv:.3e} m/s");
     assert!(dx < 1e-12 && dv < 1e-9, "{dx:e} m, {dv:e} m/s");
     // The same stages start the same scene again from the capacities that sufficed: no retry.
-    let mut again = make().with_backend(Box::new(stages.clone()));
+    let mut again = crowded(false).with_backend(Box::new(stages.clone()));
     again.run(600).unwrap();
     assert_eq!(
-        stages.segments(),
-        (2, 0, retried),
+        (stages.segments(), stages.segments_ended_early()),
+        ((segments + 1, 0, retried), early),
         "the second run tried again"
     );
     assert_eq!(again.particles.position, gpu.particles.position);
+}
+
+/// A segment ended early by an overflow puts a moving geometry back to its pose at that step:
+/// the rising floor meets the crowded spheres at the same time and with the same load as on the
+/// CPU.
+#[test]
+fn a_segment_ended_early_keeps_a_moving_floor_in_step() {
+    let Some(ctx) = gpu() else { return };
+    let mut cpu = crowded(true);
+    let stages = GpuStages::with_context(ctx);
+    let mut gpu = crowded(true).with_backend(Box::new(stages.clone()));
+    // The CPU step by step, for the floor's largest load (the spheres it meets bounce off it).
+    let mut most = 0.0f64;
+    for _ in 0..600 {
+        cpu.run(1).unwrap();
+        most = most.max(cpu.geometries[0].load.force.z);
+    }
+    gpu.run(600).unwrap();
+    let (segments, declined, _) = stages.segments();
+    let early = stages.segments_ended_early();
+    eprintln!(
+        "crowded with a floor: {segments} segments, {declined} declined, {early} ended early"
+    );
+    assert!(early > 0 && declined == 0, "no segment ended early");
+    assert!(
+        most > 0.1,
+        "the floor did not push into the spheres: {most} N at most"
+    );
+    let (load_cpu, load_gpu) = (cpu.geometries[0].load.force, gpu.geometries[0].load.force);
+    assert_eq!(cpu.geometries[0].translation, gpu.geometries[0].translation);
+    assert!(
+        (load_cpu - load_gpu).length() <= 1e-9 * most,
+        "{load_cpu} vs {load_gpu}"
+    );
+    let dx = largest_difference(&cpu, &gpu, |p| &p.position);
+    let dv = largest_difference(&cpu, &gpu, |p| &p.velocity);
+    eprintln!(
+        "crowded with a floor: position {dx:.3e} m, velocity {dv:.3e} m/s; the floor's load {most:.3} N at most"
+    );
+    assert!(dx < 1e-12 && dv < 1e-9, "{dx:e} m, {dv:e} m/s");
 }
 
 /// The lifted-cylinder heap in small: spheres in a cylinder on a plate, the cylinder lifted, with

@@ -157,6 +157,27 @@ fn shaken() -> Simulation {
     sim
 }
 
+/// A bonded chain driven together from both ends at up to 3 m/s: its bonds break and its
+/// spheres pile up, so their neighbour rows grow as the run goes.
+fn crumpled() -> Simulation {
+    let mut sim = bonded(
+        chain(60),
+        bond(1e10, 5e9, 1e3, 1e3, 0.0),
+        vec![],
+        DVec3::ZERO,
+    );
+    let mid = 59.0 * R;
+    for k in 0..sim.particles.len() {
+        let x = sim.particles.position[k].x - mid;
+        sim.particles.velocity[k] = DVec3::new(
+            -x * 50.0,
+            (x * 3000.0).sin() * 0.3,
+            (x * 1700.0).cos() * 0.3,
+        );
+    }
+    sim
+}
+
 /// A chain whose bonds form 200 steps into the run, while its spheres move apart and together:
 /// the device runs up to the formation, the host forms the bonds, the device runs on with them.
 fn late() -> Simulation {
@@ -559,6 +580,40 @@ fn bonded_scenes_on_the_device_match_the_cpu() {
 
 /// The V7 pulls on the device break where the analytic answer says: at the first step where
 /// k_n v t >= sigma_c (tension), and within 0.1 % of tau_c / (k_t v) (shear).
+/// With lists that start with no room to spare, rows overflow in the first chunk (the segment
+/// runs again) and later (the segment ends at that chunk's start and the next goes on): the
+/// bonds, their breakages and the clumps come back from the copies taken at the chunk's start,
+/// and the results are the CPU's all the same.
+#[test]
+fn bonded_scenes_whose_lists_overflow_mid_segment_match_the_cpu() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let crumpled = Case {
+        name: "crumpled chain",
+        make: crumpled,
+        steps: 3000,
+        chunk: 1000,
+        breaks: 20,
+    };
+    let mut early = 0;
+    for case in [&CASES[7], &crumpled] {
+        let cpu = run((case.make)(), case.steps, case.chunk);
+        let stages = GpuStages::with_context(ctx.clone()).with_tight_lists();
+        let gpu = run_gpu(case, stages.clone());
+        let (segments, _, retried) = stages.segments();
+        eprintln!(
+            "{}: {segments} segments, {retried} tries again, {} ended early, {} breakages",
+            case.name,
+            stages.segments_ended_early(),
+            gpu.breakages.len()
+        );
+        early += stages.segments_ended_early();
+        assert_agree(case.name, &cpu, &gpu, 1e-9);
+    }
+    assert!(early > 0, "no segment ended early");
+}
+
 #[test]
 fn the_device_breaks_v7_bonds_at_the_analytic_time() {
     let Some(ctx) = gpu() else {

@@ -429,8 +429,10 @@ impl Simulation {
         let mut left = n;
         while left > 0 {
             let steps = self.segment_steps(left);
+            let before = self.steps;
             if steps > 1 && self.run_segment(steps)? {
-                left -= steps;
+                // The back end may end a segment early (it then ran at least one step).
+                left -= (self.steps - before).clamp(1, steps);
                 continue;
             }
             // A step that another follows at once, with nothing in between, does the next

@@ -90,7 +90,8 @@ pub struct SegmentEnd {
     pub geometry_loads: Vec<Load>,
     /// List rebuilds during the segment (on a GPU batch, those of the whole batch).
     pub rebuilds: u64,
-    /// Steps run: all of the segment's, or fewer when a failure stopped it early.
+    /// Steps run: all of the segment's, or fewer when a failure stopped it early or the back end
+    /// ended it early (a GPU list that overflowed: the simulation goes on in the next segment).
     pub steps_done: u64,
     /// The step (0-based within the segment) in which a particle first stopped being finite or
     /// left the domain; the state is then that of the segment's end, for the message only.
@@ -331,8 +332,9 @@ impl super::Simulation {
         self.steps += end.steps_done;
         self.time = self.steps as f64 * dt;
         self.timers.device_segments += t0.elapsed();
-        if let Some(s) = end.failed_at {
-            // The device stopped after `steps_done` steps: the geometries go back to that pose.
+        if end.steps_done < steps {
+            // The device stopped after `steps_done` steps (a failure, or a list that overflowed
+            // and ended the segment at its chunk's start): the geometries go back to that pose.
             if let Some(g) = saved {
                 self.geometries = g;
                 self.steps = start_steps;
@@ -341,6 +343,8 @@ impl super::Simulation {
                 self.steps += end.steps_done;
                 self.time = self.steps as f64 * dt;
             }
+        }
+        if let Some(s) = end.failed_at {
             self.forces_ready = false;
             let time = (start_steps + s + 1) as f64 * dt;
             let i = self.first_failed().unwrap_or(0);

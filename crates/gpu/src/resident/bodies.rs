@@ -201,7 +201,7 @@ impl BodyBuffers {
         .words(m.count as u32);
         BodyBuffers {
             counts: c.storage(&words),
-            rows: c.storage(&m.rows),
+            rows: c.storage_with(bytemuck::cast_slice(&m.rows), wgpu::BufferUsages::COPY_DST),
             ranges: c.storage(&m.ranges),
             members: c.storage(&m.members),
             offsets: c.storage(&m.offsets),

@@ -252,9 +252,12 @@ impl BondBuffers {
             ends: c.storage(&m.ends),
             props: c.storage(&m.props),
             params: c.storage(&m.params),
-            state: c.storage(&m.state),
-            output: c.storage(&vec![0.0f64; bond_output::LEN * count]),
-            broke: c.storage(&broke),
+            state: c.storage_with(bytemuck::cast_slice(&m.state), wgpu::BufferUsages::COPY_DST),
+            output: c.storage_with(
+                bytemuck::cast_slice(&vec![0.0f64; bond_output::LEN * count]),
+                wgpu::BufferUsages::COPY_DST,
+            ),
+            broke: c.storage_with(bytemuck::cast_slice(&broke), wgpu::BufferUsages::COPY_DST),
             rows: c.storage(&m.rows),
         }
     }

@@ -14,9 +14,11 @@
 //! reverse row the sorted slots where it is j, so every particle sums its contacts in a fixed
 //! order and results are deterministic on a given device. Cells are hashed into a power-of-two
 //! table of fixed-capacity buckets (no grid bounds to know). A row or bucket that overflows is
-//! reported through `ctrl`; the segment is then run again from its start (the host still holds
-//! it) with twice the capacity, and the same stages' later segments start from the capacities
-//! that sufficed.
+//! reported through `ctrl`. After the first chunk of a long segment it ends the segment at the
+//! start of its chunk, from copies taken there ([`snapshot`]), and the host goes on in a new
+//! segment; in the first chunk, or in a short segment, the segment is run again from its start
+//! (the host still holds it). Either way with twice the capacity, and the same stages' later
+//! segments start from the capacities that sufficed.
 //!
 //! The host reads a few control words every [`CHUNK`] steps (to stop a failed run early), and
 //! the state once at the end of the segment. It encodes and submits each chunk before it waits for
@@ -32,6 +34,7 @@ use crate::{groups, GpuContext, GpuStages};
 mod bodies;
 mod bonds;
 mod run;
+mod snapshot;
 pub(crate) mod world;
 use world::World;
 
@@ -70,6 +73,21 @@ pub(crate) struct Capacity {
     pub pair: usize,
     pub wall: usize,
     pub bucket: usize,
+}
+
+impl Capacity {
+    /// The capacities with the row or bucket that overflowed (`code`) twice as large.
+    fn grown(self, code: u32) -> Result<Capacity, String> {
+        let mut cap = self;
+        match code {
+            overflow::BUCKET => cap.bucket *= 2,
+            // A reverse row has the pair rows' capacity.
+            overflow::PAIR_ROW | overflow::REVERSE_ROW => cap.pair *= 2,
+            overflow::WALL_ROW => cap.wall *= 2,
+            code => return Err(format!("an unknown overflow code {code}")),
+        }
+        Ok(cap)
+    }
 }
 
 /// Why a try stopped short.
@@ -342,10 +360,17 @@ impl GpuStages {
         let longest_row = worlds.iter().map(|w| w.longest_row).max().unwrap_or(0);
         let longest_wall = worlds.iter().map(|w| w.longest_wall).max().unwrap_or(0);
         let [pair, wall, bucket] = *self.grown.lock().unwrap_or_else(|e| e.into_inner());
-        let mut cap = Capacity {
-            pair: (longest_row + longest_row / 4 + 4).max(pair),
-            wall: (longest_wall + 4).max(wall),
-            bucket: bucket.max(16),
+        let mut cap = match self.tight {
+            false => Capacity {
+                pair: (longest_row + longest_row / 4 + 4).max(pair),
+                wall: (longest_wall + 4).max(wall),
+                bucket: bucket.max(16),
+            },
+            true => Capacity {
+                pair: longest_row.max(1).max(pair),
+                wall: longest_wall.max(1).max(wall),
+                bucket: bucket.max(2),
+            },
         };
         for _ in 0..12 {
             // A panic inside wgpu (a lost device) is the device's failure, not the process's.
@@ -358,18 +383,18 @@ impl GpuStages {
                 self.segments[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             }
             match tried {
-                Ok(ends) => {
+                Ok((ends, overflowed)) => {
+                    // Ended early at a chunk's start by an overflow: the next segment goes on
+                    // from there with the room that was missing.
+                    if let Some(code) = overflowed {
+                        cap = cap.grown(code).map_err(Declined::Why)?;
+                        self.segments[3].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    }
                     let mut g = self.grown.lock().unwrap_or_else(|e| e.into_inner());
                     *g = [g[0].max(cap.pair), g[1].max(cap.wall), g[2].max(cap.bucket)];
                     return Ok(ends);
                 }
-                Err(Retry::Overflow(overflow::BUCKET)) => cap.bucket *= 2,
-                // A reverse row has the pair rows' capacity.
-                Err(Retry::Overflow(overflow::PAIR_ROW | overflow::REVERSE_ROW)) => cap.pair *= 2,
-                Err(Retry::Overflow(overflow::WALL_ROW)) => cap.wall *= 2,
-                Err(Retry::Overflow(code)) => {
-                    return Err(Declined::Why(format!("an unknown overflow code {code}")))
-                }
+                Err(Retry::Overflow(code)) => cap = cap.grown(code).map_err(Declined::Why)?,
                 Err(Retry::Decline(why) | Retry::Failed(why)) => return Err(Declined::Why(why)),
                 Err(Retry::Memory { needed, room }) => {
                     return Err(Declined::Memory { needed, room })

@@ -5,7 +5,8 @@ use dem::sim::SegmentEnd;
 
 use super::bodies::BodyBuffers;
 use super::bonds::BondBuffers;
-use super::world::{Merged, World};
+use super::snapshot::{self, Snapshots};
+use super::world::{Ended, Merged, World};
 use super::PendingRead;
 use super::{
     check_overflow, chunk_steps, encode, encode_timed, Capacity, Launch, Retry,
@@ -165,6 +166,29 @@ struct Buffers {
 }
 
 impl Buffers {
+    /// The buffers a segment's end reads and the steps change: what a snapshot copies
+    /// ([`Snapshots`]).
+    fn kept(&self) -> Vec<&wgpu::Buffer> {
+        let mut kept = vec![
+            &self.ctrl,
+            &self.state,
+            &self.loads,
+            &self.pair_ij,
+            &self.pair_history,
+            &self.rows,
+            &self.cands,
+            &self.wall_history,
+            &self.wall_output,
+        ];
+        if let Some(b) = &self.bonds {
+            kept.extend([&b.state, &b.output, &b.broke]);
+        }
+        if let Some(b) = &self.bodies {
+            kept.push(&b.rows);
+        }
+        kept
+    }
+
     /// The bytes of every buffer (what [`Sizes::bytes`] must not fall short of).
     fn bytes(&self) -> u64 {
         let mut all = vec![
@@ -220,6 +244,10 @@ impl Buffers {
     fn new(c: &GpuContext, m: &Merged, worlds: usize, s: &Sizes, cap: Capacity) -> Buffers {
         let (n, pairs, walls) = (s.n, s.pairs, s.walls);
         let storage_rw = |data: &[u8]| c.storage_with(data, wgpu::BufferUsages::COPY_DST);
+        // What a snapshot copies back ([`Buffers::kept`]).
+        fn kept<T: bytemuck::Pod>(c: &GpuContext, data: &[T]) -> wgpu::Buffer {
+            c.storage_with(bytemuck::cast_slice(data), wgpu::BufferUsages::COPY_DST)
+        }
         let counts = |threads: usize| {
             let counts = Counts {
                 particles: n,
@@ -252,8 +280,8 @@ impl Buffers {
         dims[layout::dims::MOVING_ELEMENTS] = m.moving_rows() as u32;
         let body = layout::ints::BODY * n..(layout::ints::BODY + 1) * n;
         Buffers {
-            state: c.storage(&m.state),
-            loads: c.storage(&m.loads),
+            state: kept(c, &m.state),
+            loads: kept(c, &m.loads),
             props: c.storage(&m.props),
             body: c.storage(&m.ints[body]),
             ints: c.storage(&m.ints),
@@ -265,15 +293,15 @@ impl Buffers {
             moved: c.storage(&vec![0.0f64; n]),
             outside: c.storage(&vec![0u32; n]),
             status: c.storage(&vec![0u32; n]),
-            pair_ij: c.storage(&m.pair_ij),
-            pair_history: c.storage(&m.pair_history),
+            pair_ij: kept(c, &m.pair_ij),
+            pair_history: kept(c, &m.pair_history),
             pair_output: c.storage(&vec![0.0f64; layout::pair_output::LEN * pairs]),
             new_ij: c.storage(&vec![EMPTY; layout::pair_ij::LEN * pairs]),
             new_pair_history: c.storage(&vec![0.0f64; layout::history::LEN * pairs]),
-            rows: c.storage(&m.rows),
-            cands: c.storage(&m.cands),
-            wall_history: c.storage(&m.wall_history),
-            wall_output: c.storage(&vec![0.0f64; layout::wall_output::LEN * walls]),
+            rows: kept(c, &m.rows),
+            cands: kept(c, &m.cands),
+            wall_history: kept(c, &m.wall_history),
+            wall_output: kept(c, &vec![0.0f64; layout::wall_output::LEN * walls]),
             new_cands: c.storage(&vec![EMPTY; layout::cands::LEN * walls]),
             new_wall_history: c.storage(&vec![0.0f64; layout::history::LEN * walls]),
             table: c.storage(&m.table),
@@ -284,7 +312,7 @@ impl Buffers {
             pose_table: c.storage(&m.pose_table()),
             counts_poses: counts(m.moving_rows() + s.geometries),
             forced: c.storage(&m.forced),
-            ctrl: c.storage(&words),
+            ctrl: kept(c, &words),
             dims: c.storage(&dims),
             search: c.storage(&m.search),
             bucket_count: c.storage(&vec![0u32; s.buckets]),
@@ -600,7 +628,7 @@ impl GpuStages {
         &self,
         worlds: &[World],
         cap: Capacity,
-    ) -> Result<Vec<SegmentEnd>, Retry> {
+    ) -> Result<(Vec<SegmentEnd>, Option<u32>), Retry> {
         let c = &*self.ctx;
         let sizes = Sizes::of(worlds, cap);
         let m = Merged::new(worlds, cap).map_err(Retry::Overflow)?;
@@ -684,82 +712,10 @@ impl GpuStages {
         encode(&mut encoder, &l.rebuild.iter().collect::<Vec<_>>());
         let out = c.read_back(encoder, &[&b.ctrl]).map_err(Retry::Failed)?;
         check_overflow(&out[0])?;
-        // A world is over once its steps are run or it failed; the run stops when all are.
-        let over = |words: &[u32], done: usize| {
-            worlds.iter().enumerate().all(|(w, world)| {
-                done >= world.steps as usize || words[layout::ctrl::FAILED + w] != EMPTY
-            })
-        };
-        let mut done = 0usize;
-        // A profiled chunk holds at most [`CHUNK`] steps (its stamps' query set is sized so).
-        let timer = Timer::new(c, step.len() * CHUNK as usize);
-        let most = match &timer {
-            Some(_) => CHUNK.min(chunk_steps()) as usize,
-            None => chunk_steps() as usize,
-        };
-        // The chunk in flight and the steps encoded through it. Without the profile the next
-        // chunk is encoded and submitted before the one in flight is waited for, so that the
-        // host's encoding overlaps the device's work (a chunk run after every world is over
-        // steps none of them).
-        let mut in_flight: Option<(PendingRead, usize)> = None;
-        loop {
-            if done >= sizes.steps {
-                // Every step is encoded: the last chunk's words say only whether it overflowed.
-                if let Some((p, _)) = in_flight.take() {
-                    let out = c.wait_read(p).map_err(Retry::Failed)?;
-                    check_overflow(&out[0])?;
-                }
-                break;
-            }
-            let chunk = (sizes.steps - done).min(most);
-            let mut encoder = c.device.create_command_encoder(&Default::default());
-            match &timer {
-                Some(t) => {
-                    for s in 0..chunk {
-                        let first = (s * step.len()) as u32;
-                        encode_timed(&mut encoder, &step, &t.stamps, first);
-                    }
-                }
-                // The chunk's steps in one pass (the poses are a launch of the step's own).
-                None => {
-                    let launches: Vec<&Launch> =
-                        (0..chunk).flat_map(|_| step.iter().copied()).collect();
-                    encode(&mut encoder, &launches);
-                }
-            }
-            done += chunk;
-            let (out, at) = match &timer {
-                Some(t) => {
-                    // One chunk at a time: the stamps' query set is reused.
-                    let queries = (2 * chunk * step.len()) as u32;
-                    encoder.resolve_query_set(&t.stamps, 0..queries, &t.resolved, 0);
-                    let out = c
-                        .read_back(encoder, &[&b.ctrl, &t.resolved])
-                        .map_err(Retry::Failed)?;
-                    let stamps: Vec<u64> = bytemuck::pod_collect_to_vec(&out[1]);
-                    let names: Vec<&'static str> = (0..chunk)
-                        .flat_map(|_| step.iter().map(|l| l.name))
-                        .collect();
-                    crate::profile::add(&names, &stamps, c.queue.get_timestamp_period());
-                    (out, done)
-                }
-                None => {
-                    let next = (c.submit_read(encoder, &[&b.ctrl]), done);
-                    let Some((p, at)) = in_flight.replace(next) else {
-                        continue;
-                    };
-                    (c.wait_read(p).map_err(Retry::Failed)?, at)
-                }
-            };
-            check_overflow(&out[0])?;
-            let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
-            if over(&words, at) {
-                break;
-            }
-        }
+        let stopped = self.run_chunks(worlds, &sizes, &b, &step, needed)?;
+        let mut encoder = c.device.create_command_encoder(&Default::default());
         // The last step's kick, checked as every step's are: the worlds whose steps ran to the
         // end are still stepping, so `begin` marks them for the check alone.
-        let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &[&l.begin, &l.check, &l.geometry_loads]);
         let mut buffers = vec![
             &b.ctrl,
@@ -800,7 +756,155 @@ impl GpuStages {
             Some(mb) => mb.split(worlds, &out[at]),
             None => worlds.iter().map(|_| None).collect(),
         };
-        Ok(m.split(worlds, &out, rebuilds, &failed, bonds, bodies))
+        let ended = Ended {
+            rebuilds,
+            failed: &failed,
+            stop: stopped.map(|(_, step)| step as u64),
+        };
+        let ends = m.split(worlds, &out, ended, bonds, bodies);
+        Ok((ends, stopped.map(|(code, _)| code)))
+    }
+
+    /// The steps of a try in chunks (see the module notes), after the lists are built: Ok(None)
+    /// when every world ran its steps or failed, Ok(Some((overflow code, step))) when an
+    /// overflow ended the run early at `step`, whose state is back in the buffers.
+    fn run_chunks(
+        &self,
+        worlds: &[World],
+        sizes: &Sizes,
+        b: &Buffers,
+        step: &[&Launch],
+        needed: u64,
+    ) -> Result<Option<(u32, usize)>, Retry> {
+        let c = &*self.ctx;
+        // A world is over once its steps are run or it failed; the run stops when all are.
+        let over = |words: &[u32], done: usize| {
+            worlds.iter().enumerate().all(|(w, world)| {
+                done >= world.steps as usize || words[layout::ctrl::FAILED + w] != EMPTY
+            })
+        };
+        let mut done = 0usize;
+        // A profiled chunk holds at most [`CHUNK`] steps (its stamps' query set is sized so).
+        let timer = Timer::new(c, step.len() * CHUNK as usize);
+        let most = match &timer {
+            Some(_) => CHUNK.min(chunk_steps()) as usize,
+            None => chunk_steps() as usize,
+        };
+        // Tight lists (a test of the overflow paths) come with short chunks, so that an overflow
+        // after the first chunk, with a copy to go back to, is likely.
+        let most = if self.tight { most.min(8) } else { most };
+        // Copies of the state at each chunk's start where the segment is long enough to gain
+        // by them and there is room (`snapshot`): an overflow then ends the segment at its
+        // chunk's start. Where the driver has no memory for them, none are taken.
+        let kept = b.kept();
+        let mut snaps = None;
+        if sizes.steps > snapshot::FEWEST_CHUNKS * most
+            && needed + Snapshots::bytes(&kept) <= c.memory
+        {
+            let scope = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let made = Snapshots::new(&c.device, &kept);
+            if pollster::block_on(scope.pop()).is_none() {
+                snaps = Some(made);
+            }
+        }
+        // The chunk in flight: its read, the steps encoded through it, the step it started at
+        // and its set of copies. Without the profile the next chunk is encoded and submitted
+        // before the one in flight is waited for, so that the host's encoding overlaps the
+        // device's work (a chunk run after every world is over steps none of them).
+        let mut in_flight: Option<(PendingRead, usize, usize, usize)> = None;
+        let mut chunks = 0usize;
+        // Where an overflow ended the segment early: its code and the step the state went back to.
+        let mut stopped: Option<(u32, usize)> = None;
+        // The overflow word of a chunk's read: Ok(None) when clean, Ok(Some(code)) when the
+        // segment can end at the chunk's start instead (a copy was taken there, after step 0).
+        let copies = snaps.is_some();
+        let overflowed = |words: &[u8], start: usize| -> Result<Option<u32>, Retry> {
+            match check_overflow(words) {
+                Ok(()) => Ok(None),
+                Err(Retry::Overflow(code)) if copies && start > 0 => Ok(Some(code)),
+                Err(e) => Err(e),
+            }
+        };
+        loop {
+            if done >= sizes.steps {
+                // Every step is encoded: the last chunk's words say only whether it overflowed.
+                if let Some((p, _, start, set)) = in_flight.take() {
+                    let out = c.wait_read(p).map_err(Retry::Failed)?;
+                    if let Some(code) = overflowed(&out[0], start)? {
+                        stopped = Some((code, set));
+                    }
+                }
+                break;
+            }
+            let chunk = (sizes.steps - done).min(most);
+            let mut encoder = c.device.create_command_encoder(&Default::default());
+            let (start, set) = (done, chunks % 2);
+            if let Some(sn) = snaps.as_mut() {
+                sn.take(&mut encoder, &kept, set, start);
+            }
+            chunks += 1;
+            match &timer {
+                Some(t) => {
+                    for s in 0..chunk {
+                        let first = (s * step.len()) as u32;
+                        encode_timed(&mut encoder, step, &t.stamps, first);
+                    }
+                }
+                // The chunk's steps in one pass (the poses are a launch of the step's own).
+                None => {
+                    let launches: Vec<&Launch> =
+                        (0..chunk).flat_map(|_| step.iter().copied()).collect();
+                    encode(&mut encoder, &launches);
+                }
+            }
+            done += chunk;
+            let (out, at, start, set) = match &timer {
+                Some(t) => {
+                    // One chunk at a time: the stamps' query set is reused.
+                    let queries = (2 * chunk * step.len()) as u32;
+                    encoder.resolve_query_set(&t.stamps, 0..queries, &t.resolved, 0);
+                    let out = c
+                        .read_back(encoder, &[&b.ctrl, &t.resolved])
+                        .map_err(Retry::Failed)?;
+                    let stamps: Vec<u64> = bytemuck::pod_collect_to_vec(&out[1]);
+                    let names: Vec<&'static str> = (0..chunk)
+                        .flat_map(|_| step.iter().map(|l| l.name))
+                        .collect();
+                    crate::profile::add(&names, &stamps, c.queue.get_timestamp_period());
+                    (out, done, start, set)
+                }
+                None => {
+                    let next = (c.submit_read(encoder, &[&b.ctrl]), done, start, set);
+                    let Some((p, at, start, set)) = in_flight.replace(next) else {
+                        continue;
+                    };
+                    (c.wait_read(p).map_err(Retry::Failed)?, at, start, set)
+                }
+            };
+            if let Some(code) = overflowed(&out[0], start)? {
+                // The chunk after it, if submitted, runs on; the copies go back after it.
+                if let Some((p, ..)) = in_flight.take() {
+                    c.wait_read(p).map_err(Retry::Failed)?;
+                }
+                stopped = Some((code, set));
+                break;
+            }
+            let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
+            if over(&words, at) {
+                break;
+            }
+        }
+        // An overflow ended the segment early: the state of its chunk's start goes back (after
+        // every chunk submitted, in the queue's order).
+        Ok(match (stopped, &snaps) {
+            (Some((code, set)), Some(sn)) => {
+                let mut encoder = c.device.create_command_encoder(&Default::default());
+                let step = sn.restore(&mut encoder, &kept, set);
+                c.queue.submit([encoder.finish()]);
+                Some((code, step))
+            }
+            _ => None,
+        })
     }
 }
 

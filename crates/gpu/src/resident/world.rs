@@ -225,6 +225,14 @@ pub(crate) struct Offsets {
     pub geometry: usize,
 }
 
+/// How a run of worlds ended: the list rebuilds of the whole run, each world's failing step (if
+/// any), and the step at which an overflow ended the run early (if it did).
+pub(crate) struct Ended<'a> {
+    pub rebuilds: u64,
+    pub failed: &'a [Option<u64>],
+    pub stop: Option<u64>,
+}
+
 /// The host arrays of a batch's run, at given capacities.
 pub(crate) struct Merged {
     pub n: usize,
@@ -475,13 +483,13 @@ impl Merged {
     }
 
     /// Each world's end from what the device held at the end: `out` is ctrl, state, loads, pair
-    /// ij, pair history, rows, wall candidates, wall history, geometry loads.
+    /// ij, pair history, rows, wall candidates, wall history, geometry loads; `ended` how the run
+    /// ended.
     pub fn split(
         &self,
         worlds: &[World],
         out: &[Vec<u8>],
-        rebuilds: u64,
-        failed: &[Option<u64>],
+        ended: Ended,
         bonds: Vec<Option<dem::bond::segment::SegmentBondsEnd>>,
         bodies: Vec<Option<dem::sim::SegmentBodiesEnd>>,
     ) -> Vec<SegmentEnd> {
@@ -498,7 +506,7 @@ impl Merged {
         worlds
             .iter()
             .zip(&self.offsets)
-            .zip(failed)
+            .zip(ended.failed)
             .zip(bonds)
             .zip(bodies)
             .map(|((((w, off), &failed_at), bonds), bodies)| {
@@ -517,9 +525,10 @@ impl Merged {
                     force: v(&l, loads::FORCE),
                     torque: v(&l, loads::TORQUE),
                     rolling_torque_limit: l[limits..limits + w.n].to_vec(),
-                    rebuilds,
+                    rebuilds: ended.rebuilds,
                     failed_at,
-                    steps_done: failed_at.map_or(w.steps, |f| f + 1),
+                    steps_done: failed_at
+                        .map_or(w.steps.min(ended.stop.unwrap_or(u64::MAX)), |f| f + 1),
                     bonds,
                     bodies,
                     ..Default::default()

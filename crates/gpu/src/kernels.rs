@@ -12,9 +12,14 @@ const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SPIN: &str = include_str!("wgsl/spin.wgsl");
 const CONTACT: &str = include_str!("wgsl/contact.wgsl");
 const ELEMENTS: &str = include_str!("wgsl/elements.wgsl");
-/// Rigid clumps' quaternions, kicks and member placement; needs `bodies`, `body_members`,
-/// `members`, `offsets` and the common buffers bound.
+/// Rigid clumps' quaternions, kicks and member placement (with `STATE_WRITES`); needs `bodies`,
+/// `body_members`, `members`, `offsets` and the common buffers bound.
 const RIGID: &str = include_str!("wgsl/bodies/rigid.wgsl");
+/// `put3` into `state`, `load3` from `loads`, `put_load3` into `loads`: each needs its buffer
+/// bound (read_write to write).
+const STATE_WRITES: &str = include_str!("wgsl/state_writes.wgsl");
+const LOAD_READS: &str = include_str!("wgsl/load_reads.wgsl");
+const LOAD_WRITES: &str = include_str!("wgsl/load_writes.wgsl");
 /// The segment kernels' list sentinel and cell hash.
 const SHARED: &str = include_str!("wgsl/resident/shared.wgsl");
 
@@ -23,7 +28,13 @@ const SHARED: &str = include_str!("wgsl/resident/shared.wgsl");
 const KERNELS: &[(&str, &[&str])] = &[
     (
         "integrate",
-        &[COMMON, SPIN, include_str!("wgsl/integrate.wgsl")],
+        &[
+            COMMON,
+            SPIN,
+            STATE_WRITES,
+            LOAD_READS,
+            include_str!("wgsl/integrate.wgsl"),
+        ],
     ),
     (
         "pair_forces",
@@ -31,7 +42,13 @@ const KERNELS: &[(&str, &[&str])] = &[
     ),
     (
         "particle_sums",
-        &[COMMON, SPIN, include_str!("wgsl/particle_sums.wgsl")],
+        &[
+            COMMON,
+            SPIN,
+            STATE_WRITES,
+            LOAD_WRITES,
+            include_str!("wgsl/particle_sums.wgsl"),
+        ],
     ),
     (
         "wall_forces",
@@ -83,15 +100,33 @@ const KERNELS: &[(&str, &[&str])] = &[
     ),
     (
         "bond_sums",
-        &[COMMON, SPIN, include_str!("wgsl/bonds/bond_sums.wgsl")],
+        &[
+            COMMON,
+            SPIN,
+            STATE_WRITES,
+            LOAD_READS,
+            LOAD_WRITES,
+            include_str!("wgsl/bonds/bond_sums.wgsl"),
+        ],
     ),
     (
         "bodies_first",
-        &[COMMON, RIGID, include_str!("wgsl/bodies/bodies_first.wgsl")],
+        &[
+            COMMON,
+            STATE_WRITES,
+            RIGID,
+            include_str!("wgsl/bodies/bodies_first.wgsl"),
+        ],
     ),
     (
         "bodies_last",
-        &[COMMON, RIGID, include_str!("wgsl/bodies/bodies_last.wgsl")],
+        &[
+            COMMON,
+            STATE_WRITES,
+            LOAD_READS,
+            RIGID,
+            include_str!("wgsl/bodies/bodies_last.wgsl"),
+        ],
     ),
 ];
 

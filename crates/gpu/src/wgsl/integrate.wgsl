@@ -15,16 +15,6 @@
 @group(0) @binding(7) var<storage, read_write> moved: array<f64>;
 @group(0) @binding(8) var<storage, read_write> outside: array<u32>;
 
-fn put3(k: u32, v: vec3<f64>) {
-    state[k] = v.x;
-    state[k + 1u] = v.y;
-    state[k + 2u] = v.z;
-}
-
-fn load3(k: u32) -> vec3<f64> {
-    return vec3<f64>(loads[k], loads[k + 1u], loads[k + 2u]);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = thread_index(gid);

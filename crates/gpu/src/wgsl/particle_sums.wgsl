@@ -24,18 +24,6 @@ fn wall3(k: u32) -> vec3<f64> {
     return vec3<f64>(walls[k], walls[k + 1u], walls[k + 2u]);
 }
 
-fn put3(k: u32, v: vec3<f64>) {
-    state[k] = v.x;
-    state[k + 1u] = v.y;
-    state[k + 2u] = v.z;
-}
-
-fn put_load3(k: u32, v: vec3<f64>) {
-    loads[k] = v.x;
-    loads[k + 1u] = v.y;
-    loads[k + 2u] = v.z;
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = thread_index(gid);

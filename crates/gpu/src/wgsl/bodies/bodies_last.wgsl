@@ -14,10 +14,6 @@
 @group(0) @binding(7) var<storage, read> offsets: array<f64>;
 @group(0) @binding(8) var<storage, read> loads: array<f64>;
 
-fn load3(k: u32) -> vec3<f64> {
-    return vec3<f64>(loads[k], loads[k + 1u], loads[k + 2u]);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let b = thread_index(gid);

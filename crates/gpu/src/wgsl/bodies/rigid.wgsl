@@ -85,12 +85,6 @@ fn kick_body(r: u32, half_dt: f64) {
     put_body3(r + BD_ANGULAR_MOMENTUM, l);
 }
 
-fn put_state3(k: u32, v: vec3<f64>) {
-    state[k] = v.x;
-    state[k + 1u] = v.y;
-    state[k + 2u] = v.z;
-}
-
 // Body b's members follow it: velocity and spin, and with `positions` their positions
 // (Simulation::place_members).
 fn place_members(b: u32, r: u32, positions: bool) {
@@ -104,10 +98,10 @@ fn place_members(b: u32, r: u32, positions: bool) {
         let o = MB_LEN * k + MB_OFFSET;
         let arm = quat_rotate(q, vec3<f64>(offsets[o], offsets[o + 1u], offsets[o + 2u]));
         if (positions) {
-            put_state3(S_POSITION * n + 3u * i, x + arm);
+            put3(S_POSITION * n + 3u * i, x + arm);
         }
-        put_state3(S_VELOCITY * n + 3u * i, v + cross3(spin, arm));
-        put_state3(S_ANGULAR_VELOCITY * n + 3u * i, spin);
+        put3(S_VELOCITY * n + 3u * i, v + cross3(spin, arm));
+        put3(S_ANGULAR_VELOCITY * n + 3u * i, spin);
     }
 }
 

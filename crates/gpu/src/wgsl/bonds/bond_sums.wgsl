@@ -21,22 +21,6 @@ fn output_at(k: u32) -> vec3<f64> {
     return vec3<f64>(bond_output[k], bond_output[k + 1u], bond_output[k + 2u]);
 }
 
-fn load3(k: u32) -> vec3<f64> {
-    return vec3<f64>(loads[k], loads[k + 1u], loads[k + 2u]);
-}
-
-fn put_load3(k: u32, v: vec3<f64>) {
-    loads[k] = v.x;
-    loads[k + 1u] = v.y;
-    loads[k + 2u] = v.z;
-}
-
-fn put3(k: u32, v: vec3<f64>) {
-    state[k] = v.x;
-    state[k + 1u] = v.y;
-    state[k + 2u] = v.z;
-}
-
 fn sign_of(x: f64) -> f64 {
     if (x > 0.0lf) {
         return 1.0lf;

@@ -98,7 +98,6 @@ use dem::sim::walls::WallLists;
 use dem::sim::{
     Anchors, Backend, CpuBackend, Moved, Segment, SegmentEnd, SimulationParams, StepInputs,
 };
-use wgpu::util::DeviceExt;
 
 /// Bytes of `state` per particle, the largest of the per-particle buffers.
 pub(crate) const STATE_BYTES: usize = 8 * layout::state::LEN;
@@ -338,26 +337,36 @@ impl GpuContext {
         (bytes as u64) <= self.max_binding && bytes / 8 < u32::MAX as usize
     }
 
-    /// A storage buffer holding `data` (at least 8 bytes: bindings cannot be empty).
+    /// A storage buffer holding `data` (at least 8 bytes: bindings cannot be empty), which
+    /// copies may read and write.
     fn storage<T: bytemuck::Pod>(&self, data: &[T]) -> wgpu::Buffer {
         self.storage_with(bytemuck::cast_slice(data), wgpu::BufferUsages::empty())
     }
 
-    /// A storage buffer holding `bytes`, with `usage` besides.
+    /// A storage buffer holding `bytes`, with `usage` besides. Made unmapped and written through
+    /// the queue (before the next submission), rather than mapped at creation: a buffer the
+    /// device has no memory for is then an out-of-memory error that a scope catches
+    /// (`resident::run` packs the batch smaller), where a mapped one would panic in wgpu.
     fn storage_with(&self, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
         let padded;
-        let contents = if bytes.len() < 8 {
-            padded = [bytes, &[0u8; 8][..8 - bytes.len()]].concat();
+        let contents = if bytes.len() < 8 || !bytes.len().is_multiple_of(4) {
+            let len = bytes.len().max(8).next_multiple_of(4);
+            padded = [bytes, &vec![0u8; len - bytes.len()]].concat();
             &padded[..]
         } else {
             bytes
         };
-        self.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: None,
-                contents,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | usage,
-            })
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: contents.len() as u64,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST
+                | usage,
+            mapped_at_creation: false,
+        });
+        self.queue.write_buffer(&buffer, 0, contents);
+        buffer
     }
 
     /// Runs `pipeline` over `threads` threads with `buffers` bound in order, then reads back the

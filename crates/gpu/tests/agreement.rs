@@ -523,6 +523,39 @@ fn a_segment_ended_early_keeps_a_moving_floor_in_step() {
     assert!(dx < 1e-12 && dv < 1e-9, "{dx:e} m, {dv:e} m/s");
 }
 
+/// A crowded scene in a box, one sphere thrown out of it at five speeds: with tight lists,
+/// segments end early at chunk starts through the run, and the run still fails where the CPU's
+/// does, with its message and its count of steps (a failing step is not counted on either).
+#[test]
+fn a_run_that_fails_among_early_ended_segments_fails_as_on_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let mut early = 0;
+    for speed in [8.0, 11.0, 14.0, 17.0, 20.0] {
+        let make = || {
+            let mut s = crowded(false);
+            s.params.domain = Some((DVec3::splat(-0.03), DVec3::splat(0.03)));
+            let x = s.particles.position[1];
+            s.particles.velocity[1] = x.normalize() * speed;
+            s
+        };
+        let run = |mut sim: Simulation| {
+            let error = sim.run(600).err().map(|e| e.to_string());
+            (error, sim.steps)
+        };
+        let cpu = run(make());
+        let stages = GpuStages::with_context(ctx.clone()).with_tight_lists();
+        let gpu = run(make().with_backend(Box::new(stages.clone())));
+        early += stages.segments_ended_early();
+        eprintln!(
+            "thrown at {speed} m/s: {} ended early; CPU {cpu:?}; GPU {gpu:?}",
+            stages.segments_ended_early()
+        );
+        assert!(cpu.0.as_deref().unwrap_or("").contains("domain"), "{cpu:?}");
+        assert_eq!(cpu, gpu, "thrown at {speed} m/s");
+    }
+    assert!(early > 0, "no segment ended early");
+}
+
 /// The lifted-cylinder heap in small: spheres in a cylinder on a plate, the cylinder lifted, with
 /// different laws between the spheres and against the steel (so each material pair reads its own
 /// row of the table).

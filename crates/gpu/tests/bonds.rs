@@ -578,8 +578,6 @@ fn bonded_scenes_on_the_device_match_the_cpu() {
     }
 }
 
-/// The V7 pulls on the device break where the analytic answer says: at the first step where
-/// k_n v t >= sigma_c (tension), and within 0.1 % of tau_c / (k_t v) (shear).
 /// With lists that start with no room to spare, rows overflow in the first chunk (the segment
 /// runs again) and later (the segment ends at that chunk's start and the next goes on): the
 /// bonds, their breakages and the clumps come back from the copies taken at the chunk's start,
@@ -614,6 +612,8 @@ fn bonded_scenes_whose_lists_overflow_mid_segment_match_the_cpu() {
     assert!(early > 0, "no segment ended early");
 }
 
+/// The V7 pulls on the device break where the analytic answer says: at the first step where
+/// k_n v t >= sigma_c (tension), and within 0.1 % of tau_c / (k_t v) (shear).
 #[test]
 fn the_device_breaks_v7_bonds_at_the_analytic_time() {
     let Some(ctx) = gpu() else {

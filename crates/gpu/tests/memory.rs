@@ -60,8 +60,8 @@ fn a_batch_larger_than_the_memory_budget_runs_in_smaller_batches_with_the_same_b
     let needed = after.most_bytes;
     assert!(needed > 0 && needed < ctx.memory_budget(), "{after:?}");
 
-    // Room for about two of them at a time: the batch is packed, and no batch that runs takes
-    // more than the room.
+    // Room for about two of them at a time: the batch is packed (a try over the room does not
+    // run, `resident::run`).
     let room = needed * 2 / 5;
     let small = Arc::new(
         GpuContext::new()
@@ -83,6 +83,8 @@ fn a_batch_larger_than_the_memory_budget_runs_in_smaller_batches_with_the_same_b
         later.batches > after.batches,
         "the packed groups did not run as batches of several worlds: {after:?} -> {later:?}"
     );
+    assert_eq!(ctx.failure(), None);
+    assert_eq!(small.failure(), None);
     for (k, (a, b)) in whole.iter().zip(&packed).enumerate() {
         assert!(a == b, "heap {k}: packed differs from the whole batch");
     }

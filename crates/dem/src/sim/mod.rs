@@ -432,6 +432,7 @@ impl Simulation {
             let before = self.steps;
             if steps > 1 && self.run_segment(steps)? {
                 // The back end may end a segment early (it then ran at least one step).
+                debug_assert!(self.steps > before && self.steps - before <= steps);
                 left -= (self.steps - before).clamp(1, steps);
                 continue;
             }

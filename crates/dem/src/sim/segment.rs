@@ -329,18 +329,21 @@ impl super::Simulation {
         p.force = end.force;
         p.torque = end.torque;
         p.rolling_torque_limit = end.rolling_torque_limit;
-        self.steps += end.steps_done;
+        // The steps that count: not a failing step, as on the CPU, which stops in it before the
+        // step is counted and the geometries move.
+        let counted = end.failed_at.unwrap_or(end.steps_done);
+        self.steps += counted;
         self.time = self.steps as f64 * dt;
         self.timers.device_segments += t0.elapsed();
-        if end.steps_done < steps {
-            // The device stopped after `steps_done` steps (a failure, or a list that overflowed
-            // and ended the segment at its chunk's start): the geometries go back to that pose.
+        if counted < steps {
+            // The device stopped early (a failure, or a list that overflowed and ended the
+            // segment at its chunk's start): the geometries go back to that pose.
             if let Some(g) = saved {
                 self.geometries = g;
                 self.steps = start_steps;
                 self.time = start_time;
-                self.geometry_track(end.steps_done);
-                self.steps += end.steps_done;
+                self.geometry_track(counted);
+                self.steps += counted;
                 self.time = self.steps as f64 * dt;
             }
         }

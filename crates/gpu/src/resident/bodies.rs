@@ -130,7 +130,6 @@ impl MergedBodies {
         Some(m)
     }
 
-    /// The largest of its buffers, in bytes.
     /// The device memory of the clumps' buffers ([`BodyBuffers::new`]), in bytes.
     pub fn bytes(&self) -> usize {
         4 * 16
@@ -138,6 +137,7 @@ impl MergedBodies {
             + 8 * (self.rows.len() + self.offsets.len()).max(2)
     }
 
+    /// The largest of its buffers, in bytes.
     pub fn largest(&self) -> usize {
         (8 * self.rows.len()).max(8 * self.offsets.len())
     }
@@ -201,7 +201,7 @@ impl BodyBuffers {
         .words(m.count as u32);
         BodyBuffers {
             counts: c.storage(&words),
-            rows: c.storage_with(bytemuck::cast_slice(&m.rows), wgpu::BufferUsages::COPY_DST),
+            rows: c.storage(&m.rows),
             ranges: c.storage(&m.ranges),
             members: c.storage(&m.members),
             offsets: c.storage(&m.offsets),

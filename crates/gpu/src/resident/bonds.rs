@@ -144,7 +144,6 @@ impl MergedBonds {
         Some(m)
     }
 
-    /// The largest of its buffers, in bytes.
     /// The device memory of the bonds' buffers ([`BondBuffers::new`]), in bytes.
     pub fn bytes(&self) -> usize {
         let words = 4 * 16 + 4 * (self.ends.len() + self.rows.len()).max(4);
@@ -152,6 +151,7 @@ impl MergedBonds {
         words + 8 * (f64s.max(3) + (bond_output::LEN + bond_broke::LEN) * self.count.max(1))
     }
 
+    /// The largest of its buffers, in bytes.
     pub fn largest(&self) -> usize {
         [
             8 * self.state.len(),
@@ -252,12 +252,9 @@ impl BondBuffers {
             ends: c.storage(&m.ends),
             props: c.storage(&m.props),
             params: c.storage(&m.params),
-            state: c.storage_with(bytemuck::cast_slice(&m.state), wgpu::BufferUsages::COPY_DST),
-            output: c.storage_with(
-                bytemuck::cast_slice(&vec![0.0f64; bond_output::LEN * count]),
-                wgpu::BufferUsages::COPY_DST,
-            ),
-            broke: c.storage_with(bytemuck::cast_slice(&broke), wgpu::BufferUsages::COPY_DST),
+            state: c.storage(&m.state),
+            output: c.storage(&vec![0.0f64; bond_output::LEN * count]),
+            broke: c.storage(&broke),
             rows: c.storage(&m.rows),
         }
     }

@@ -117,11 +117,10 @@ pub(crate) enum Declined {
 impl std::fmt::Display for Declined {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Declined::Memory { needed, room } => write!(
+            Declined::Memory { needed, .. } => write!(
                 f,
-                "it needs {:.3} GB of device memory and there is room for {:.3} GB (DEMCAL_GPU_MEMORY sets the room)",
-                *needed as f64 * 1e-9,
-                *room as f64 * 1e-9
+                "the GPU ran out of memory for it ({:.3} GB)",
+                *needed as f64 * 1e-9
             ),
             Declined::Why(why) => f.write_str(why),
         }
@@ -397,7 +396,10 @@ impl GpuStages {
                 Err(Retry::Overflow(code)) => cap = cap.grown(code).map_err(Declined::Why)?,
                 Err(Retry::Decline(why) | Retry::Failed(why)) => return Err(Declined::Why(why)),
                 Err(Retry::Memory { needed, room }) => {
-                    return Err(Declined::Memory { needed, room })
+                    // The room that overflows showed was needed holds for the smaller batches.
+                    let mut g = self.grown.lock().unwrap_or_else(|e| e.into_inner());
+                    *g = [g[0].max(cap.pair), g[1].max(cap.wall), g[2].max(cap.bucket)];
+                    return Err(Declined::Memory { needed, room });
                 }
             }
         }

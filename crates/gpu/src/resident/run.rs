@@ -166,8 +166,8 @@ struct Buffers {
 }
 
 impl Buffers {
-    /// The buffers a segment's end reads and the steps change: what a snapshot copies
-    /// ([`Snapshots`]).
+    /// The buffers a segment's end reads (its read-back and the end's `check` and
+    /// `geometry_loads`) and the steps change: what a snapshot copies ([`Snapshots`]).
     fn kept(&self) -> Vec<&wgpu::Buffer> {
         let mut kept = vec![
             &self.ctrl,
@@ -179,7 +179,14 @@ impl Buffers {
             &self.cands,
             &self.wall_history,
             &self.wall_output,
+            // What `check` reads at the end: the drift since the last build, leaving the domain,
+            // a wall row's status.
+            &self.moved,
+            &self.outside,
+            &self.status,
         ];
+        // Bond ends' `BE_INTACT` is not kept: nothing at the end reads it, and the next try
+        // uploads it anew.
         if let Some(b) = &self.bonds {
             kept.extend([&b.state, &b.output, &b.broke]);
         }
@@ -243,11 +250,6 @@ impl Buffers {
 
     fn new(c: &GpuContext, m: &Merged, worlds: usize, s: &Sizes, cap: Capacity) -> Buffers {
         let (n, pairs, walls) = (s.n, s.pairs, s.walls);
-        let storage_rw = |data: &[u8]| c.storage_with(data, wgpu::BufferUsages::COPY_DST);
-        // What a snapshot copies back ([`Buffers::kept`]).
-        fn kept<T: bytemuck::Pod>(c: &GpuContext, data: &[T]) -> wgpu::Buffer {
-            c.storage_with(bytemuck::cast_slice(data), wgpu::BufferUsages::COPY_DST)
-        }
         let counts = |threads: usize| {
             let counts = Counts {
                 particles: n,
@@ -280,8 +282,8 @@ impl Buffers {
         dims[layout::dims::MOVING_ELEMENTS] = m.moving_rows() as u32;
         let body = layout::ints::BODY * n..(layout::ints::BODY + 1) * n;
         Buffers {
-            state: kept(c, &m.state),
-            loads: kept(c, &m.loads),
+            state: c.storage(&m.state),
+            loads: c.storage(&m.loads),
             props: c.storage(&m.props),
             body: c.storage(&m.ints[body]),
             ints: c.storage(&m.ints),
@@ -293,26 +295,26 @@ impl Buffers {
             moved: c.storage(&vec![0.0f64; n]),
             outside: c.storage(&vec![0u32; n]),
             status: c.storage(&vec![0u32; n]),
-            pair_ij: kept(c, &m.pair_ij),
-            pair_history: kept(c, &m.pair_history),
+            pair_ij: c.storage(&m.pair_ij),
+            pair_history: c.storage(&m.pair_history),
             pair_output: c.storage(&vec![0.0f64; layout::pair_output::LEN * pairs]),
             new_ij: c.storage(&vec![EMPTY; layout::pair_ij::LEN * pairs]),
             new_pair_history: c.storage(&vec![0.0f64; layout::history::LEN * pairs]),
-            rows: kept(c, &m.rows),
-            cands: kept(c, &m.cands),
-            wall_history: kept(c, &m.wall_history),
-            wall_output: kept(c, &vec![0.0f64; layout::wall_output::LEN * walls]),
+            rows: c.storage(&m.rows),
+            cands: c.storage(&m.cands),
+            wall_history: c.storage(&m.wall_history),
+            wall_output: c.storage(&vec![0.0f64; layout::wall_output::LEN * walls]),
             new_cands: c.storage(&vec![EMPTY; layout::cands::LEN * walls]),
             new_wall_history: c.storage(&vec![0.0f64; layout::history::LEN * walls]),
             table: c.storage(&m.table),
-            elements: storage_rw(bytemuck::cast_slice(&m.elements)),
-            geoms: storage_rw(bytemuck::cast_slice(&m.geoms)),
+            elements: c.storage(&m.elements),
+            geoms: c.storage(&m.geoms),
             element_track: track(&m.element_track),
             geoms_track: track(&m.geoms_track),
             pose_table: c.storage(&m.pose_table()),
             counts_poses: counts(m.moving_rows() + s.geometries),
             forced: c.storage(&m.forced),
-            ctrl: kept(c, &words),
+            ctrl: c.storage(&words),
             dims: c.storage(&dims),
             search: c.storage(&m.search),
             bucket_count: c.storage(&vec![0u32; s.buckets]),
@@ -650,9 +652,21 @@ impl GpuStages {
                 room: c.memory,
             });
         }
-        let scope = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        // Out of memory in a buffer's creation makes it invalid, and the write of its data then
+        // a validation error: both caught here, neither the device's failure.
+        let memory = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = c.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
-        if let Some(e) = pollster::block_on(scope.pop()) {
+        let invalid = pollster::block_on(validation.pop());
+        let out_of_memory = pollster::block_on(memory.pop());
+        if let (Some(e), None) = (&invalid, &out_of_memory) {
+            return Err(Retry::Failed(format!(
+                "the GPU {} refused a segment's buffers: {}",
+                c.adapter,
+                crate::failure::one_line(&e.to_string())
+            )));
+        }
+        if let Some(e) = out_of_memory {
             // Out of memory at the driver's count: half as much may fit.
             eprintln!(
                 "warning: the GPU {} ran out of memory for {} world(s) needing {:.3} GB: {}",
@@ -666,11 +680,14 @@ impl GpuStages {
                 room: needed / 2,
             });
         }
-        debug_assert!(
-            b.bytes() <= needed,
-            "the buffers take {} bytes, over the {needed} counted",
-            b.bytes()
-        );
+        // The count must bound what was made (for the packing); a miscount is a bug, said as a
+        // decline so that it shows where it happens.
+        if b.bytes() > needed {
+            return Err(Retry::Decline(format!(
+                "its buffers took {} bytes, over the {needed} counted for them",
+                b.bytes()
+            )));
+        }
         crate::batch::note_bytes(worlds.len(), b.bytes());
         let mut l = Launches::new(c, &b, &sizes, &m);
         // The rebuild kernels start their threads only in a step with a rebuild (`plan`): their
@@ -839,7 +856,8 @@ impl GpuStages {
             let chunk = (sizes.steps - done).min(most);
             let mut encoder = c.device.create_command_encoder(&Default::default());
             let (start, set) = (done, chunks % 2);
-            if let Some(sn) = snaps.as_mut() {
+            // (A copy at step 0 would never be used: the segment then runs again from its start.)
+            if let Some(sn) = snaps.as_mut().filter(|_| start > 0) {
                 sn.take(&mut encoder, &kept, set, start);
             }
             chunks += 1;

@@ -6,7 +6,9 @@
 //! chunk, already submitted, takes its copy into the other set, so the set of the chunk that
 //! overflowed is still whole when the host learns of it. The copies are of the buffers a
 //! segment's end reads ([`super::run`]'s `kept`): the particles, their lists, histories and wall
-//! outputs, the control words, and the bonds' and clumps' state.
+//! outputs, what the end's `check` reads (drift, leaving the domain, wall row status), the control
+//! words, and the bonds' and clumps' state. The first chunk takes none (an overflow there runs
+//! the segment again).
 
 /// The two sets of copies, and the step at which each was taken.
 pub(super) struct Snapshots {
@@ -14,7 +16,7 @@ pub(super) struct Snapshots {
     taken_at: [usize; 2],
 }
 
-/// Segments of fewer chunks than this run again from their start on an overflow: the copies
+/// Segments of this many chunks or fewer run again from their start on an overflow: the copies
 /// would cost more than they save.
 pub(super) const FEWEST_CHUNKS: usize = 4;
 

@@ -527,8 +527,10 @@ impl Merged {
                     rolling_torque_limit: l[limits..limits + w.n].to_vec(),
                     rebuilds: ended.rebuilds,
                     failed_at,
+                    // Never past the step the state went back to when the run ended early.
                     steps_done: failed_at
-                        .map_or(w.steps.min(ended.stop.unwrap_or(u64::MAX)), |f| f + 1),
+                        .map_or(w.steps, |f| f + 1)
+                        .min(ended.stop.unwrap_or(u64::MAX)),
                     bonds,
                     bodies,
                     ..Default::default()

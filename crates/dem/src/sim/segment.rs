@@ -94,7 +94,9 @@ pub struct SegmentEnd {
     /// ended it early (a GPU list that overflowed: the simulation goes on in the next segment).
     pub steps_done: u64,
     /// The step (0-based within the segment) in which a particle first stopped being finite or
-    /// left the domain; the state is then that of the segment's end, for the message only.
+    /// left the domain, not counted in the simulation's steps, as on the CPU (the segment's own
+    /// count of steps when it was found after the last step's kick: the next step, in which the
+    /// CPU finds it); the state is then that of the segment's end, for the message only.
     pub failed_at: Option<u64>,
     /// The bonds after the last step, when the segment had bonds.
     pub bonds: Option<SegmentBondsEnd>,

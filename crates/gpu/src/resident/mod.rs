@@ -97,7 +97,8 @@ enum Retry {
     /// The segment cannot run here (why: too large for a binding, a particle with too many
     /// walls).
     Decline(String),
-    /// The device failed (`crate::failure`): nothing more runs on it.
+    /// The device failed (`crate::failure`: nothing more runs on it), or refused this try's
+    /// buffers (a validation error; the try is declined).
     Failed(String),
     /// The worlds together need `needed` bytes of device memory, more than the `room` there is
     /// (the context's budget, or half of `needed` where the driver ran out of memory).

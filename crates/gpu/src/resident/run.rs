@@ -74,8 +74,8 @@ const SMALL_BUFFERS: u64 = 64 * 1024;
 
 impl Sizes {
     /// The device memory the buffers of a try take, in bytes: [`Buffers::new`]'s buffers, the
-    /// uploaded ones by their data and the others by their sizes, plus [`SMALL_BUFFERS`]. The
-    /// debug builds check it against the buffers made (`try_run`).
+    /// uploaded ones by their data and the others by their sizes, plus [`SMALL_BUFFERS`]. Each
+    /// try checks it against the buffers made (`try_run`: a miscount is a decline).
     fn bytes(&self, m: &Merged, cap: Capacity, worlds: usize) -> u64 {
         use layout::{cands, history, pair_ij, pair_output, wall_output};
         let f64s = |len: usize| 8 * len.max(1);

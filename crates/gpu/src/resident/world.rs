@@ -527,9 +527,12 @@ impl Merged {
                     rolling_torque_limit: l[limits..limits + w.n].to_vec(),
                     rebuilds: ended.rebuilds,
                     failed_at,
-                    // Never past the step the state went back to when the run ended early.
+                    // Never past the world's steps (a failure found after its last step is
+                    // the next step's), nor the step the state went back to when the run ended
+                    // early.
                     steps_done: failed_at
                         .map_or(w.steps, |f| f + 1)
+                        .min(w.steps)
                         .min(ended.stop.unwrap_or(u64::MAX)),
                     bonds,
                     bodies,

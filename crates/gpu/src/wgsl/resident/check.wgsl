@@ -35,9 +35,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         atomicOr(&ctrl[K_REBUILD], 1u);
     }
     if (outside[i] != 0u || !finite(position(i)) || !finite(velocity(i))) {
+        // The step in which it failed; found by the check after a world's last step (its
+        // steps' count), the step after it, in which the CPU would find it.
         let w = u32(props[PR_WORLD * n + i]);
-        let last = u32(param(P_STEPS)) - 1u;
-        atomicMin(&ctrl[K_FAILED + w], min(atomicLoad(&ctrl[K_STEPS_BEGUN]) - 1u, last));
+        atomicMin(&ctrl[K_FAILED + w], atomicLoad(&ctrl[K_STEPS_BEGUN]) - 1u);
     }
     if (status[i] != 0u) {
         atomicMax(&ctrl[K_OVERFLOW], OV_WALLS_KEPT);

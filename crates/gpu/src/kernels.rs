@@ -11,6 +11,8 @@ const VECTOR: &str = include_str!("wgsl/vector.wgsl");
 const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SPIN: &str = include_str!("wgsl/spin.wgsl");
 const CONTACT: &str = include_str!("wgsl/contact.wgsl");
+/// `history` and `output` row accessors of the stage contact kernels (both bound).
+const CONTACT_ROWS: &str = include_str!("wgsl/contact_rows.wgsl");
 const ELEMENTS: &str = include_str!("wgsl/elements.wgsl");
 /// Rigid clumps' quaternions, kicks and member placement (with `STATE_WRITES`); needs `bodies`,
 /// `body_members`, `members`, `offsets` and the common buffers bound.
@@ -22,6 +24,8 @@ const LOAD_READS: &str = include_str!("wgsl/load_reads.wgsl");
 const LOAD_WRITES: &str = include_str!("wgsl/load_writes.wgsl");
 /// The segment kernels' list sentinel and cell hash.
 const SHARED: &str = include_str!("wgsl/resident/shared.wgsl");
+/// The pair histories' two halves; needs `ctrl`, `history_even` and `history_odd` bound.
+const HISTORY_HALVES: &str = include_str!("wgsl/resident/history_halves.wgsl");
 
 /// Every kernel: its name (the label the device reports) and its parts after the constants and
 /// `vector.wgsl`, in order.
@@ -38,7 +42,12 @@ const KERNELS: &[(&str, &[&str])] = &[
     ),
     (
         "pair_forces",
-        &[COMMON, CONTACT, include_str!("wgsl/pair_forces.wgsl")],
+        &[
+            COMMON,
+            CONTACT,
+            CONTACT_ROWS,
+            include_str!("wgsl/pair_forces.wgsl"),
+        ],
     ),
     (
         "particle_sums",
@@ -55,6 +64,7 @@ const KERNELS: &[(&str, &[&str])] = &[
         &[
             COMMON,
             CONTACT,
+            CONTACT_ROWS,
             ELEMENTS,
             include_str!("wgsl/wall_forces.wgsl"),
         ],
@@ -71,6 +81,7 @@ const KERNELS: &[(&str, &[&str])] = &[
         &[
             COMMON,
             SHARED,
+            HISTORY_HALVES,
             include_str!("wgsl/resident/build_pairs.wgsl"),
         ],
     ),
@@ -87,7 +98,30 @@ const KERNELS: &[(&str, &[&str])] = &[
         "sort_reverse",
         &[include_str!("wgsl/resident/sort_reverse.wgsl")],
     ),
-    ("commit", &[include_str!("wgsl/resident/commit.wgsl")]),
+    (
+        "commit",
+        &[HISTORY_HALVES, include_str!("wgsl/resident/commit.wgsl")],
+    ),
+    (
+        "particle_forces",
+        &[
+            COMMON,
+            CONTACT,
+            LOAD_WRITES,
+            HISTORY_HALVES,
+            include_str!("wgsl/resident/particle_forces.wgsl"),
+        ],
+    ),
+    (
+        "kick",
+        &[
+            COMMON,
+            SPIN,
+            STATE_WRITES,
+            LOAD_READS,
+            include_str!("wgsl/resident/kick.wgsl"),
+        ],
+    ),
     (
         "geometry_loads",
         &[include_str!("wgsl/resident/geometry_loads.wgsl")],

@@ -6,9 +6,13 @@
 //! `integrate`, `check` (half-skin displacement, failures), the rebuild kernels (`clear`, `bin`,
 //! `build_pairs`, `build_walls`, `sort_reverse`, `commit`, dispatched with the workgroups `plan`
 //! writes after `check`: none without a rebuild; each also returns at once when none is due),
-//! then `pair_forces`, `wall_forces` and `particle_sums` with the second half kick, and where a
-//! world has them `bond_forces` and `bond_sums` (`bonds`) and `bodies_last` (`bodies`). The
-//! kernels of the check path are reused as they are; the lists they read
+//! then `wall_forces` (the check path's kernel), `particle_forces` (each particle evaluates the
+//! contacts of its pair row and of its reverse row itself, from the pair histories' half of the
+//! step, and sums them with its walls: both particles of a pair evaluate it with the same
+//! arithmetic, only its first writes the new history, into the other half, so no per-pair output
+//! is written or read) and `kick` (the second half kick), and where a world has them
+//! `bond_forces` and `bond_sums` (`bonds`) and `bodies_last` (`bodies`). The lists the kernels
+//! read
 //! have a fixed capacity per particle, so a rebuild needs no prefix sums and no host: a particle's
 //! pair row holds its j > i sorted by j (its history found by a merge with the old row), its
 //! reverse row the sorted slots where it is j, so every particle sums its contacts in a fixed
@@ -138,6 +142,8 @@ pub(crate) struct ResidentKernels {
     build_walls: wgpu::ComputePipeline,
     sort_reverse: wgpu::ComputePipeline,
     commit: wgpu::ComputePipeline,
+    particle_forces: wgpu::ComputePipeline,
+    kick: wgpu::ComputePipeline,
     geometry_loads: wgpu::ComputePipeline,
     poses: wgpu::ComputePipeline,
     plan: wgpu::ComputePipeline,
@@ -160,6 +166,8 @@ impl ResidentKernels {
             build_walls: take("build_walls"),
             sort_reverse: take("sort_reverse"),
             commit: take("commit"),
+            particle_forces: take("particle_forces"),
+            kick: take("kick"),
             geometry_loads: take("geometry_loads"),
             poses: take("poses"),
             plan: take("plan"),
@@ -188,6 +196,8 @@ impl GpuContext {
             (&k.build_walls, "build_walls"),
             (&k.sort_reverse, "sort_reverse"),
             (&k.commit, "commit"),
+            (&k.particle_forces, "particle_forces"),
+            (&k.kick, "kick"),
             (&k.geometry_loads, "geometry_loads"),
             (&k.poses, "poses"),
             (&k.plan, "plan"),

@@ -54,7 +54,7 @@ impl Sizes {
             8 * m.element_track.len(),
             8 * m.geoms_track.len(),
             8 * m.table.len(),
-            8 * layout::pair_output::LEN * self.pairs,
+            8 * layout::history::LEN * self.pairs,
             8 * layout::wall_output::LEN * self.walls,
             4 * (layout::rows::REVERSE_ENTRIES * self.n + self.pairs),
             4 * self.buckets * cap.bucket,
@@ -77,7 +77,7 @@ impl Sizes {
     /// uploaded ones by their data and the others by their sizes, plus [`SMALL_BUFFERS`]. Each
     /// try checks it against the buffers made (`try_run`: a miscount is a decline).
     fn bytes(&self, m: &Merged, cap: Capacity, worlds: usize) -> u64 {
-        use layout::{cands, history, pair_ij, pair_output, wall_output};
+        use layout::{cands, history, pair_ij, wall_output};
         let f64s = |len: usize| 8 * len.max(1);
         let u32s = |len: usize| 4 * len.max(2);
         let (n, pairs, walls) = (self.n, self.pairs, self.walls);
@@ -91,7 +91,7 @@ impl Sizes {
             + 3 * u32s(n);
         let pair_slots = u32s(m.pair_ij.len())
             + f64s(m.pair_history.len())
-            + f64s(pair_output::LEN * pairs)
+            + f64s(history::LEN * pairs)
             + u32s(pair_ij::LEN * pairs)
             + f64s(history::LEN * pairs)
             + u32s(m.rows.len());
@@ -135,8 +135,9 @@ struct Buffers {
     outside: wgpu::Buffer,
     status: wgpu::Buffer,
     pair_ij: wgpu::Buffer,
-    pair_history: wgpu::Buffer,
-    pair_output: wgpu::Buffer,
+    /// The pair histories in two halves, by the parity of the step (`history_halves.wgsl`).
+    history_even: wgpu::Buffer,
+    history_odd: wgpu::Buffer,
     new_ij: wgpu::Buffer,
     new_pair_history: wgpu::Buffer,
     rows: wgpu::Buffer,
@@ -174,7 +175,8 @@ impl Buffers {
             &self.state,
             &self.loads,
             &self.pair_ij,
-            &self.pair_history,
+            &self.history_even,
+            &self.history_odd,
             &self.rows,
             &self.cands,
             &self.wall_history,
@@ -213,8 +215,8 @@ impl Buffers {
             &self.outside,
             &self.status,
             &self.pair_ij,
-            &self.pair_history,
-            &self.pair_output,
+            &self.history_even,
+            &self.history_odd,
             &self.new_ij,
             &self.new_pair_history,
             &self.rows,
@@ -296,8 +298,9 @@ impl Buffers {
             outside: c.storage(&vec![0u32; n]),
             status: c.storage(&vec![0u32; n]),
             pair_ij: c.storage(&m.pair_ij),
-            pair_history: c.storage(&m.pair_history),
-            pair_output: c.storage(&vec![0.0f64; layout::pair_output::LEN * pairs]),
+            // The host's histories are those before step 0.
+            history_even: c.storage(&m.pair_history),
+            history_odd: c.storage(&vec![0.0f64; layout::history::LEN * pairs]),
             new_ij: c.storage(&vec![EMPTY; layout::pair_ij::LEN * pairs]),
             new_pair_history: c.storage(&vec![0.0f64; layout::history::LEN * pairs]),
             rows: c.storage(&m.rows),
@@ -506,7 +509,8 @@ impl<'a> Launches<'a> {
                     &b.dims,
                     &b.search,
                     &b.pair_ij,
-                    &b.pair_history,
+                    &b.history_even,
+                    &b.history_odd,
                     &b.new_ij,
                     &b.new_pair_history,
                     &b.rows,
@@ -551,7 +555,8 @@ impl<'a> Launches<'a> {
                     &b.ctrl,
                     &b.dims,
                     &b.pair_ij,
-                    &b.pair_history,
+                    &b.history_even,
+                    &b.history_odd,
                     &b.new_ij,
                     &b.new_pair_history,
                     &b.cands,
@@ -566,25 +571,10 @@ impl<'a> Launches<'a> {
         ]
     }
 
-    /// The stage kernels, as the check path runs them.
+    /// The wall contacts (the check path's kernel), each particle's pair contacts and sums
+    /// (`particle_forces`: no per-pair output), then the second half kick.
     fn forces(c: &'a GpuContext, b: &Buffers, s: &Sizes) -> [Launch<'a>; 3] {
         [
-            launch(
-                c,
-                &c.pair_forces,
-                &[
-                    &b.state,
-                    &b.props,
-                    &b.ints,
-                    &b.pair_ij,
-                    &b.pair_history,
-                    &b.pair_output,
-                    &b.table,
-                    &b.params,
-                    &b.counts_pairs,
-                ],
-                s.pairs,
-            ),
             launch(
                 c,
                 &c.wall_forces,
@@ -607,15 +597,32 @@ impl<'a> Launches<'a> {
             ),
             launch(
                 c,
-                &c.particle_sums,
+                &c.resident.particle_forces,
+                &[
+                    &b.state,
+                    &b.loads,
+                    &b.props,
+                    &b.ints,
+                    &b.pair_ij,
+                    &b.history_even,
+                    &b.history_odd,
+                    &b.rows,
+                    &b.wall_output,
+                    &b.table,
+                    &b.params,
+                    &b.counts_n,
+                    &b.ctrl,
+                ],
+                s.n,
+            ),
+            launch(
+                c,
+                &c.resident.kick,
                 &[
                     &b.state,
                     &b.loads,
                     &b.props,
                     &b.body,
-                    &b.pair_output,
-                    &b.rows,
-                    &b.wall_output,
                     &b.params,
                     &b.counts_n,
                 ],
@@ -635,7 +642,9 @@ impl GpuStages {
         let sizes = Sizes::of(worlds, cap);
         let m = Merged::new(worlds, cap).map_err(Retry::Overflow)?;
         let largest = sizes.largest(&m, cap);
-        if !c.fits(largest) || sizes.pairs >= u32::MAX as usize / layout::pair_output::LEN {
+        // A pair slot's row index (`H_LEN * q`, `IJ_LEN * q`) must fit u32.
+        let row = layout::history::LEN.max(layout::pair_ij::LEN);
+        if !c.fits(largest) || sizes.pairs >= u32::MAX as usize / row {
             return Err(Retry::Decline(format!(
                 "its largest list ({:.2} GB) does not fit one binding of {} ({:.2} GB)",
                 largest as f64 * 1e-9,
@@ -739,7 +748,8 @@ impl GpuStages {
             &b.state,
             &b.loads,
             &b.pair_ij,
-            &b.pair_history,
+            &b.history_even,
+            &b.history_odd,
             &b.rows,
             &b.cands,
             &b.wall_history,
@@ -761,11 +771,11 @@ impl GpuStages {
             .collect();
         // The first rebuild, before the first step, is not the simulation's.
         let rebuilds = words[layout::ctrl::REBUILDS].saturating_sub(1) as u64;
-        let mut at = 9;
+        let mut at = 10;
         let bonds = match &m.bonds {
             Some(mb) => {
                 at += 3;
-                mb.split(worlds, [&out[9], &out[10], &out[11]])
+                mb.split(worlds, [&out[10], &out[11], &out[12]])
             }
             None => worlds.iter().map(|_| None).collect(),
         };

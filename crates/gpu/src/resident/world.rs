@@ -483,8 +483,8 @@ impl Merged {
     }
 
     /// Each world's end from what the device held at the end: `out` is ctrl, state, loads, pair
-    /// ij, pair history, rows, wall candidates, wall history, geometry loads; `ended` how the run
-    /// ended.
+    /// ij, the pair histories' even and odd halves, rows, wall candidates, wall history, geometry
+    /// loads; `ended` how the run ended.
     pub fn split(
         &self,
         worlds: &[World],
@@ -498,11 +498,14 @@ impl Merged {
         let s: Vec<f64> = bytemuck::pod_collect_to_vec(&out[1]);
         let l: Vec<f64> = bytemuck::pod_collect_to_vec(&out[2]);
         let ij: Vec<u32> = bytemuck::pod_collect_to_vec(&out[3]);
-        let ph: Vec<f64> = bytemuck::pod_collect_to_vec(&out[4]);
-        let rows: Vec<u32> = bytemuck::pod_collect_to_vec(&out[5]);
-        let wc: Vec<u32> = bytemuck::pod_collect_to_vec(&out[6]);
-        let wh: Vec<f64> = bytemuck::pod_collect_to_vec(&out[7]);
-        let gl: Vec<f64> = bytemuck::pod_collect_to_vec(&out[8]);
+        let halves: [Vec<f64>; 2] = [
+            bytemuck::pod_collect_to_vec(&out[4]),
+            bytemuck::pod_collect_to_vec(&out[5]),
+        ];
+        let rows: Vec<u32> = bytemuck::pod_collect_to_vec(&out[6]);
+        let wc: Vec<u32> = bytemuck::pod_collect_to_vec(&out[7]);
+        let wh: Vec<f64> = bytemuck::pod_collect_to_vec(&out[8]);
+        let gl: Vec<f64> = bytemuck::pod_collect_to_vec(&out[9]);
         worlds
             .iter()
             .zip(&self.offsets)
@@ -538,10 +541,13 @@ impl Merged {
                     bodies,
                     ..Default::default()
                 };
+                // The world's last step wrote its histories to the half of its steps' parity
+                // (`history_halves.wgsl`).
+                let ph = &halves[(end.steps_done % 2) as usize];
                 for i in range.clone() {
                     let slots = rows[r::PAIR_BEGIN * n + i]..rows[r::PAIR_END * n + i];
                     for q in slots.start as usize..slots.end as usize {
-                        let history = history_at(&ph, q);
+                        let history = history_at(ph, q);
                         if !history.is_empty() {
                             end.pairs.push(Pair {
                                 i: (i - off.particle) as u32,

@@ -56,24 +56,6 @@ fn jkr_contact_radius(d: f64, gamma: f64, e_star: f64, r_eff: f64) -> f64 {
     return s * s;
 }
 
-// Accessors of the arrays both contact kernels bind: `history` (rows of H_LEN) and `output`.
-
-fn hist3(k: u32) -> vec3<f64> {
-    return vec3<f64>(history[k], history[k + 1u], history[k + 2u]);
-}
-
-fn put_hist3(k: u32, v: vec3<f64>) {
-    history[k] = v.x;
-    history[k + 1u] = v.y;
-    history[k + 2u] = v.z;
-}
-
-fn put_out3(k: u32, v: vec3<f64>) {
-    output[k] = v.x;
-    output[k + 1u] = v.y;
-    output[k + 2u] = v.z;
-}
-
 struct Contact {
     // Total force on the particle (i): normal plus tangential.
     force: vec3<f64>,

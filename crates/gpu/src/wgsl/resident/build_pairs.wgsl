@@ -11,13 +11,15 @@
 @group(0) @binding(6) var<storage, read> dims: array<u32>;
 @group(0) @binding(7) var<storage, read> search: array<f64>;
 @group(0) @binding(8) var<storage, read> old_ij: array<u32>;
-@group(0) @binding(9) var<storage, read> old_history: array<f64>;
-@group(0) @binding(10) var<storage, read_write> new_ij: array<u32>;
-@group(0) @binding(11) var<storage, read_write> new_history: array<f64>;
-@group(0) @binding(12) var<storage, read_write> rows: array<u32>;
-@group(0) @binding(13) var<storage, read_write> reverse_count: array<atomic<u32>>;
-@group(0) @binding(14) var<storage, read_write> built: array<f64>;
-@group(0) @binding(15) var<storage, read> params: array<f64>;
+// The old histories: the current half of history_halves.wgsl.
+@group(0) @binding(9) var<storage, read_write> history_even: array<f64>;
+@group(0) @binding(10) var<storage, read_write> history_odd: array<f64>;
+@group(0) @binding(11) var<storage, read_write> new_ij: array<u32>;
+@group(0) @binding(12) var<storage, read_write> new_history: array<f64>;
+@group(0) @binding(13) var<storage, read_write> rows: array<u32>;
+@group(0) @binding(14) var<storage, read_write> reverse_count: array<atomic<u32>>;
+@group(0) @binding(15) var<storage, read_write> built: array<f64>;
+@group(0) @binding(16) var<storage, read> params: array<f64>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -94,6 +96,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let old_end = rows[R_PAIR_END * n + i];
     var o = base;
+    let half = history_half();
     for (var k = 0u; k < count; k++) {
         let q = base + k;
         let j = new_ij[IJ_LEN * q + IJ_J];
@@ -105,7 +108,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var h = 0u; h < H_LEN; h++) {
             var v = 0.0lf;
             if (carried) {
-                v = old_history[H_LEN * o + h];
+                v = half_get(half, H_LEN * o + h);
             }
             new_history[H_LEN * q + h] = v;
         }

@@ -84,6 +84,7 @@ mod failure;
 mod kernels;
 mod layout;
 mod pack;
+mod pool;
 pub mod profile;
 mod resident;
 mod stages;
@@ -161,6 +162,8 @@ pub struct GpuContext {
     memory: u64,
     /// The device's first failure; from then on nothing runs on it (`failure`).
     failure: Arc<failure::Failure>,
+    /// The buffers of the last finished segment, for the next to reuse (`pool`).
+    pool: pool::Pool,
     integrate: wgpu::ComputePipeline,
     pair_forces: wgpu::ComputePipeline,
     particle_sums: wgpu::ComputePipeline,
@@ -281,6 +284,7 @@ impl GpuContext {
             max_binding,
             memory,
             failure,
+            pool: Default::default(),
             adapter: format!("{} ({:?})", info.name, info.backend),
             device,
             queue,
@@ -356,17 +360,34 @@ impl GpuContext {
         } else {
             bytes
         };
-        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size: contents.len() as u64,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST
-                | usage,
-            mapped_at_creation: false,
-        });
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST
+            | usage;
+        let buffer = self.scratch(contents.len() as u64, usage);
+        // Every byte is written, so a buffer from the pool holds nothing of its last use.
         self.queue.write_buffer(&buffer, 0, contents);
         buffer
+    }
+
+    /// A buffer of `size` bytes and `usage` whose contents are written before they are read:
+    /// one kept from the last segment (`pool`) where one fits, else a new one.
+    pub(crate) fn scratch(&self, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.pool.take(size, usage).unwrap_or_else(|| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        })
+    }
+
+    /// Buffers a segment took from those the last one left rather than made, since the
+    /// context was made.
+    #[doc(hidden)]
+    pub fn buffers_reused(&self) -> u64 {
+        self.pool.reused()
     }
 
     /// Runs `pipeline` over `threads` threads with `buffers` bound in order, then reads back the

@@ -202,6 +202,37 @@ fn a_falling_column_matches_the_cpu() {
     );
 }
 
+/// Each segment after the first takes its buffers from those the one before left (the context's
+/// pool) and writes its data over them: on a context of its own, the first of four segments
+/// reuses none and each later one every buffer of its try, with the CPU's results all the same.
+#[test]
+fn segments_reuse_the_buffers_the_last_one_left() {
+    if gpu().is_none() {
+        return;
+    }
+    let ctx = std::sync::Arc::new(dem_gpu::GpuContext::new().expect("a GPU"));
+    let stages = GpuStages::with_context(ctx.clone());
+    let epsd = RollingModel::Epsd {
+        viscous_damping: 0.3,
+    };
+    let mut cpu = column(epsd);
+    let mut gpu = column(epsd).with_backend(Box::new(stages));
+    let mut reused = Vec::new();
+    for _ in 0..4 {
+        cpu.run(100).unwrap();
+        let before = ctx.buffers_reused();
+        gpu.run(100).unwrap();
+        reused.push(ctx.buffers_reused() - before);
+    }
+    eprintln!("buffers reused per segment: {reused:?}");
+    // A try makes some forty buffers (the particles, lists, walls, cells, control words).
+    assert_eq!(reused[0], 0);
+    assert!(reused[1..].iter().all(|&r| r >= 40), "{reused:?}");
+    let dx = largest_difference(&cpu, &gpu, |p| &p.position);
+    let dw = largest_difference(&cpu, &gpu, |p| &p.angular_velocity);
+    assert!(dx < 1e-12 && dw < 1e-9, "{dx:e} m, {dw:e} rad/s");
+}
+
 #[test]
 fn a_cloud_of_colliding_spheres_matches_the_cpu_with_both_rolling_models() {
     // After 30 steps the spheres still press on each other; by 300 they have flown apart.

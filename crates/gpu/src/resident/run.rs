@@ -200,6 +200,11 @@ impl Buffers {
 
     /// The bytes of every buffer (what [`Sizes::bytes`] must not fall short of).
     fn bytes(&self) -> u64 {
+        self.all().iter().map(|b| b.size()).sum()
+    }
+
+    /// Every buffer.
+    fn all(&self) -> Vec<&wgpu::Buffer> {
         let mut all = vec![
             &self.state,
             &self.loads,
@@ -247,7 +252,7 @@ impl Buffers {
         if let Some(b) = &self.bodies {
             all.extend(b.all());
         }
-        all.iter().map(|b| b.size()).sum()
+        all
     }
 
     fn new(c: &GpuContext, m: &Merged, worlds: usize, s: &Sizes, cap: Capacity) -> Buffers {
@@ -663,6 +668,8 @@ impl GpuStages {
         }
         // Out of memory in a buffer's creation makes it invalid, and the write of its data then
         // a validation error: both caught here, neither the device's failure.
+        // The last segment's buffers are reused where they fit beside this one (`pool`).
+        c.pool.make_room(needed, c.memory);
         let memory = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = c.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
@@ -740,7 +747,8 @@ impl GpuStages {
         let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &l.rebuild.iter().collect::<Vec<_>>());
         c.queue.submit([encoder.finish()]);
-        let stopped = self.run_chunks(worlds, &sizes, &b, &step, needed)?;
+        let mut spare = vec![args.clone(), full_buffer.clone()];
+        let stopped = self.run_chunks(worlds, &sizes, &b, &step, needed, &mut spare)?;
         let mut encoder = c.device.create_command_encoder(&Default::default());
         // The last step's kick, checked as every step's are: the worlds whose steps ran to the
         // end are still stepping, so `begin` marks them for the check alone.
@@ -765,6 +773,9 @@ impl GpuStages {
         }
         let out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
         check_overflow(&out[0])?;
+        // Every submission is done: the next segment may write over these buffers.
+        spare.extend(b.all().into_iter().cloned());
+        c.pool.keep(spare);
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
         let failed: Vec<Option<u64>> = words
             [layout::ctrl::FAILED..layout::ctrl::FAILED + worlds.len()]
@@ -804,6 +815,7 @@ impl GpuStages {
         b: &Buffers,
         step: &[&Launch],
         needed: u64,
+        spare: &mut Vec<wgpu::Buffer>,
     ) -> Result<Option<(u32, usize)>, Retry> {
         let c = &*self.ctx;
         // A world is over once its steps are run or it failed; the run stops when all are.
@@ -831,7 +843,7 @@ impl GpuStages {
             && needed + Snapshots::bytes(&kept) <= c.memory
         {
             let scope = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-            let made = Snapshots::new(&c.device, &kept);
+            let made = Snapshots::new(c, &kept);
             if pollster::block_on(scope.pop()).is_none() {
                 snaps = Some(made);
             }
@@ -926,7 +938,7 @@ impl GpuStages {
         }
         // An overflow ended the segment early: the state of its chunk's start goes back (after
         // every chunk submitted, in the queue's order).
-        Ok(match (stopped, &snaps) {
+        let stopped = match (stopped, &snaps) {
             (Some((code, set)), Some(sn)) => {
                 let mut encoder = c.device.create_command_encoder(&Default::default());
                 let step = sn.restore(&mut encoder, &kept, set);
@@ -934,7 +946,9 @@ impl GpuStages {
                 Some((code, step))
             }
             _ => None,
-        })
+        };
+        spare.extend(snaps.into_iter().flat_map(Snapshots::into_buffers));
+        Ok(stopped)
     }
 }
 

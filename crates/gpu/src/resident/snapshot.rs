@@ -26,24 +26,19 @@ impl Snapshots {
         2 * kept.iter().map(|b| b.size()).sum::<u64>()
     }
 
-    /// Two sets of buffers the sizes of `kept`.
-    pub fn new(device: &wgpu::Device, kept: &[&wgpu::Buffer]) -> Snapshots {
-        let set = || {
-            kept.iter()
-                .map(|b| {
-                    device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("snapshot"),
-                        size: b.size(),
-                        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    })
-                })
-                .collect()
-        };
+    /// Two sets of buffers the sizes of `kept` (from the context's pool where it has them).
+    pub fn new(c: &crate::GpuContext, kept: &[&wgpu::Buffer]) -> Snapshots {
+        let usage = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let set = || kept.iter().map(|b| c.scratch(b.size(), usage)).collect();
         Snapshots {
             sets: [set(), set()],
             taken_at: [0; 2],
         }
+    }
+
+    /// The buffers of both sets (for the context's pool when the segment is over).
+    pub fn into_buffers(self) -> impl Iterator<Item = wgpu::Buffer> {
+        self.sets.into_iter().flatten()
     }
 
     /// Encodes copies of `kept` into set `which` (before the chunk that starts at step `step`).

@@ -463,7 +463,8 @@ impl<'a> Launches<'a> {
                     &b.geometry_loads,
                     &b.params,
                 ],
-                s.geometries.max(1),
+                // One workgroup a geometry.
+                crate::WORKGROUP as usize * s.geometries.max(1),
             ),
         }
     }

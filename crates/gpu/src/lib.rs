@@ -61,8 +61,10 @@
 //! - **Kernels** are WGSL files in `src/wgsl/` (the segment kernels in `src/wgsl/resident/`),
 //!   each put together with the shared parts it uses (`vector.wgsl`, vector helpers;
 //!   `common.wgsl`, the accessors of `state`, `props`, `params` and `counts`; `spin.wgsl`, the
-//!   spin kick; `contact.wgsl`, the contact law that pairs and walls share; `elements.wgsl`, the
-//!   closest point of a wall element; `resident/shared.wgsl`, the segment's cell hash). One
+//!   spin kick; `contact.wgsl`, the contact law that pairs and walls share; `contact_rows.wgsl`,
+//!   the stage contact kernels' history and output rows; `elements.wgsl`, the closest point of a
+//!   wall element; `resident/shared.wgsl`, the segment's cell hash; `resident/history_halves.wgsl`,
+//!   the segment's pair histories in two halves by the step's parity). One
 //!   function, `kernels::kernel_sources`, composes every kernel; the context compiles what it
 //!   returns, and the crate's tests parse and validate the same text with naga, so a kernel that
 //!   does not compile fails `cargo test` on any machine. Geometry motion stays in the pipeline

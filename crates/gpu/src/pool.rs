@@ -1,11 +1,12 @@
 //! Device buffers kept from one segment for the next. A segment's try makes some forty buffers
-//! (and, in a long segment, two sets of copies of the largest), and the next segment of the same
+//! (and, in a long segment, two sets of copies of those its end reads), and the next segment of the same
 //! worlds needs the same sizes again: rather than free them and allocate anew, the context keeps
 //! the buffers of the last try that finished, and the next try takes those of the size and usage
 //! it asks for and writes its data over them whole (`GpuContext::storage_with`), or uses them as
 //! copies that are written before they are read (`GpuContext::scratch`). Only the last finished
-//! try's buffers are kept, so what the pool holds is at most one try's memory, and it is freed
-//! first where a try would not fit the memory budget beside it.
+//! try's buffers are kept, so what the pool holds is at most one try's memory (held by the
+//! context until its next segment); it is freed first where a try or its copies would not fit
+//! the memory budget beside it, and where the driver runs out of memory with it held.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -44,6 +45,14 @@ impl Pool {
         if needed.saturating_add(held) > budget {
             kept.clear();
         }
+    }
+
+    /// Frees every kept buffer; whether there were any.
+    pub fn clear(&self) -> bool {
+        let mut kept = self.kept();
+        let held = !kept.is_empty();
+        kept.clear();
+        held
     }
 
     /// Buffers taken from the pool rather than made so far.

@@ -127,9 +127,8 @@ struct Buffers {
     ints: wgpu::Buffer,
     built: wgpu::Buffer,
     params: wgpu::Buffer,
-    /// `counts` for launches over the particles, the pair slots and the buckets.
+    /// `counts` for launches over the particles and the buckets.
     counts_n: wgpu::Buffer,
-    counts_pairs: wgpu::Buffer,
     counts_buckets: wgpu::Buffer,
     moved: wgpu::Buffer,
     outside: wgpu::Buffer,
@@ -168,15 +167,16 @@ struct Buffers {
 
 impl Buffers {
     /// The buffers a segment's end reads (its read-back and the end's `check` and
-    /// `geometry_loads`) and the steps change: what a snapshot copies ([`Snapshots`]).
-    fn kept(&self) -> Vec<&wgpu::Buffer> {
+    /// `geometry_loads`) and the steps change: what a snapshot at a step of parity `half` copies
+    /// ([`Snapshots`]). Of the pair histories only that half: a world still stepping there has
+    /// its histories in it, and a world that stopped before writes neither half again.
+    fn kept(&self, half: usize) -> Vec<&wgpu::Buffer> {
         let mut kept = vec![
             &self.ctrl,
             &self.state,
             &self.loads,
             &self.pair_ij,
-            &self.history_even,
-            &self.history_odd,
+            [&self.history_even, &self.history_odd][half],
             &self.rows,
             &self.cands,
             &self.wall_history,
@@ -214,7 +214,6 @@ impl Buffers {
             &self.built,
             &self.params,
             &self.counts_n,
-            &self.counts_pairs,
             &self.counts_buckets,
             &self.moved,
             &self.outside,
@@ -297,7 +296,6 @@ impl Buffers {
             built: c.storage(&vec![0.0f64; 3 * n]),
             params: c.storage(&m.params),
             counts_n: counts(n),
-            counts_pairs: counts(pairs),
             counts_buckets: counts(s.buckets),
             moved: c.storage(&vec![0.0f64; n]),
             outside: c.storage(&vec![0u32; n]),
@@ -638,6 +636,54 @@ impl<'a> Launches<'a> {
     }
 }
 
+/// A try's buffers, made in error scopes: out of memory in a buffer's creation makes it invalid,
+/// and the write of its data then a validation error, both caught here, neither the device's
+/// failure. The last segment's buffers are reused where they fit beside this one's `needed`
+/// bytes (`pool`); where the driver still runs out of memory, they are freed and the buffers
+/// made once more before the batch is packed smaller.
+fn make_buffers(
+    c: &GpuContext,
+    m: &Merged,
+    worlds: usize,
+    sizes: &Sizes,
+    cap: Capacity,
+    needed: u64,
+) -> Result<Buffers, Retry> {
+    c.pool.make_room(needed, c.memory);
+    loop {
+        let memory = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = c.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let b = Buffers::new(c, m, worlds, sizes, cap);
+        let invalid = pollster::block_on(validation.pop());
+        let out_of_memory = pollster::block_on(memory.pop());
+        match (invalid, out_of_memory) {
+            (Some(e), None) => {
+                return Err(Retry::Failed(format!(
+                    "the GPU {} refused a segment's buffers: {}",
+                    c.adapter,
+                    crate::failure::one_line(&e.to_string())
+                )))
+            }
+            (None, None) => return Ok(b),
+            (_, Some(_)) if c.pool.clear() => continue,
+            (_, Some(e)) => {
+                // Out of memory at the driver's count: half as much may fit.
+                eprintln!(
+                    "warning: the GPU {} ran out of memory for {} world(s) needing {:.3} GB: {}",
+                    c.adapter,
+                    worlds,
+                    needed as f64 * 1e-9,
+                    crate::failure::one_line(&e.to_string())
+                );
+                return Err(Retry::Memory {
+                    needed,
+                    room: needed / 2,
+                });
+            }
+        }
+    }
+}
+
 impl GpuStages {
     pub(super) fn try_run(
         &self,
@@ -669,34 +715,7 @@ impl GpuStages {
         }
         // Out of memory in a buffer's creation makes it invalid, and the write of its data then
         // a validation error: both caught here, neither the device's failure.
-        // The last segment's buffers are reused where they fit beside this one (`pool`).
-        c.pool.make_room(needed, c.memory);
-        let memory = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let validation = c.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let b = Buffers::new(c, &m, worlds.len(), &sizes, cap);
-        let invalid = pollster::block_on(validation.pop());
-        let out_of_memory = pollster::block_on(memory.pop());
-        if let (Some(e), None) = (&invalid, &out_of_memory) {
-            return Err(Retry::Failed(format!(
-                "the GPU {} refused a segment's buffers: {}",
-                c.adapter,
-                crate::failure::one_line(&e.to_string())
-            )));
-        }
-        if let Some(e) = out_of_memory {
-            // Out of memory at the driver's count: half as much may fit.
-            eprintln!(
-                "warning: the GPU {} ran out of memory for {} world(s) needing {:.3} GB: {}",
-                c.adapter,
-                worlds.len(),
-                needed as f64 * 1e-9,
-                crate::failure::one_line(&e.to_string())
-            );
-            return Err(Retry::Memory {
-                needed,
-                room: needed / 2,
-            });
-        }
+        let b = make_buffers(c, &m, worlds.len(), &sizes, cap, needed)?;
         // The count must bound what was made (for the packing); a miscount is a bug, said as a
         // decline so that it shows where it happens.
         if b.bytes() > needed {
@@ -838,13 +857,16 @@ impl GpuStages {
         // Copies of the state at each chunk's start where the segment is long enough to gain
         // by them and there is room (`snapshot`): an overflow then ends the segment at its
         // chunk's start. Where the driver has no memory for them, none are taken.
-        let kept = b.kept();
+        // (Both halves' lists of buffers have the same sizes.)
+        let kept = [b.kept(0), b.kept(1)];
         let mut snaps = None;
-        if sizes.steps > snapshot::FEWEST_CHUNKS * most
-            && needed + Snapshots::bytes(&kept) <= c.memory
-        {
+        let copies = Snapshots::bytes(&kept[0]);
+        if sizes.steps > snapshot::FEWEST_CHUNKS * most && needed + copies <= c.memory {
+            // What the pool still holds counts too (its copies from the last segment are used
+            // first).
+            c.pool.make_room(needed + copies, c.memory);
             let scope = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-            let made = Snapshots::new(c, &kept);
+            let made = Snapshots::new(c, &kept[0]);
             if pollster::block_on(scope.pop()).is_none() {
                 snaps = Some(made);
             }
@@ -883,7 +905,7 @@ impl GpuStages {
             let (start, set) = (done, chunks % 2);
             // (A copy at step 0 would never be used: the segment then runs again from its start.)
             if let Some(sn) = snaps.as_mut().filter(|_| start > 0) {
-                sn.take(&mut encoder, &kept, set, start);
+                sn.take(&mut encoder, &kept[start % 2], set, start);
             }
             chunks += 1;
             match &timer {
@@ -942,7 +964,7 @@ impl GpuStages {
         let stopped = match (stopped, &snaps) {
             (Some((code, set)), Some(sn)) => {
                 let mut encoder = c.device.create_command_encoder(&Default::default());
-                let step = sn.restore(&mut encoder, &kept, set);
+                let step = sn.restore(&mut encoder, &kept[sn.taken_at(set) % 2], set);
                 c.queue.submit([encoder.finish()]);
                 Some((code, step))
             }

@@ -5,8 +5,8 @@
 //! Two sets alternate between chunks: while the host reads one chunk's control words, the next
 //! chunk, already submitted, takes its copy into the other set, so the set of the chunk that
 //! overflowed is still whole when the host learns of it. The copies are of the buffers a
-//! segment's end reads ([`super::run`]'s `kept`): the particles, their lists, histories and wall
-//! outputs, what the end's `check` reads (drift, leaving the domain, wall row status), the control
+//! segment's end reads ([`super::run`]'s `kept`): the particles, their lists, histories (of the
+//! pair histories, the half of the chunk's start) and wall outputs, what the end's `check` reads (drift, leaving the domain, wall row status), the control
 //! words, and the bonds' and clumps' state. The first chunk takes none (an overflow there runs
 //! the segment again).
 
@@ -53,6 +53,11 @@ impl Snapshots {
             encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size());
         }
         self.taken_at[which] = step;
+    }
+
+    /// The step at which set `which` was taken.
+    pub fn taken_at(&self, which: usize) -> usize {
+        self.taken_at[which]
     }
 
     /// Encodes copies of set `which` back into `kept`; the step at which it was taken.

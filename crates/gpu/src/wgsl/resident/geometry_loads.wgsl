@@ -4,7 +4,8 @@
 // turn (thread k the k-th, the 64 + k-th, ... from the world's first), each summing its particles'
 // slots in order, then the 64 partial sums are added in a fixed tree. The order depends only on
 // the world's own particles, so a world's loads are the same alone or in a batch and run to run;
-// against the CPU's sum in particle order they differ by round-off.
+// against the CPU's sum (fixed chunks of wall slots, added in chunk order) they differ by
+// round-off.
 
 @group(0) @binding(0) var<storage, read> dims: array<u32>;
 @group(0) @binding(1) var<storage, read> rows: array<u32>;

@@ -63,8 +63,11 @@
 //!   `common.wgsl`, the accessors of `state`, `props`, `params` and `counts`; `spin.wgsl`, the
 //!   spin kick; `contact.wgsl`, the contact law that pairs and walls share; `contact_rows.wgsl`,
 //!   the stage contact kernels' history and output rows; `elements.wgsl`, the closest point of a
-//!   wall element; `resident/shared.wgsl`, the segment's cell hash; `resident/history_halves.wgsl`,
-//!   the segment's pair histories in two halves by the step's parity). One
+//!   wall element; `state_writes.wgsl`, `load_reads.wgsl` and `load_writes.wgsl`, vectors into
+//!   `state` and to and from `loads`; `bodies/rigid.wgsl`, the clumps' rigid-body steps;
+//!   `resident/shared.wgsl`, the segment's list sentinel and cell hash;
+//!   `resident/history_halves.wgsl`, the segment's pair histories in two halves by the step's
+//!   parity). One
 //!   function, `kernels::kernel_sources`, composes every kernel; the context compiles what it
 //!   returns, and the crate's tests parse and validate the same text with naga, so a kernel that
 //!   does not compile fails `cargo test` on any machine. Geometry motion stays in the pipeline

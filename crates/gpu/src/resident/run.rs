@@ -665,7 +665,16 @@ fn make_buffers(
                 )))
             }
             (None, None) => return Ok(b),
-            (_, Some(_)) if c.pool.clear() => continue,
+            (_, Some(_)) if c.pool.clear() => {
+                // The queue holds the buffers written (and their staging) until a submission is
+                // done: an empty one, waited for, lets their memory go before the next attempt.
+                drop(b);
+                c.queue.submit([]);
+                let _ = c.device.poll(wgpu::PollType::Wait {
+                    submission_index: None,
+                    timeout: None,
+                });
+            }
             (_, Some(e)) => {
                 // Out of memory at the driver's count: half as much may fit.
                 eprintln!(

@@ -110,6 +110,10 @@ pub(crate) const STATE_BYTES: usize = 8 * layout::state::LEN;
 
 /// Threads per workgroup, as the kernels declare (all but `begin`, one workgroup of its own).
 const WORKGROUP: u32 = 64;
+/// The usage of every storage buffer: bound by kernels, copied to and from.
+const STORAGE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
+    .union(wgpu::BufferUsages::COPY_SRC)
+    .union(wgpu::BufferUsages::COPY_DST);
 /// Most workgroups along one dispatch dimension (WebGPU's guaranteed limit).
 const MAX_GROUPS: u32 = 65_535;
 
@@ -365,13 +369,23 @@ impl GpuContext {
         } else {
             bytes
         };
-        let usage = wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_SRC
-            | wgpu::BufferUsages::COPY_DST
-            | usage;
-        let buffer = self.scratch(contents.len() as u64, usage);
+        let buffer = self.scratch(contents.len() as u64, STORAGE_USAGE | usage);
         // Every byte is written, so a buffer from the pool holds nothing of its last use.
         self.queue.write_buffer(&buffer, 0, contents);
+        buffer
+    }
+
+    /// A storage buffer of `len` zeros of `T` (at least 8 bytes, as [`Self::storage`]), cleared
+    /// on the device by `encoder` rather than written from the host: most of a segment's lists
+    /// and scratch start as zeros, and a buffer from the pool still holds its last use.
+    fn zeros<T: bytemuck::Pod>(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        len: usize,
+    ) -> wgpu::Buffer {
+        let size = (len * std::mem::size_of::<T>()).max(8).next_multiple_of(4);
+        let buffer = self.scratch(size as u64, STORAGE_USAGE);
+        encoder.clear_buffer(&buffer, 0, None);
         buffer
     }
 

@@ -287,31 +287,34 @@ impl Buffers {
         dims[layout::dims::ELEMENTS] = s.elements as u32;
         dims[layout::dims::MOVING_ELEMENTS] = m.moving_rows() as u32;
         let body = layout::ints::BODY * n..(layout::ints::BODY + 1) * n;
-        Buffers {
+        // The buffers that start as zeros are cleared on the device (one submission, after the
+        // others' writes and before any kernel).
+        let mut zero = c.device.create_command_encoder(&Default::default());
+        let buffers = Buffers {
             state: c.storage(&m.state),
             loads: c.storage(&m.loads),
             props: c.storage(&m.props),
             body: c.storage(&m.ints[body]),
             ints: c.storage(&m.ints),
-            built: c.storage(&vec![0.0f64; 3 * n]),
+            built: c.zeros::<f64>(&mut zero, 3 * n),
             params: c.storage(&m.params),
             counts_n: counts(n),
             counts_buckets: counts(s.buckets),
-            moved: c.storage(&vec![0.0f64; n]),
-            outside: c.storage(&vec![0u32; n]),
-            status: c.storage(&vec![0u32; n]),
+            moved: c.zeros::<f64>(&mut zero, n),
+            outside: c.zeros::<u32>(&mut zero, n),
+            status: c.zeros::<u32>(&mut zero, n),
             pair_ij: c.storage(&m.pair_ij),
             // The host's histories are those before step 0.
             history_even: c.storage(&m.pair_history),
-            history_odd: c.storage(&vec![0.0f64; layout::history::LEN * pairs]),
+            history_odd: c.zeros::<f64>(&mut zero, layout::history::LEN * pairs),
             new_ij: c.storage(&vec![EMPTY; layout::pair_ij::LEN * pairs]),
-            new_pair_history: c.storage(&vec![0.0f64; layout::history::LEN * pairs]),
+            new_pair_history: c.zeros::<f64>(&mut zero, layout::history::LEN * pairs),
             rows: c.storage(&m.rows),
             cands: c.storage(&m.cands),
             wall_history: c.storage(&m.wall_history),
-            wall_output: c.storage(&vec![0.0f64; layout::wall_output::LEN * walls]),
+            wall_output: c.zeros::<f64>(&mut zero, layout::wall_output::LEN * walls),
             new_cands: c.storage(&vec![EMPTY; layout::cands::LEN * walls]),
-            new_wall_history: c.storage(&vec![0.0f64; layout::history::LEN * walls]),
+            new_wall_history: c.zeros::<f64>(&mut zero, layout::history::LEN * walls),
             table: c.storage(&m.table),
             elements: c.storage(&m.elements),
             geoms: c.storage(&m.geoms),
@@ -323,16 +326,16 @@ impl Buffers {
             ctrl: c.storage(&words),
             dims: c.storage(&dims),
             search: c.storage(&m.search),
-            bucket_count: c.storage(&vec![0u32; s.buckets]),
-            bucket_items: c.storage(&vec![0u32; s.buckets * cap.bucket]),
-            reverse_count: c.storage(&vec![0u32; n]),
-            geometry_loads: c.storage(&vec![
-                0.0f64;
-                layout::geometry_loads::LEN * s.geometries.max(1)
-            ]),
+            bucket_count: c.zeros::<u32>(&mut zero, s.buckets),
+            bucket_items: c.zeros::<u32>(&mut zero, s.buckets * cap.bucket),
+            reverse_count: c.zeros::<u32>(&mut zero, n),
+            geometry_loads: c
+                .zeros::<f64>(&mut zero, layout::geometry_loads::LEN * s.geometries.max(1)),
             bonds: m.bonds.as_ref().map(|mb| BondBuffers::new(c, mb, n)),
             bodies: m.bodies.as_ref().map(|mb| BodyBuffers::new(c, mb, n)),
-        }
+        };
+        c.queue.submit([zero.finish()]);
+        buffers
     }
 }
 

@@ -37,6 +37,7 @@ use crate::{groups, GpuContext, GpuStages};
 
 mod bodies;
 mod bonds;
+mod buffers;
 mod run;
 mod snapshot;
 pub(crate) mod world;

@@ -10,7 +10,11 @@ const VECTOR: &str = include_str!("wgsl/vector.wgsl");
 /// The stage kernels' accessors; needs `state`, `props`, `params` and `counts` bound.
 const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SPIN: &str = include_str!("wgsl/spin.wgsl");
+/// The second half kick of a particle (after SPIN and STATE_WRITES; `state` bound read_write).
+const HALF_KICK: &str = include_str!("wgsl/half_kick.wgsl");
 const CONTACT: &str = include_str!("wgsl/contact.wgsl");
+/// A particle pair's contact (after COMMON and CONTACT; `ints` and `table` bound).
+const PAIR_CONTACT: &str = include_str!("wgsl/pair_contact.wgsl");
 /// `history` and `output` row accessors of the stage contact kernels (both bound).
 const CONTACT_ROWS: &str = include_str!("wgsl/contact_rows.wgsl");
 const ELEMENTS: &str = include_str!("wgsl/elements.wgsl");
@@ -45,6 +49,7 @@ const KERNELS: &[(&str, &[&str])] = &[
         &[
             COMMON,
             CONTACT,
+            PAIR_CONTACT,
             CONTACT_ROWS,
             include_str!("wgsl/pair_forces.wgsl"),
         ],
@@ -56,6 +61,7 @@ const KERNELS: &[(&str, &[&str])] = &[
             SPIN,
             STATE_WRITES,
             LOAD_WRITES,
+            HALF_KICK,
             include_str!("wgsl/particle_sums.wgsl"),
         ],
     ),
@@ -107,6 +113,7 @@ const KERNELS: &[(&str, &[&str])] = &[
         &[
             COMMON,
             CONTACT,
+            PAIR_CONTACT,
             LOAD_WRITES,
             HISTORY_HALVES,
             include_str!("wgsl/resident/particle_forces.wgsl"),
@@ -119,6 +126,7 @@ const KERNELS: &[(&str, &[&str])] = &[
             SPIN,
             STATE_WRITES,
             LOAD_READS,
+            HALF_KICK,
             include_str!("wgsl/resident/kick.wgsl"),
         ],
     ),
@@ -140,6 +148,7 @@ const KERNELS: &[(&str, &[&str])] = &[
             STATE_WRITES,
             LOAD_READS,
             LOAD_WRITES,
+            HALF_KICK,
             include_str!("wgsl/bonds/bond_sums.wgsl"),
         ],
     ),

@@ -76,11 +76,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     put_load3(L_TORQUE * n + 3u * i, t);
     // A clump's members are kicked with their body (bodies/bodies_last.wgsl).
     if (param(P_KICK) != 0.0lf && (param(P_CLUMPS) == 0.0lf || body[i] == NO_BODY)) {
-        let half = 0.5lf * param(P_DT);
-        let v = velocity(i) + f * (inv_mass * half);
-        let lim = loads[L_ROLLING_LIMIT * n + i];
-        let w = kick_spin(angular_velocity(i), t, lim, props[PR_INV_INERTIA * n + i] * half);
-        put3(S_VELOCITY * n + 3u * i, v);
-        put3(S_ANGULAR_VELOCITY * n + 3u * i, w);
+        second_half_kick(i, f, t, loads[L_ROLLING_LIMIT * n + i]);
     }
 }

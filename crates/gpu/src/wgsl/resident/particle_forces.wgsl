@@ -24,78 +24,36 @@
 @group(0) @binding(11) var<storage, read> counts: array<u32>;
 @group(0) @binding(12) var<storage, read_write> ctrl: array<atomic<u32>>;
 
-// What a pair contact adds to its two particles (pair_forces' output row).
-struct PairLoads {
-    // On i; j gets its negative.
-    force: vec3<f64>,
-    torque_i: vec3<f64>,
-    torque_j: vec3<f64>,
-    rolling_i: f64,
-    rolling_j: f64,
-}
-
 fn wall3(k: u32) -> vec3<f64> {
     return vec3<f64>(walls[k], walls[k + 1u], walls[k + 2u]);
 }
 
-// Pair slot q (particles i < j) from its history in half `h`, as pair_forces evaluates it; where
-// `owner` (the thread of i), the history after the step goes to the other half.
+// Pair slot q (particles i < j) from its history in half `h` (pair_contact.wgsl); where `owner`
+// (the thread of i), the history after the step goes to the other half.
 fn pair_contact(q: u32, i: u32, j: u32, h: u32, owner: bool) -> PairLoads {
-    let none = PairLoads(zero3(), zero3(), zero3(), 0.0lf, 0.0lf);
-    let n = counts[C_PARTICLES];
     let next = 1u - h;
-    let body_i = ints[I_BODY * n + i];
-    if (param(P_CLUMPS) != 0.0lf && body_i == ints[I_BODY * n + j] && body_i != NO_BODY) {
-        // Members of one clump overlap by design; their history stays as it was.
+    if (same_clump(i, j)) {
+        // Their history stays as it was.
         if (owner) {
             for (var k = 0u; k < H_LEN; k++) {
                 half_put(next, H_LEN * q + k, half_get(h, H_LEN * q + k));
             }
         }
-        return none;
+        return no_pair_loads();
     }
-    let delta = position(i) - position(j);
-    let ri = props[PR_RADIUS * n + i];
-    let rj = props[PR_RADIUS * n + j];
-    let sum = ri + rj;
-    let dist2 = len2(delta);
-    let r_eff = ri * rj / sum;
-    let mi = ints[I_MATERIAL * n + i];
-    let mj = ints[I_MATERIAL * n + j];
-    let t = u32(param(P_TABLE)) + T_LEN * (mi * u32(param(P_MATERIALS)) + mj);
-    var reach = sum;
-    if (param(P_COHESIVE) != 0.0lf) {
-        reach = sum - cutoff_of(t, r_eff);
-    }
-    if (dist2 >= reach * reach) {
+    let g = pair_gap(i, j);
+    if (!g.touching) {
         if (owner) {
             for (var k = 0u; k < H_LEN; k++) {
                 half_put(next, H_LEN * q + k, 0.0lf);
             }
         }
-        return none;
+        return no_pair_loads();
     }
-    let dist = sqrt(dist2);
-    let nrm = delta * (1.0lf / dist);
-    let d = sum - dist;
-    let ci = ri - 0.5lf * d;
-    let cj = rj - 0.5lf * d;
-    let wi = angular_velocity(i);
-    let wj = angular_velocity(j);
-    let m_eff = 1.0lf / (props[PR_INV_MASS * n + i] + props[PR_INV_MASS * n + j]);
-    let v_rel = velocity(i) - velocity(j);
-    let ai = props[PR_MASS * n + i] * ri * ri;
-    let aj = props[PR_MASS * n + j] * rj * rj;
-    let c = hertz_mindlin(
-        t,
-        nrm,
-        d,
-        r_eff,
-        m_eff,
-        v_rel,
-        ci * wi + cj * wj,
-        wi - wj,
-        1.4lf * ai * aj / (ai + aj),
+    let c = pair_law(
+        i,
+        j,
+        g,
         half_get3(h, H_LEN * q + H_TANGENTIAL),
         half_get3(h, H_LEN * q + H_ROLLING),
     );
@@ -103,14 +61,7 @@ fn pair_contact(q: u32, i: u32, j: u32, h: u32, owner: bool) -> PairLoads {
         half_put3(next, H_LEN * q + H_TANGENTIAL, c.shear);
         half_put3(next, H_LEN * q + H_ROLLING, c.moment);
     }
-    let nxf = cross3(nrm, c.tangential);
-    return PairLoads(
-        c.force,
-        -ci * nxf + c.rolling_torque,
-        -cj * nxf - c.rolling_torque,
-        c.rolling_resistance * ci,
-        c.rolling_resistance * cj,
-    );
+    return pair_loads(g, c);
 }
 
 @compute @workgroup_size(64)

@@ -61,7 +61,8 @@
 //! - **Kernels** are WGSL files in `src/wgsl/` (the segment kernels in `src/wgsl/resident/`),
 //!   each put together with the shared parts it uses (`vector.wgsl`, vector helpers;
 //!   `common.wgsl`, the accessors of `state`, `props`, `params` and `counts`; `spin.wgsl`, the
-//!   spin kick; `contact.wgsl`, the contact law that pairs and walls share; `contact_rows.wgsl`,
+//!   spin kick; `half_kick.wgsl`, the second half kick; `contact.wgsl`, the contact law that pairs
+//!   and walls share; `pair_contact.wgsl`, a particle pair's contact; `contact_rows.wgsl`,
 //!   the stage contact kernels' history and output rows; `elements.wgsl`, the closest point of a
 //!   wall element; `state_writes.wgsl`, `load_reads.wgsl` and `load_writes.wgsl`, vectors into
 //!   `state` and to and from `loads`; `bodies/rigid.wgsl`, the clumps' rigid-body steps;

@@ -1,8 +1,9 @@
 //! Every kernel's full WGSL source, composed in one place: the layout constants
 //! ([`layout::wgsl_constants`]), `vector.wgsl`, then the shared parts the kernel uses and its own
-//! file. The context compiles exactly these sources, and the tests below parse and validate
-//! them with naga (no device needed), so a kernel that does not compile fails `cargo test`
-//! anywhere, not only where a GPU is.
+//! file, then the bindings and accessors of the lists it binds in parts ([`split_lists`]). The
+//! context compiles exactly these sources, and the tests below parse and validate them with naga
+//! (no device needed), so a kernel that does not compile fails `cargo test` anywhere, not only
+//! where a GPU is.
 
 use crate::layout;
 
@@ -28,7 +29,8 @@ const LOAD_READS: &str = include_str!("wgsl/load_reads.wgsl");
 const LOAD_WRITES: &str = include_str!("wgsl/load_writes.wgsl");
 /// The segment kernels' list sentinel and cell hash.
 const SHARED: &str = include_str!("wgsl/resident/shared.wgsl");
-/// The pair histories' two halves; needs `ctrl`, `history_even` and `history_odd` bound.
+/// The pair histories' two halves; needs `ctrl` bound and `history_even` and `history_odd` split
+/// ([`SPLIT`]).
 const HISTORY_HALVES: &str = include_str!("wgsl/resident/history_halves.wgsl");
 
 /// Every kernel: its name (the label the device reports) and its parts after the constants and
@@ -173,17 +175,105 @@ const KERNELS: &[(&str, &[&str])] = &[
     ),
 ];
 
-/// Every kernel's name and full source, as the device compiles it.
-pub(crate) fn kernel_sources() -> Vec<(&'static str, String)> {
-    let constants = layout::wgsl_constants();
+/// Bindings a list of f64 may be split across. A device binds at most so many bytes at once
+/// (2^31 - 1 on NVIDIA's Vulkan through wgpu, 128 MiB on lavapipe); the pair histories are the
+/// largest lists a segment has (48 bytes a pair slot, in each of three lists), so they are bound
+/// in parts and the scenes that fit the resident path grow this many times. Four keep the
+/// busiest kernel (`build_pairs`, 26 bindings) within the 32 storage bindings lavapipe allows
+/// a kernel.
+pub(crate) const PARTS: usize = 4;
+
+/// The lists each kernel binds in [`PARTS`] parts: the list's name and whether the kernel writes
+/// it. The host binds the parts in this order after the kernel's own bindings.
+const SPLIT: &[(&str, &[(&str, bool)])] = &[
+    (
+        "build_pairs",
+        &[
+            ("history_even", true),
+            ("history_odd", true),
+            ("new_pair_history", true),
+        ],
+    ),
+    (
+        "commit",
+        &[
+            ("history_even", true),
+            ("history_odd", true),
+            ("new_pair_history", false),
+        ],
+    ),
+    (
+        "particle_forces",
+        &[("history_even", true), ("history_odd", true)],
+    ),
+];
+
+/// The numbers of a split list's part on a device that binds at most `max_binding` bytes: whole
+/// pair histories, so that a history's six numbers lie in one part.
+pub(crate) fn part_numbers(max_binding: u64) -> usize {
+    let row = layout::history::LEN;
+    let numbers = (max_binding / 8).min(u32::MAX as u64) as usize;
+    (numbers / row * row).max(row)
+}
+
+/// The WGSL of `lists` bound in [`PARTS`] parts from binding `first` on: each part's binding, then
+/// `NAME_get(k)` (and `NAME_put(k, v)` where written) over the list as one, number k being
+/// number `k % PART_NUMBERS` of part `k / PART_NUMBERS`. WGSL cannot pass a storage array to a
+/// function, so each list gets its own accessors.
+fn split_lists(first: usize, lists: &[(&str, bool)]) -> String {
+    let mut out = String::new();
+    let mut binding = first;
+    for &(name, writes) in lists {
+        let access = if writes { "read_write" } else { "read" };
+        for p in 0..PARTS {
+            out += &format!(
+                "@group(0) @binding({binding}) var<storage, {access}> {name}_{p}: array<f64>;\n"
+            );
+            binding += 1;
+        }
+        let cases = |body: &dyn Fn(usize) -> String| {
+            (0..PARTS)
+                .map(|p| match p + 1 == PARTS {
+                    false => format!("        case {p}u: {{ {} }}\n", body(p)),
+                    true => format!("        default: {{ {} }}\n", body(p)),
+                })
+                .collect::<String>()
+        };
+        out += &format!(
+            "fn {name}_get(k: u32) -> f64 {{\n    let r = k % PART_NUMBERS;\n    switch (k / PART_NUMBERS) {{\n{}    }}\n}}\n",
+            cases(&|p| format!("return {name}_{p}[r];"))
+        );
+        if writes {
+            out += &format!(
+                "fn {name}_put(k: u32, v: f64) {{\n    let r = k % PART_NUMBERS;\n    switch (k / PART_NUMBERS) {{\n{}    }}\n}}\n",
+                cases(&|p| format!("{name}_{p}[r] = v;"))
+            );
+        }
+    }
+    out
+}
+
+/// Every kernel's name and full source, as a device that binds at most `max_binding` bytes
+/// compiles it.
+pub(crate) fn kernel_sources(max_binding: u64) -> Vec<(&'static str, String)> {
+    let constants = format!(
+        "{}const PART_NUMBERS: u32 = {}u;\n",
+        layout::wgsl_constants(),
+        part_numbers(max_binding)
+    );
     KERNELS
         .iter()
         .map(|&(name, parts)| {
-            let source = [constants.as_str(), VECTOR]
+            let mut source = [constants.as_str(), VECTOR]
                 .into_iter()
                 .chain(parts.iter().copied())
                 .collect::<Vec<_>>()
                 .join("\n");
+            if let Some((_, lists)) = SPLIT.iter().find(|(kernel, _)| *kernel == name) {
+                // The parts come after the kernel's own bindings, numbered 0 on.
+                let own = source.matches("@binding(").count();
+                source += &split_lists(own, lists);
+            }
             (name, source)
         })
         .collect()

@@ -168,6 +168,10 @@ pub struct GpuContext {
     adapter: String,
     /// The largest storage buffer a kernel can bind, in bytes.
     max_binding: u64,
+    /// The numbers of a part of a list bound in parts (`kernels::part_numbers`).
+    part_numbers: usize,
+    /// The most parts a segment's pair histories took (`history_parts_used`).
+    parts_used: std::sync::atomic::AtomicUsize,
     /// The device memory a batch of worlds may take, in bytes ([`memory_budget`]).
     memory: u64,
     /// The device's first failure; from then on nothing runs on it (`failure`).
@@ -185,6 +189,17 @@ impl GpuContext {
     /// The best Vulkan adapter with f64 shaders: a discrete GPU before an integrated or virtual
     /// one before a CPU driver (lavapipe). The error says what is missing.
     pub fn new() -> Result<GpuContext, String> {
+        Self::open(None)
+    }
+
+    /// As [`Self::new`], binding at most `bytes` at once where the device would bind more: what
+    /// the tests of lists split across bindings and of scenes too large for them use.
+    #[doc(hidden)]
+    pub fn with_binding_limit(bytes: u64) -> Result<GpuContext, String> {
+        Self::open(Some(bytes))
+    }
+
+    fn open(binding_limit: Option<u64>) -> Result<GpuContext, String> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
@@ -229,12 +244,16 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| format!("the GPU {} refused a device: {e}", info.name))?;
+        let max_binding = device
+            .limits()
+            .max_storage_buffer_binding_size
+            .min(binding_limit.unwrap_or(u64::MAX));
         // A kernel the driver refuses is an error, not a panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         // Every kernel as `kernels::kernel_sources` composes it (the sources naga checks in the
         // crate's tests).
         let mut pipelines: std::collections::HashMap<&str, wgpu::ComputePipeline> =
-            kernels::kernel_sources()
+            kernels::kernel_sources(max_binding)
                 .into_iter()
                 .map(|(name, source)| {
                     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -270,7 +289,6 @@ impl GpuContext {
                 e.to_string().replace('\n', " ")
             ));
         }
-        let max_binding = device.limits().max_storage_buffer_binding_size;
         let memory = memory_budget(&adapter)?;
         // From here on a lost device or an error outside a scope is recorded, not a panic.
         let failure = Arc::new(failure::Failure::default());
@@ -292,6 +310,8 @@ impl GpuContext {
         }
         Ok(GpuContext {
             max_binding,
+            part_numbers: kernels::part_numbers(max_binding),
+            parts_used: Default::default(),
             memory,
             failure,
             pool: Default::default(),
@@ -401,6 +421,13 @@ impl GpuContext {
                 mapped_at_creation: false,
             })
         })
+    }
+
+    /// The most bindings a segment's pair histories were split across (`kernels::PARTS` at
+    /// most), since the context was made: 1 where they fit one.
+    #[doc(hidden)]
+    pub fn history_parts_used(&self) -> usize {
+        self.parts_used.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Buffers a segment took from those the last one left rather than made, since the

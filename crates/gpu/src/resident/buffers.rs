@@ -6,6 +6,7 @@ use super::bodies::BodyBuffers;
 use super::bonds::BondBuffers;
 use super::world::{Merged, World};
 use super::{Capacity, Retry, BUCKETS_PER_PARTICLE, EMPTY};
+use crate::kernels::PARTS;
 use crate::layout;
 use crate::pack::Counts;
 use crate::{GpuContext, STATE_BYTES};
@@ -40,7 +41,8 @@ impl Sizes {
         }
     }
 
-    /// The largest buffer of the run, in bytes (each must fit one binding).
+    /// The largest buffer of the run, in bytes (each must fit one binding), but for the pair
+    /// histories, which are split across bindings ([`Split`]).
     pub(super) fn largest(&self, m: &Merged, cap: Capacity) -> usize {
         [
             STATE_BYTES * self.n,
@@ -48,7 +50,6 @@ impl Sizes {
             8 * m.element_track.len(),
             8 * m.geoms_track.len(),
             8 * m.table.len(),
-            8 * layout::history::LEN * self.pairs,
             8 * layout::wall_output::LEN * self.walls,
             4 * (layout::rows::REVERSE_ENTRIES * self.n + self.pairs),
             4 * self.buckets * cap.bucket,
@@ -129,10 +130,10 @@ pub(super) struct Buffers {
     pub(super) status: wgpu::Buffer,
     pub(super) pair_ij: wgpu::Buffer,
     /// The pair histories in two halves, by the parity of the step (`history_halves.wgsl`).
-    pub(super) history_even: wgpu::Buffer,
-    pub(super) history_odd: wgpu::Buffer,
+    pub(super) history_even: Split,
+    pub(super) history_odd: Split,
     pub(super) new_ij: wgpu::Buffer,
-    pub(super) new_pair_history: wgpu::Buffer,
+    pub(super) new_pair_history: Split,
     pub(super) rows: wgpu::Buffer,
     pub(super) cands: wgpu::Buffer,
     pub(super) wall_history: wgpu::Buffer,
@@ -170,7 +171,6 @@ impl Buffers {
             &self.state,
             &self.loads,
             &self.pair_ij,
-            [&self.history_even, &self.history_odd][half],
             &self.rows,
             &self.cands,
             &self.wall_history,
@@ -181,6 +181,7 @@ impl Buffers {
             &self.outside,
             &self.status,
         ];
+        kept.extend([&self.history_even, &self.history_odd][half].parts());
         // Bond ends' `BE_INTACT` is not kept: nothing at the end reads it, and the next try
         // uploads it anew.
         if let Some(b) = &self.bonds {
@@ -190,6 +191,16 @@ impl Buffers {
             kept.push(&b.rows);
         }
         kept
+    }
+
+    /// The pair histories' parts, as the kernels that split them bind them after their own
+    /// (`kernels::SPLIT`): the even half's, the odd half's, and with `new` the new histories'.
+    pub(super) fn histories(&self, new: bool) -> impl Iterator<Item = &wgpu::Buffer> {
+        let new = new.then_some(&self.new_pair_history);
+        [&self.history_even, &self.history_odd]
+            .into_iter()
+            .chain(new)
+            .flat_map(Split::parts)
     }
 
     /// The bytes of every buffer (what [`Sizes::bytes`] must not fall short of).
@@ -213,10 +224,7 @@ impl Buffers {
             &self.outside,
             &self.status,
             &self.pair_ij,
-            &self.history_even,
-            &self.history_odd,
             &self.new_ij,
-            &self.new_pair_history,
             &self.rows,
             &self.cands,
             &self.wall_history,
@@ -239,6 +247,13 @@ impl Buffers {
             &self.reverse_count,
             &self.geometry_loads,
         ];
+        for split in [
+            &self.history_even,
+            &self.history_odd,
+            &self.new_pair_history,
+        ] {
+            all.extend(split.parts());
+        }
         if let Some(b) = &self.bonds {
             all.extend(b.all());
         }
@@ -305,10 +320,10 @@ impl Buffers {
             status: c.zeros::<u32>(&mut zero, n),
             pair_ij: c.storage(&m.pair_ij),
             // The host's histories are those before step 0.
-            history_even: c.storage(&m.pair_history),
-            history_odd: c.zeros::<f64>(&mut zero, layout::history::LEN * pairs),
+            history_even: Split::with(c, &m.pair_history),
+            history_odd: Split::zeros(c, &mut zero, layout::history::LEN * pairs),
             new_ij: c.storage(&vec![EMPTY; layout::pair_ij::LEN * pairs]),
-            new_pair_history: c.zeros::<f64>(&mut zero, layout::history::LEN * pairs),
+            new_pair_history: Split::zeros(c, &mut zero, layout::history::LEN * pairs),
             rows: c.storage(&m.rows),
             cands: c.storage(&m.cands),
             wall_history: c.storage(&m.wall_history),
@@ -336,6 +351,49 @@ impl Buffers {
         };
         c.queue.submit([zero.finish()]);
         buffers
+    }
+}
+
+/// A list of f64 bound in [`PARTS`] parts of at most [`GpuContext::part_numbers`] numbers
+/// each, in order (`kernels::split_lists`): the pair histories, the largest lists, so that a
+/// scene's lists may be larger than one binding. The parts past the list's end hold one number
+/// (a binding cannot be empty). The caller checks that the list fits the parts.
+pub(super) struct Split(Vec<wgpu::Buffer>);
+
+impl Split {
+    /// The parts a list of `len` numbers takes.
+    pub(super) fn parts_for(c: &GpuContext, len: usize) -> usize {
+        len.div_ceil(c.part_numbers).max(1)
+    }
+
+    /// `data`, in parts.
+    fn with(c: &GpuContext, data: &[f64]) -> Split {
+        Split::padded(
+            c,
+            data.chunks(c.part_numbers).map(|d| c.storage(d)).collect(),
+        )
+    }
+
+    /// `len` zeros, in parts cleared on the device by `encoder` ([`GpuContext::zeros`]).
+    fn zeros(c: &GpuContext, encoder: &mut wgpu::CommandEncoder, len: usize) -> Split {
+        let part = c.part_numbers;
+        let parts = (0..len.div_ceil(part))
+            .map(|p| c.zeros::<f64>(encoder, part.min(len - p * part)))
+            .collect();
+        Split::padded(c, parts)
+    }
+
+    fn padded(c: &GpuContext, mut parts: Vec<wgpu::Buffer>) -> Split {
+        debug_assert!(parts.len() <= PARTS, "a list in {} parts", parts.len());
+        while parts.len() < PARTS {
+            parts.push(c.storage(&[0.0f64]));
+        }
+        Split(parts)
+    }
+
+    /// The parts, in order, as the kernels bind them.
+    pub(super) fn parts(&self) -> impl Iterator<Item = &wgpu::Buffer> {
+        self.0.iter()
     }
 }
 

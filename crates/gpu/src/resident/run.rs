@@ -4,13 +4,14 @@
 
 use dem::sim::SegmentEnd;
 
-use super::buffers::{make_buffers, Buffers, Sizes};
+use super::buffers::{make_buffers, Buffers, Sizes, Split};
 use super::snapshot::{self, Snapshots};
 use super::world::{Ended, Merged, World};
 use super::PendingRead;
 use super::{
     check_overflow, chunk_steps, encode, encode_timed, Capacity, Launch, Retry, CHUNK, EMPTY,
 };
+use crate::kernels::PARTS;
 use crate::layout;
 use crate::{GpuContext, GpuStages};
 
@@ -191,15 +192,15 @@ impl<'a> Launches<'a> {
                     &b.dims,
                     &b.search,
                     &b.pair_ij,
-                    &b.history_even,
-                    &b.history_odd,
                     &b.new_ij,
-                    &b.new_pair_history,
                     &b.rows,
                     &b.reverse_count,
                     &b.built,
                     &b.params,
-                ],
+                ]
+                .into_iter()
+                .chain(b.histories(true))
+                .collect::<Vec<_>>(),
                 n,
             ),
             launch(
@@ -237,17 +238,17 @@ impl<'a> Launches<'a> {
                     &b.ctrl,
                     &b.dims,
                     &b.pair_ij,
-                    &b.history_even,
-                    &b.history_odd,
                     &b.new_ij,
-                    &b.new_pair_history,
                     &b.cands,
                     &b.wall_history,
                     &b.new_cands,
                     &b.new_wall_history,
                     &b.props,
                     &b.params,
-                ],
+                ]
+                .into_iter()
+                .chain(b.histories(true))
+                .collect::<Vec<_>>(),
                 n,
             ),
         ]
@@ -286,15 +287,16 @@ impl<'a> Launches<'a> {
                     &b.props,
                     &b.ints,
                     &b.pair_ij,
-                    &b.history_even,
-                    &b.history_odd,
                     &b.rows,
                     &b.wall_output,
                     &b.table,
                     &b.params,
                     &b.counts_n,
                     &b.ctrl,
-                ],
+                ]
+                .into_iter()
+                .chain(b.histories(false))
+                .collect::<Vec<_>>(),
                 s.n,
             ),
             launch(
@@ -314,6 +316,14 @@ impl<'a> Launches<'a> {
     }
 }
 
+/// `bytes` in GB, or MB below one GB.
+fn size(bytes: u64) -> String {
+    match bytes >= 1_000_000_000 {
+        true => format!("{:.2} GB", bytes as f64 * 1e-9),
+        false => format!("{:.1} MB", bytes as f64 * 1e-6),
+    }
+}
+
 impl GpuStages {
     pub(super) fn try_run(
         &self,
@@ -328,10 +338,21 @@ impl GpuStages {
         let row = layout::history::LEN.max(layout::pair_ij::LEN);
         if !c.fits(largest) || sizes.pairs >= u32::MAX as usize / row {
             return Err(Retry::Decline(format!(
-                "its largest list ({:.2} GB) does not fit one binding of {} ({:.2} GB)",
-                largest as f64 * 1e-9,
+                "its largest list ({}) does not fit one binding of {} ({})",
+                size(largest as u64),
                 c.adapter,
-                c.max_binding as f64 * 1e-9
+                size(c.max_binding)
+            )));
+        }
+        // The pair histories are bound in parts (`Split`).
+        let histories = layout::history::LEN * sizes.pairs;
+        let parts = Split::parts_for(c, histories);
+        if parts > PARTS {
+            return Err(Retry::Decline(format!(
+                "its pair histories ({}) do not fit {PARTS} bindings of {} ({} each)",
+                size(8 * histories as u64),
+                c.adapter,
+                size(c.max_binding)
             )));
         }
         // A batch that needs more memory than there is room for is packed into smaller ones
@@ -355,6 +376,8 @@ impl GpuStages {
             )));
         }
         crate::batch::note_bytes(worlds.len(), b.bytes());
+        c.parts_used
+            .fetch_max(parts, std::sync::atomic::Ordering::Relaxed);
         let mut l = Launches::new(c, &b, &sizes, &m);
         // The rebuild kernels start their threads only in a step with a rebuild (`plan`): their
         // workgroups as indirect arguments, all of them at first (the lists are built before the
@@ -408,8 +431,6 @@ impl GpuStages {
             &b.state,
             &b.loads,
             &b.pair_ij,
-            &b.history_even,
-            &b.history_odd,
             &b.rows,
             &b.cands,
             &b.wall_history,
@@ -421,7 +442,13 @@ impl GpuStages {
         if let Some(bb) = &b.bodies {
             buffers.push(&bb.rows);
         }
-        let out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
+        buffers.extend(b.history_even.parts().chain(b.history_odd.parts()));
+        let mut out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
+        // Each half's parts as one list (the one-number parts past its end come after it).
+        let odd = out.split_off(out.len() - PARTS).concat();
+        let even = out.split_off(out.len() - PARTS).concat();
+        out.insert(4, even);
+        out.insert(5, odd);
         check_overflow(&out[0])?;
         // Every submission is done: the next segment may write over these buffers.
         spare.extend(b.all().into_iter().cloned());

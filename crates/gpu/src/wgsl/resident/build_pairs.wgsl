@@ -11,15 +11,14 @@
 @group(0) @binding(6) var<storage, read> dims: array<u32>;
 @group(0) @binding(7) var<storage, read> search: array<f64>;
 @group(0) @binding(8) var<storage, read> old_ij: array<u32>;
-// The old histories: the current half of history_halves.wgsl.
-@group(0) @binding(9) var<storage, read_write> history_even: array<f64>;
-@group(0) @binding(10) var<storage, read_write> history_odd: array<f64>;
-@group(0) @binding(11) var<storage, read_write> new_ij: array<u32>;
-@group(0) @binding(12) var<storage, read_write> new_history: array<f64>;
-@group(0) @binding(13) var<storage, read_write> rows: array<u32>;
-@group(0) @binding(14) var<storage, read_write> reverse_count: array<atomic<u32>>;
-@group(0) @binding(15) var<storage, read_write> built: array<f64>;
-@group(0) @binding(16) var<storage, read> params: array<f64>;
+@group(0) @binding(9) var<storage, read_write> new_ij: array<u32>;
+@group(0) @binding(10) var<storage, read_write> rows: array<u32>;
+@group(0) @binding(11) var<storage, read_write> reverse_count: array<atomic<u32>>;
+@group(0) @binding(12) var<storage, read_write> built: array<f64>;
+@group(0) @binding(13) var<storage, read> params: array<f64>;
+
+// After these: the pair histories' halves (the old histories are the current half,
+// history_halves.wgsl) and the new histories, each in parts (`kernels::split_lists`).
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -110,7 +109,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (carried) {
                 v = half_get(half, H_LEN * o + h);
             }
-            new_history[H_LEN * q + h] = v;
+            new_pair_history_put(H_LEN * q + h, v);
         }
         let r = atomicAdd(&reverse_count[j], 1u);
         if (r < cap) {

@@ -4,17 +4,16 @@
 @group(0) @binding(1) var<storage, read_write> ctrl: array<atomic<u32>>;
 @group(0) @binding(2) var<storage, read> dims: array<u32>;
 @group(0) @binding(3) var<storage, read_write> pair_ij: array<u32>;
-// The pair histories' current half (history_halves.wgsl) takes the new ones.
-@group(0) @binding(4) var<storage, read_write> history_even: array<f64>;
-@group(0) @binding(5) var<storage, read_write> history_odd: array<f64>;
-@group(0) @binding(6) var<storage, read> new_ij: array<u32>;
-@group(0) @binding(7) var<storage, read> new_pair_history: array<f64>;
-@group(0) @binding(8) var<storage, read_write> cands: array<u32>;
-@group(0) @binding(9) var<storage, read_write> wall_history: array<f64>;
-@group(0) @binding(10) var<storage, read> new_cands: array<u32>;
-@group(0) @binding(11) var<storage, read> new_wall_history: array<f64>;
-@group(0) @binding(12) var<storage, read> props: array<f64>;
-@group(0) @binding(13) var<storage, read> params: array<f64>;
+@group(0) @binding(4) var<storage, read> new_ij: array<u32>;
+@group(0) @binding(5) var<storage, read_write> cands: array<u32>;
+@group(0) @binding(6) var<storage, read_write> wall_history: array<f64>;
+@group(0) @binding(7) var<storage, read> new_cands: array<u32>;
+@group(0) @binding(8) var<storage, read> new_wall_history: array<f64>;
+@group(0) @binding(9) var<storage, read> props: array<f64>;
+@group(0) @binding(10) var<storage, read> params: array<f64>;
+
+// After these: the pair histories' halves (the current half takes the new ones,
+// history_halves.wgsl) and the new histories, each in parts (`kernels::split_lists`).
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -40,7 +39,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             pair_ij[IJ_LEN * q + k] = new_ij[IJ_LEN * q + k];
         }
         for (var h = 0u; h < H_LEN; h++) {
-            half_put(half, H_LEN * q + h, new_pair_history[H_LEN * q + h]);
+            half_put(half, H_LEN * q + h, new_pair_history_get(H_LEN * q + h));
         }
     }
     let wcap = dims[D_WALL_CAPACITY];

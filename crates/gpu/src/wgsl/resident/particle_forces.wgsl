@@ -15,14 +15,13 @@
 @group(0) @binding(2) var<storage, read> props: array<f64>;
 @group(0) @binding(3) var<storage, read> ints: array<u32>;
 @group(0) @binding(4) var<storage, read> pair_ij: array<u32>;
-@group(0) @binding(5) var<storage, read_write> history_even: array<f64>;
-@group(0) @binding(6) var<storage, read_write> history_odd: array<f64>;
-@group(0) @binding(7) var<storage, read> rows: array<u32>;
-@group(0) @binding(8) var<storage, read> walls: array<f64>;
-@group(0) @binding(9) var<storage, read> table: array<f64>;
-@group(0) @binding(10) var<storage, read> params: array<f64>;
-@group(0) @binding(11) var<storage, read> counts: array<u32>;
-@group(0) @binding(12) var<storage, read_write> ctrl: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read> rows: array<u32>;
+@group(0) @binding(6) var<storage, read> walls: array<f64>;
+@group(0) @binding(7) var<storage, read> table: array<f64>;
+@group(0) @binding(8) var<storage, read> params: array<f64>;
+@group(0) @binding(9) var<storage, read> counts: array<u32>;
+@group(0) @binding(10) var<storage, read_write> ctrl: array<atomic<u32>>;
+// After these: the pair histories' halves, each in parts (`kernels::split_lists`).
 
 fn wall3(k: u32) -> vec3<f64> {
     return vec3<f64>(walls[k], walls[k + 1u], walls[k + 2u]);

@@ -176,16 +176,20 @@ const KERNELS: &[(&str, &[&str])] = &[
 ];
 
 /// Bindings a list of f64 may be split across. A device binds at most so many bytes at once
-/// (2^31 - 1 on NVIDIA's Vulkan through wgpu, 128 MiB on lavapipe); the pair histories are the
-/// largest lists a segment has (48 bytes a pair slot, in each of three lists), so they are bound
-/// in parts and the scenes that fit the resident path grow this many times. Four keep the
-/// busiest kernel (`build_pairs`, 26 bindings) within the 32 storage bindings lavapipe allows
-/// a kernel.
+/// (2^31 - 1 on NVIDIA's Vulkan through wgpu, 128 MiB on lavapipe); the lists of a segment that
+/// grow with its pair and wall slots, the pair histories (48 bytes a slot in each of three
+/// lists), the wall outputs (80 bytes a wall slot) and the wall histories (48, in two), are the
+/// largest, so they are bound in parts and the scenes that fit the resident path grow this many
+/// times. Four keep the busiest kernel (`commit`, 29 bindings) within the 32 storage bindings
+/// lavapipe allows a kernel.
 pub(crate) const PARTS: usize = 4;
 
 /// The lists each kernel binds in [`PARTS`] parts: the list's name and whether the kernel writes
-/// it. The host binds the parts in this order after the kernel's own bindings.
+/// it. The host binds the parts in this order after the kernel's own bindings (the stage path
+/// binds each list whole in its first part).
 const SPLIT: &[(&str, &[(&str, bool)])] = &[
+    ("pair_forces", &[("history", true), ("output", true)]),
+    ("wall_forces", &[("history", true), ("output", true)]),
     (
         "build_pairs",
         &[
@@ -195,21 +199,33 @@ const SPLIT: &[(&str, &[(&str, bool)])] = &[
         ],
     ),
     (
+        "build_walls",
+        &[("old_history", false), ("new_history", true)],
+    ),
+    (
         "commit",
         &[
             ("history_even", true),
             ("history_odd", true),
             ("new_pair_history", false),
+            ("wall_history", true),
+            ("new_wall_history", false),
         ],
     ),
     (
         "particle_forces",
-        &[("history_even", true), ("history_odd", true)],
+        &[
+            ("history_even", true),
+            ("history_odd", true),
+            ("walls", false),
+        ],
     ),
+    ("geometry_loads", &[("output", false)]),
 ];
 
 /// The numbers of a split list's part on a device that binds at most `max_binding` bytes: whole
-/// pair histories, so that a history's six numbers lie in one part.
+/// histories, so that a history's six numbers lie in one part (a wall output's ten may lie in
+/// two: the accessors take each number from its own part).
 pub(crate) fn part_numbers(max_binding: u64) -> usize {
     let row = layout::history::LEN;
     let numbers = (max_binding / 8).min(u32::MAX as u64) as usize;

@@ -26,9 +26,10 @@
 //!   world of a batch has its own bonds). On the check path the Hooke law, a stage
 //!   whose arrays would pass the device's largest binding, and a particle touching more than 32
 //!   walls at once are handed to the CPU back end inside the stage
-//!   ([`GpuStages::handed_to_cpu`] counts them); a segment whose lists pass the largest binding
-//!   is declined with a warning saying so ([`GpuStages::segments`] counts both), so any scene
-//!   runs.
+//!   ([`GpuStages::handed_to_cpu`] counts them); in a segment the largest lists (the pair and
+//!   wall histories and the wall outputs) are bound in up to four parts (`kernels::PARTS`), and
+//!   a segment whose lists pass that, or the largest binding for the others, is declined with a
+//!   warning saying so ([`GpuStages::segments`] counts both), so any scene runs.
 //! - **How it is chosen.** [`register`] makes "gpu" one of the engine's named back ends
 //!   (`dem::sim::make_backend`), built on one process-wide context ([`shared_context`]), so scene,
 //!   test and study files and `--backend gpu` can name it.
@@ -170,7 +171,7 @@ pub struct GpuContext {
     max_binding: u64,
     /// The numbers of a part of a list bound in parts (`kernels::part_numbers`).
     part_numbers: usize,
-    /// The most parts a segment's pair histories took (`history_parts_used`).
+    /// The most parts a segment's split lists took (`parts_used`).
     parts_used: std::sync::atomic::AtomicUsize,
     /// The device memory a batch of worlds may take, in bytes ([`memory_budget`]).
     memory: u64,
@@ -423,10 +424,10 @@ impl GpuContext {
         })
     }
 
-    /// The most bindings a segment's pair histories were split across (`kernels::PARTS` at
-    /// most), since the context was made: 1 where they fit one.
+    /// The most bindings a segment's pair or wall histories or wall outputs were split across
+    /// (`kernels::PARTS` at most), since the context was made: 1 where each fit one.
     #[doc(hidden)]
-    pub fn history_parts_used(&self) -> usize {
+    pub fn parts_used(&self) -> usize {
         self.parts_used.load(std::sync::atomic::Ordering::Relaxed)
     }
 
@@ -435,6 +436,23 @@ impl GpuContext {
     #[doc(hidden)]
     pub fn buffers_reused(&self) -> u64 {
         self.pool.reused()
+    }
+
+    /// `list` as the stage kernels bind a list they split (`kernels::split_lists`): whole in the
+    /// first part (a stage's lists fit one binding, `fits`), one number in each of the others.
+    fn whole_in_parts<'a>(
+        &self,
+        list: &'a wgpu::Buffer,
+        unused: &'a [wgpu::Buffer],
+    ) -> impl Iterator<Item = &'a wgpu::Buffer> {
+        std::iter::once(list).chain(unused)
+    }
+
+    /// One-number buffers for the parts of a split list past the first ([`Self::whole_in_parts`]).
+    fn unused_parts(&self) -> Vec<wgpu::Buffer> {
+        (1..kernels::PARTS)
+            .map(|_| self.storage(&[0.0f64]))
+            .collect()
     }
 
     /// Runs `pipeline` over `threads` threads with `buffers` bound in order, then reads back the

@@ -72,13 +72,84 @@ pub fn shares_line() -> Option<String> {
 }
 
 /// What a benchmark prints about the profile: None unless profiling was asked for; then the
-/// shares, or why there are none.
+/// shares, or why there are none, and on a second line the host's time per try of a segment.
 pub fn report_line() -> Option<String> {
     if !asked() {
         return None;
     }
-    Some(shares_line().unwrap_or_else(|| {
+    let shares = shares_line().unwrap_or_else(|| {
         "kernel shares: none timed (the device has no timestamp queries, or no segment ran on it)"
             .to_string()
-    }))
+    });
+    Some(match host_line() {
+        Some(host) => format!("{shares}\n{host}"),
+        None => shares,
+    })
+}
+
+/// Seconds in each phase, in the order first seen, and the tries added.
+type HostTotals = (Vec<(&'static str, f64)>, u64);
+
+/// The host's seconds in each phase of a segment's tries, and the tries, over the process.
+fn host_totals() -> &'static Mutex<HostTotals> {
+    static TOTALS: OnceLock<Mutex<HostTotals>> = OnceLock::new();
+    TOTALS.get_or_init(Default::default)
+}
+
+/// The wall-clock time of the phases of one try of a segment on the host (`resident::run`):
+/// what a segment costs besides its steps (merging the worlds, making and writing the buffers,
+/// the bind groups, the lists' first build, reading the end back), which a world resident across
+/// segments would save in part. Cheap enough to take always; added up only when profiling.
+pub(crate) struct HostPhases {
+    last: std::time::Instant,
+    phases: Vec<(&'static str, f64)>,
+}
+
+impl HostPhases {
+    pub(crate) fn start() -> HostPhases {
+        HostPhases {
+            last: std::time::Instant::now(),
+            phases: Vec::new(),
+        }
+    }
+
+    /// Ends phase `name` (it began where the last ended).
+    pub(crate) fn mark(&mut self, name: &'static str) {
+        let now = std::time::Instant::now();
+        self.phases
+            .push((name, now.duration_since(self.last).as_secs_f64()));
+        self.last = now;
+    }
+
+    /// Adds the try's phases to the process's totals, when profiling.
+    pub(crate) fn record(self) {
+        if !asked() {
+            return;
+        }
+        let mut t = host_totals().lock().unwrap_or_else(|e| e.into_inner());
+        for (name, secs) in self.phases {
+            match t.0.iter_mut().find(|(n, _)| *n == name) {
+                Some(e) => e.1 += secs,
+                None => t.0.push((name, secs)),
+            }
+        }
+        t.1 += 1;
+    }
+}
+
+/// One line of the host's mean milliseconds per try in each phase, or None when none ran.
+pub fn host_line() -> Option<String> {
+    let t = host_totals().lock().unwrap_or_else(|e| e.into_inner());
+    if t.1 == 0 {
+        return None;
+    }
+    let parts: Vec<String> =
+        t.0.iter()
+            .map(|(name, secs)| format!("{name} {:.3}", 1e3 * secs / t.1 as f64))
+            .collect();
+    Some(format!(
+        "host ms per segment try ({} tries): {}",
+        t.1,
+        parts.join(", ")
+    ))
 }

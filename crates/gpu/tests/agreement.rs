@@ -599,34 +599,68 @@ fn a_lifted_cylinder_heap_matches_the_cpu() {
     compare("lifted cylinder", lifted_cylinder, 4000, 1e-9);
 }
 
-/// A device that binds fewer bytes than a scene's pair histories take gets them in parts
-/// (`kernels::PARTS`, `Split`). The crowded spheres' pair rows grow from 4 slots to 128 (their
-/// histories from 56 kB to 1.8 MB) while their largest other list, the cell buckets, stays at
-/// 262 kB. On a context that binds at most 600 kB their histories end in all four parts, with the
-/// same bits as on the usual context, which binds them whole, through every overflow, retry and
-/// early end. At 300 kB the last rows would need seven parts: those segments are declined, and
-/// their steps run stage by stage, with the CPU's numbers.
-#[test]
-fn pair_histories_split_across_bindings_give_the_same_bits() {
-    let Some(ctx) = gpu() else { return };
-    let mut whole = crowded(false).with_backend(Box::new(GpuStages::with_context(ctx)));
-    whole.run(600).unwrap();
-    let small =
-        std::sync::Arc::new(dem_gpu::GpuContext::with_binding_limit(600_000).expect("a GPU"));
+/// Runs `make`'s scene for `steps` steps on the usual context and on one that binds at most
+/// `limit` bytes; asserts the same bits, the CPU's numbers to round-off (a wrong part read on
+/// both contexts alike would give the same bits) and that no segment was declined; returns the
+/// most parts a split list took and the stages of the small context.
+fn same_bits_in_parts(
+    ctx: std::sync::Arc<dem_gpu::GpuContext>,
+    make: impl Fn() -> Simulation,
+    steps: u64,
+    limit: u64,
+) -> (usize, GpuStages) {
+    let mut whole = make().with_backend(Box::new(GpuStages::with_context(ctx)));
+    whole.run(steps).unwrap();
+    let small = std::sync::Arc::new(dem_gpu::GpuContext::with_binding_limit(limit).expect("a GPU"));
     let split = GpuStages::with_context(small.clone());
-    let mut parts = crowded(false).with_backend(Box::new(split.clone()));
-    parts.run(600).unwrap();
+    let mut parts = make().with_backend(Box::new(split.clone()));
+    parts.run(steps).unwrap();
     let (segments, declined, retried) = split.segments();
     eprintln!(
-        "600 kB: histories in up to {} parts; {segments} segments, {declined} declined, {retried} tries again",
-        small.history_parts_used()
+        "{limit} B: lists in up to {} parts; {segments} segments, {declined} declined, {retried} tries again",
+        small.parts_used()
     );
-    assert_eq!((small.history_parts_used(), declined), (4, 0));
-    assert!(retried > 0 && split.segments_ended_early() > 0);
+    assert_eq!(declined, 0);
     assert_eq!(whole.particles.position, parts.particles.position);
     assert_eq!(
         whole.particles.angular_velocity,
         parts.particles.angular_velocity
+    );
+    for (a, b) in whole.geometries.iter().zip(&parts.geometries) {
+        assert_eq!(a.load.force, b.load.force, "{}", a.name);
+    }
+    let mut cpu = make();
+    cpu.run(steps).unwrap();
+    let dx = largest_difference(&cpu, &parts, |p| &p.position);
+    let dv = largest_difference(&cpu, &parts, |p| &p.velocity);
+    assert!(dx < 1e-12 && dv < 1e-9, "{dx:e} m, {dv:e} m/s");
+    (small.parts_used(), split)
+}
+
+/// A device that binds fewer bytes than a segment's largest lists take gets them in parts
+/// (`kernels::PARTS`, `Split`), with the same bits as bound whole.
+/// - The crowded spheres' pair rows grow from 4 slots to 128 (their histories from 56 kB to
+///   1.8 MB) while their largest other list, the cell buckets, stays at 262 kB: at 600 kB their
+///   histories end in all four parts, through every overflow, retry and early end.
+/// - The falling column's wall outputs (8 kB) and pair and wall histories (4.8 kB each) pass
+///   4.2 kB while its buckets (4.1 kB) do not: all three are split in two, and the floor, which
+///   its lowest sphere reaches, carries the same load.
+/// - At 300 kB the crowded spheres' last rows would need seven parts: those segments are
+///   declined, and their steps run stage by stage, with the CPU's numbers.
+#[test]
+fn lists_split_across_bindings_give_the_same_bits() {
+    let Some(ctx) = gpu() else { return };
+    let (parts, split) = same_bits_in_parts(ctx.clone(), || crowded(false), 600, 600_000);
+    assert_eq!(parts, 4);
+    assert!(split.segments().2 > 0 && split.segments_ended_early() > 0);
+    let column = || column(RollingModel::ConstantDirectionalTorque);
+    let (parts, _) = same_bits_in_parts(ctx, column, 1000, 4_200);
+    assert_eq!(parts, 2);
+    let mut floor = column();
+    floor.run(1000).unwrap();
+    assert!(
+        floor.geometries[0].load.force.z < 0.0,
+        "the column did not reach the floor"
     );
 
     let mut cpu = crowded(false);

@@ -42,7 +42,7 @@ impl Sizes {
     }
 
     /// The largest buffer of the run, in bytes (each must fit one binding), but for the pair
-    /// histories, which are split across bindings ([`Split`]).
+    /// and wall histories and the wall outputs, which are split across bindings ([`Split`]).
     pub(super) fn largest(&self, m: &Merged, cap: Capacity) -> usize {
         [
             STATE_BYTES * self.n,
@@ -50,7 +50,6 @@ impl Sizes {
             8 * m.element_track.len(),
             8 * m.geoms_track.len(),
             8 * m.table.len(),
-            8 * layout::wall_output::LEN * self.walls,
             4 * (layout::rows::REVERSE_ENTRIES * self.n + self.pairs),
             4 * self.buckets * cap.bucket,
             8 * layout::element::LEN * self.elements,
@@ -68,6 +67,17 @@ impl Sizes {
 const SMALL_BUFFERS: u64 = 64 * 1024;
 
 impl Sizes {
+    /// The numbers of the lists bound in parts ([`Split`]), each with what it is called in a
+    /// decline: the pair histories (in each of three lists), the wall outputs and the wall
+    /// histories (in each of two).
+    pub(super) fn split_lists(&self) -> [(&'static str, usize); 3] {
+        [
+            ("pair histories", layout::history::LEN * self.pairs),
+            ("wall outputs", layout::wall_output::LEN * self.walls),
+            ("wall histories", layout::history::LEN * self.walls),
+        ]
+    }
+
     /// The device memory the buffers of a try take, in bytes: [`Buffers::new`]'s buffers, the
     /// uploaded ones by their data and the others by their sizes, plus [`SMALL_BUFFERS`]. Each
     /// try checks it against the buffers made (`try_run`: a miscount is a decline).
@@ -136,10 +146,10 @@ pub(super) struct Buffers {
     pub(super) new_pair_history: Split,
     pub(super) rows: wgpu::Buffer,
     pub(super) cands: wgpu::Buffer,
-    pub(super) wall_history: wgpu::Buffer,
-    pub(super) wall_output: wgpu::Buffer,
+    pub(super) wall_history: Split,
+    pub(super) wall_output: Split,
     pub(super) new_cands: wgpu::Buffer,
-    pub(super) new_wall_history: wgpu::Buffer,
+    pub(super) new_wall_history: Split,
     pub(super) table: wgpu::Buffer,
     pub(super) elements: wgpu::Buffer,
     pub(super) geoms: wgpu::Buffer,
@@ -173,8 +183,6 @@ impl Buffers {
             &self.pair_ij,
             &self.rows,
             &self.cands,
-            &self.wall_history,
-            &self.wall_output,
             // What `check` reads at the end: the drift since the last build, leaving the domain,
             // a wall row's status.
             &self.moved,
@@ -182,6 +190,7 @@ impl Buffers {
             &self.status,
         ];
         kept.extend([&self.history_even, &self.history_odd][half].parts());
+        kept.extend(self.wall_history.parts().chain(self.wall_output.parts()));
         // Bond ends' `BE_INTACT` is not kept: nothing at the end reads it, and the next try
         // uploads it anew.
         if let Some(b) = &self.bonds {
@@ -191,16 +200,6 @@ impl Buffers {
             kept.push(&b.rows);
         }
         kept
-    }
-
-    /// The pair histories' parts, as the kernels that split them bind them after their own
-    /// (`kernels::SPLIT`): the even half's, the odd half's, and with `new` the new histories'.
-    pub(super) fn histories(&self, new: bool) -> impl Iterator<Item = &wgpu::Buffer> {
-        let new = new.then_some(&self.new_pair_history);
-        [&self.history_even, &self.history_odd]
-            .into_iter()
-            .chain(new)
-            .flat_map(Split::parts)
     }
 
     /// The bytes of every buffer (what [`Sizes::bytes`] must not fall short of).
@@ -227,10 +226,7 @@ impl Buffers {
             &self.new_ij,
             &self.rows,
             &self.cands,
-            &self.wall_history,
-            &self.wall_output,
             &self.new_cands,
-            &self.new_wall_history,
             &self.table,
             &self.elements,
             &self.geoms,
@@ -251,6 +247,9 @@ impl Buffers {
             &self.history_even,
             &self.history_odd,
             &self.new_pair_history,
+            &self.wall_history,
+            &self.wall_output,
+            &self.new_wall_history,
         ] {
             all.extend(split.parts());
         }
@@ -326,10 +325,10 @@ impl Buffers {
             new_pair_history: Split::zeros(c, &mut zero, layout::history::LEN * pairs),
             rows: c.storage(&m.rows),
             cands: c.storage(&m.cands),
-            wall_history: c.storage(&m.wall_history),
-            wall_output: c.zeros::<f64>(&mut zero, layout::wall_output::LEN * walls),
+            wall_history: Split::with(c, &m.wall_history),
+            wall_output: Split::zeros(c, &mut zero, layout::wall_output::LEN * walls),
             new_cands: c.storage(&vec![EMPTY; layout::cands::LEN * walls]),
-            new_wall_history: c.zeros::<f64>(&mut zero, layout::history::LEN * walls),
+            new_wall_history: Split::zeros(c, &mut zero, layout::history::LEN * walls),
             table: c.storage(&m.table),
             elements: c.storage(&m.elements),
             geoms: c.storage(&m.geoms),
@@ -355,8 +354,8 @@ impl Buffers {
 }
 
 /// A list of f64 bound in [`PARTS`] parts of at most [`GpuContext::part_numbers`] numbers
-/// each, in order (`kernels::split_lists`): the pair histories, the largest lists, so that a
-/// scene's lists may be larger than one binding. The parts past the list's end hold one number
+/// each, in order (`kernels::split_lists`): the pair and wall histories and the wall outputs,
+/// the largest lists, so that a scene's lists may be larger than one binding. The parts past the list's end hold one number
 /// (a binding cannot be empty). The caller checks that the list fits the parts.
 pub(super) struct Split(Vec<wgpu::Buffer>);
 

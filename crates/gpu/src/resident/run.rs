@@ -49,6 +49,20 @@ pub(super) fn launch<'a>(
     }
 }
 
+/// A launch of `pipeline` with `own` bound in order, then each of `split`'s parts
+/// (`kernels::split_lists`).
+fn launch_split<'a>(
+    c: &GpuContext,
+    pipeline: &'a wgpu::ComputePipeline,
+    own: &[&wgpu::Buffer],
+    split: &[&Split],
+    threads: usize,
+) -> Launch<'a> {
+    let parts = split.iter().flat_map(|s| s.parts());
+    let buffers: Vec<&wgpu::Buffer> = own.iter().copied().chain(parts).collect();
+    launch(c, pipeline, &buffers, threads)
+}
+
 impl<'a> Launches<'a> {
     fn new(c: &'a GpuContext, b: &Buffers, s: &Sizes, m: &Merged) -> Launches<'a> {
         let k = &c.resident;
@@ -129,17 +143,11 @@ impl<'a> Launches<'a> {
             rebuild: Self::rebuild(c, b, s),
             forces: Self::forces(c, b, s),
             // Once at the end: a world that stopped earlier kept its rows and wall output.
-            geometry_loads: launch(
+            geometry_loads: launch_split(
                 c,
                 &k.geometry_loads,
-                &[
-                    &b.dims,
-                    &b.rows,
-                    &b.cands,
-                    &b.wall_output,
-                    &b.geometry_loads,
-                    &b.params,
-                ],
+                &[&b.dims, &b.rows, &b.cands, &b.geometry_loads, &b.params],
+                &[&b.wall_output],
                 // One workgroup a geometry.
                 crate::WORKGROUP as usize * s.geometries.max(1),
             ),
@@ -179,7 +187,7 @@ impl<'a> Launches<'a> {
                 ],
                 n,
             ),
-            launch(
+            launch_split(
                 c,
                 &k.build_pairs,
                 &[
@@ -197,13 +205,11 @@ impl<'a> Launches<'a> {
                     &b.reverse_count,
                     &b.built,
                     &b.params,
-                ]
-                .into_iter()
-                .chain(b.histories(true))
-                .collect::<Vec<_>>(),
+                ],
+                &[&b.history_even, &b.history_odd, &b.new_pair_history],
                 n,
             ),
-            launch(
+            launch_split(
                 c,
                 &k.build_walls,
                 &[
@@ -216,12 +222,11 @@ impl<'a> Launches<'a> {
                     &b.elements,
                     &b.geoms,
                     &b.cands,
-                    &b.wall_history,
                     &b.new_cands,
-                    &b.new_wall_history,
                     &b.rows,
                     &b.params,
                 ],
+                &[&b.wall_history, &b.new_wall_history],
                 n,
             ),
             launch(
@@ -230,7 +235,7 @@ impl<'a> Launches<'a> {
                 &[&b.counts_n, &b.ctrl, &b.rows, &b.reverse_count, &b.dims],
                 n,
             ),
-            launch(
+            launch_split(
                 c,
                 &k.commit,
                 &[
@@ -240,15 +245,17 @@ impl<'a> Launches<'a> {
                     &b.pair_ij,
                     &b.new_ij,
                     &b.cands,
-                    &b.wall_history,
                     &b.new_cands,
-                    &b.new_wall_history,
                     &b.props,
                     &b.params,
-                ]
-                .into_iter()
-                .chain(b.histories(true))
-                .collect::<Vec<_>>(),
+                ],
+                &[
+                    &b.history_even,
+                    &b.history_odd,
+                    &b.new_pair_history,
+                    &b.wall_history,
+                    &b.new_wall_history,
+                ],
                 n,
             ),
         ]
@@ -258,7 +265,7 @@ impl<'a> Launches<'a> {
     /// (`particle_forces`: no per-pair output), then the second half kick.
     fn forces(c: &'a GpuContext, b: &Buffers, s: &Sizes) -> [Launch<'a>; 3] {
         [
-            launch(
+            launch_split(
                 c,
                 &c.wall_forces,
                 &[
@@ -269,16 +276,15 @@ impl<'a> Launches<'a> {
                     &b.geoms,
                     &b.cands,
                     &b.rows,
-                    &b.wall_history,
-                    &b.wall_output,
                     &b.table,
                     &b.params,
                     &b.counts_n,
                     &b.status,
                 ],
+                &[&b.wall_history, &b.wall_output],
                 s.n,
             ),
-            launch(
+            launch_split(
                 c,
                 &c.resident.particle_forces,
                 &[
@@ -288,15 +294,12 @@ impl<'a> Launches<'a> {
                     &b.ints,
                     &b.pair_ij,
                     &b.rows,
-                    &b.wall_output,
                     &b.table,
                     &b.params,
                     &b.counts_n,
                     &b.ctrl,
-                ]
-                .into_iter()
-                .chain(b.histories(false))
-                .collect::<Vec<_>>(),
+                ],
+                &[&b.history_even, &b.history_odd, &b.wall_output],
                 s.n,
             ),
             launch(
@@ -331,8 +334,10 @@ impl GpuStages {
         cap: Capacity,
     ) -> Result<(Vec<SegmentEnd>, Option<u32>), Retry> {
         let c = &*self.ctx;
+        let mut phases = crate::profile::HostPhases::start();
         let sizes = Sizes::of(worlds, cap);
         let m = Merged::new(worlds, cap).map_err(Retry::Overflow)?;
+        phases.mark("merge");
         let largest = sizes.largest(&m, cap);
         // A pair slot's row index (`H_LEN * q`, `IJ_LEN * q`) must fit u32.
         let row = layout::history::LEN.max(layout::pair_ij::LEN);
@@ -344,16 +349,19 @@ impl GpuStages {
                 size(c.max_binding)
             )));
         }
-        // The pair histories are bound in parts (`Split`).
-        let histories = layout::history::LEN * sizes.pairs;
-        let parts = Split::parts_for(c, histories);
-        if parts > PARTS {
-            return Err(Retry::Decline(format!(
-                "its pair histories ({}) do not fit {PARTS} bindings of {} ({} each)",
-                size(8 * histories as u64),
-                c.adapter,
-                size(c.max_binding)
-            )));
+        // The largest lists are bound in parts (`Split`).
+        let mut parts = 1;
+        for (what, numbers) in sizes.split_lists() {
+            let needs = Split::parts_for(c, numbers);
+            if needs > PARTS {
+                return Err(Retry::Decline(format!(
+                    "its {what} ({}) do not fit {PARTS} bindings of {} ({} each)",
+                    size(8 * numbers as u64),
+                    c.adapter,
+                    size(c.max_binding)
+                )));
+            }
+            parts = parts.max(needs);
         }
         // A batch that needs more memory than there is room for is packed into smaller ones
         // (`batch::pack`); a world alone tries, and the driver says whether it fits.
@@ -367,6 +375,7 @@ impl GpuStages {
         // Out of memory in a buffer's creation makes it invalid, and the write of its data then
         // a validation error: both caught here, neither the device's failure.
         let b = make_buffers(c, &m, worlds.len(), &sizes, cap, needed)?;
+        phases.mark("buffers");
         // The count must bound what was made (for the packing); a miscount is a bug, said as a
         // decline so that it shows where it happens.
         if b.bytes() > needed {
@@ -379,6 +388,7 @@ impl GpuStages {
         c.parts_used
             .fetch_max(parts, std::sync::atomic::Ordering::Relaxed);
         let mut l = Launches::new(c, &b, &sizes, &m);
+        phases.mark("bind groups");
         // The rebuild kernels start their threads only in a step with a rebuild (`plan`): their
         // workgroups as indirect arguments, all of them at first (the lists are built before the
         // first step).
@@ -420,8 +430,29 @@ impl GpuStages {
         let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &l.rebuild.iter().collect::<Vec<_>>());
         c.queue.submit([encoder.finish()]);
+        phases.mark("first build");
         let mut spare = vec![args.clone(), full_buffer.clone()];
         let stopped = self.run_chunks(worlds, &sizes, &b, &step, needed, &mut spare)?;
+        phases.mark("steps");
+        let end = self.read_end(worlds, &m, &b, &l, spare, stopped);
+        phases.mark("read back and split");
+        phases.record();
+        end
+    }
+
+    /// The end of a try whose steps ran (`stopped`: the overflow that ended them early, and
+    /// where): the last step's check and the geometry loads, then the read-back of what each
+    /// world's end holds; the try's buffers go to the context's pool.
+    fn read_end(
+        &self,
+        worlds: &[World],
+        m: &Merged,
+        b: &Buffers,
+        l: &Launches,
+        mut spare: Vec<wgpu::Buffer>,
+        stopped: Option<(u32, usize)>,
+    ) -> Result<(Vec<SegmentEnd>, Option<u32>), Retry> {
+        let c = &*self.ctx;
         let mut encoder = c.device.create_command_encoder(&Default::default());
         // The last step's kick, checked as every step's are: the worlds whose steps ran to the
         // end are still stepping, so `begin` marks them for the check alone.
@@ -433,7 +464,6 @@ impl GpuStages {
             &b.pair_ij,
             &b.rows,
             &b.cands,
-            &b.wall_history,
             &b.geometry_loads,
         ];
         if let Some(bb) = &b.bonds {
@@ -442,13 +472,17 @@ impl GpuStages {
         if let Some(bb) = &b.bodies {
             buffers.push(&bb.rows);
         }
-        buffers.extend(b.history_even.parts().chain(b.history_odd.parts()));
+        let split = [&b.history_even, &b.history_odd, &b.wall_history];
+        buffers.extend(split.iter().flat_map(|s| s.parts()));
         let mut out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
-        // Each half's parts as one list (the one-number parts past its end come after it).
+        // Each split list's parts as one (the one-number parts past its end come after it), in
+        // its place among the others.
+        let wall_history = out.split_off(out.len() - PARTS).concat();
         let odd = out.split_off(out.len() - PARTS).concat();
         let even = out.split_off(out.len() - PARTS).concat();
         out.insert(4, even);
         out.insert(5, odd);
+        out.insert(8, wall_history);
         check_overflow(&out[0])?;
         // Every submission is done: the next segment may write over these buffers.
         spare.extend(b.all().into_iter().cloned());

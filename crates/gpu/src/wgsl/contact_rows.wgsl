@@ -1,18 +1,18 @@
-// Accessors of the arrays the stage contact kernels (pair_forces, wall_forces) bind: `history`
-// (rows of H_LEN) and `output`.
+// Accessors of the lists the stage contact kernels (pair_forces, wall_forces) bind in parts
+// (`kernels::split_lists`): `history` (rows of H_LEN) and `output`.
 
 fn hist3(k: u32) -> vec3<f64> {
-    return vec3<f64>(history[k], history[k + 1u], history[k + 2u]);
+    return vec3<f64>(history_get(k), history_get(k + 1u), history_get(k + 2u));
 }
 
 fn put_hist3(k: u32, v: vec3<f64>) {
-    history[k] = v.x;
-    history[k + 1u] = v.y;
-    history[k + 2u] = v.z;
+    for (var d = 0; d < 3; d++) {
+        history_put(k + u32(d), v[d]);
+    }
 }
 
 fn put_out3(k: u32, v: vec3<f64>) {
-    output[k] = v.x;
-    output[k + 1u] = v.y;
-    output[k + 2u] = v.z;
+    for (var d = 0; d < 3; d++) {
+        output_put(k + u32(d), v[d]);
+    }
 }

@@ -9,15 +9,16 @@
 @group(0) @binding(1) var<storage, read> props: array<f64>;
 @group(0) @binding(2) var<storage, read> ints: array<u32>;
 @group(0) @binding(3) var<storage, read> pair_ij: array<u32>;
-@group(0) @binding(4) var<storage, read_write> history: array<f64>;
-@group(0) @binding(5) var<storage, read_write> output: array<f64>;
-@group(0) @binding(6) var<storage, read> table: array<f64>;
-@group(0) @binding(7) var<storage, read> params: array<f64>;
-@group(0) @binding(8) var<storage, read> counts: array<u32>;
+@group(0) @binding(4) var<storage, read> table: array<f64>;
+@group(0) @binding(5) var<storage, read> params: array<f64>;
+@group(0) @binding(6) var<storage, read> counts: array<u32>;
+
+// After these: `history` and `output`, the pair slots' histories and outputs, each in parts
+// (`kernels::split_lists`; the stage path binds each whole in the first).
 
 fn clear_output(q: u32) {
     for (var k = 0u; k < PO_LEN; k++) {
-        output[PO_LEN * q + k] = 0.0lf;
+        output_put(PO_LEN * q + k, 0.0lf);
     }
 }
 
@@ -45,7 +46,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let g = pair_gap(i, j);
     if (!g.touching) {
         for (var k = 0u; k < H_LEN; k++) {
-            history[H_LEN * q + k] = 0.0lf;
+            history_put(H_LEN * q + k, 0.0lf);
         }
         clear_output(q);
         return;
@@ -58,6 +59,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     put_out3(o + PO_FORCE, l.force);
     put_out3(o + PO_TORQUE_I, l.torque_i);
     put_out3(o + PO_TORQUE_J, l.torque_j);
-    output[o + PO_ROLLING_I] = l.rolling_i;
-    output[o + PO_ROLLING_J] = l.rolling_j;
+    output_put(o + PO_ROLLING_I, l.rolling_i);
+    output_put(o + PO_ROLLING_J, l.rolling_j);
 }

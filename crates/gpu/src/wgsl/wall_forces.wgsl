@@ -14,23 +14,24 @@
 @group(0) @binding(4) var<storage, read> geoms: array<f64>;
 @group(0) @binding(5) var<storage, read> cands: array<u32>;
 @group(0) @binding(6) var<storage, read> rows: array<u32>;
-@group(0) @binding(7) var<storage, read_write> history: array<f64>;
-@group(0) @binding(8) var<storage, read_write> output: array<f64>;
-@group(0) @binding(9) var<storage, read> table: array<f64>;
-@group(0) @binding(10) var<storage, read> params: array<f64>;
-@group(0) @binding(11) var<storage, read> counts: array<u32>;
-@group(0) @binding(12) var<storage, read_write> status: array<u32>;
+@group(0) @binding(7) var<storage, read> table: array<f64>;
+@group(0) @binding(8) var<storage, read> params: array<f64>;
+@group(0) @binding(9) var<storage, read> counts: array<u32>;
+@group(0) @binding(10) var<storage, read_write> status: array<u32>;
 
 const KEEP: u32 = 32u;
 
 fn clear(c: u32) {
     for (var k = 0u; k < H_LEN; k++) {
-        history[H_LEN * c + k] = 0.0lf;
+        history_put(H_LEN * c + k, 0.0lf);
     }
     for (var k = 0u; k < WO_LEN; k++) {
-        output[WO_LEN * c + k] = 0.0lf;
+        output_put(WO_LEN * c + k, 0.0lf);
     }
 }
+
+// After these: `history` and `output`, the wall slots' histories and outputs, each in parts
+// (`kernels::split_lists`).
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -154,7 +155,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             put_out3(o + WO_FORCE, -force);
             put_out3(o + WO_TORQUE, cross3(contact_point, -force) + reaction_rolling);
             put_out3(o + WO_PARTICLE_TORQUE, -ci * cross3(nrm, f_t) + rolling_torque);
-            output[o + WO_ROLLING] = rolling_limit;
+            output_put(o + WO_ROLLING, rolling_limit);
         }
     }
 }

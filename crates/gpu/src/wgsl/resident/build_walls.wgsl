@@ -10,12 +10,12 @@
 @group(0) @binding(6) var<storage, read> elements: array<f64>;
 @group(0) @binding(7) var<storage, read> geoms: array<f64>;
 @group(0) @binding(8) var<storage, read> old_cands: array<u32>;
-@group(0) @binding(9) var<storage, read> old_history: array<f64>;
-@group(0) @binding(10) var<storage, read_write> new_cands: array<u32>;
-@group(0) @binding(11) var<storage, read_write> new_history: array<f64>;
-@group(0) @binding(12) var<storage, read_write> rows: array<u32>;
-@group(0) @binding(13) var<storage, read> params: array<f64>;
+@group(0) @binding(9) var<storage, read_write> new_cands: array<u32>;
+@group(0) @binding(10) var<storage, read_write> rows: array<u32>;
+@group(0) @binding(11) var<storage, read> params: array<f64>;
 
+
+// After these: the old and the new wall histories, each in parts (`kernels::split_lists`).
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -69,9 +69,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             for (var h = 0u; h < H_LEN; h++) {
                 var v = 0.0lf;
                 if (found != EMPTY) {
-                    v = old_history[H_LEN * found + h];
+                    v = old_history_get(H_LEN * found + h);
                 }
-                new_history[H_LEN * c + h] = v;
+                new_history_put(H_LEN * c + h, v);
             }
             count++;
         }

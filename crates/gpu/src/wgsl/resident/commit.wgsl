@@ -6,14 +6,13 @@
 @group(0) @binding(3) var<storage, read_write> pair_ij: array<u32>;
 @group(0) @binding(4) var<storage, read> new_ij: array<u32>;
 @group(0) @binding(5) var<storage, read_write> cands: array<u32>;
-@group(0) @binding(6) var<storage, read_write> wall_history: array<f64>;
-@group(0) @binding(7) var<storage, read> new_cands: array<u32>;
-@group(0) @binding(8) var<storage, read> new_wall_history: array<f64>;
-@group(0) @binding(9) var<storage, read> props: array<f64>;
-@group(0) @binding(10) var<storage, read> params: array<f64>;
+@group(0) @binding(6) var<storage, read> new_cands: array<u32>;
+@group(0) @binding(7) var<storage, read> props: array<f64>;
+@group(0) @binding(8) var<storage, read> params: array<f64>;
 
 // After these: the pair histories' halves (the current half takes the new ones,
-// history_halves.wgsl) and the new histories, each in parts (`kernels::split_lists`).
+// history_halves.wgsl), the new pair histories, the wall histories and the new wall histories,
+// each in parts (`kernels::split_lists`).
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -48,7 +47,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             cands[WC_LEN * c + k] = new_cands[WC_LEN * c + k];
         }
         for (var h = 0u; h < H_LEN; h++) {
-            wall_history[H_LEN * c + h] = new_wall_history[H_LEN * c + h];
+            wall_history_put(H_LEN * c + h, new_wall_history_get(H_LEN * c + h));
         }
     }
 }

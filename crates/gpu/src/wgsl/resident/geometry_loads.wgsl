@@ -10,9 +10,8 @@
 @group(0) @binding(0) var<storage, read> dims: array<u32>;
 @group(0) @binding(1) var<storage, read> rows: array<u32>;
 @group(0) @binding(2) var<storage, read> cands: array<u32>;
-@group(0) @binding(3) var<storage, read> output: array<f64>;
-@group(0) @binding(4) var<storage, read_write> geometry_loads: array<f64>;
-@group(0) @binding(5) var<storage, read> params: array<f64>;
+@group(0) @binding(3) var<storage, read_write> geometry_loads: array<f64>;
+@group(0) @binding(4) var<storage, read> params: array<f64>;
 
 // The host launches WORKGROUP (lib.rs) threads a geometry.
 const LOAD_THREADS = 64;
@@ -21,7 +20,7 @@ var<workgroup> part_force: array<vec3<f64>, LOAD_THREADS>;
 var<workgroup> part_torque: array<vec3<f64>, LOAD_THREADS>;
 
 fn out3(k: u32) -> vec3<f64> {
-    return vec3<f64>(output[k], output[k + 1u], output[k + 2u]);
+    return vec3<f64>(output_get(k), output_get(k + 1u), output_get(k + 2u));
 }
 
 fn put_load3(k: u32, v: vec3<f64>) {
@@ -29,6 +28,8 @@ fn put_load3(k: u32, v: vec3<f64>) {
     geometry_loads[k + 1u] = v.y;
     geometry_loads[k + 2u] = v.z;
 }
+
+// After these: `output`, the wall outputs, in parts (`kernels::split_lists`).
 
 @compute @workgroup_size(LOAD_THREADS)
 fn main(

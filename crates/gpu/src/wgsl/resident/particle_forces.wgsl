@@ -16,15 +16,15 @@
 @group(0) @binding(3) var<storage, read> ints: array<u32>;
 @group(0) @binding(4) var<storage, read> pair_ij: array<u32>;
 @group(0) @binding(5) var<storage, read> rows: array<u32>;
-@group(0) @binding(6) var<storage, read> walls: array<f64>;
-@group(0) @binding(7) var<storage, read> table: array<f64>;
-@group(0) @binding(8) var<storage, read> params: array<f64>;
-@group(0) @binding(9) var<storage, read> counts: array<u32>;
-@group(0) @binding(10) var<storage, read_write> ctrl: array<atomic<u32>>;
-// After these: the pair histories' halves, each in parts (`kernels::split_lists`).
+@group(0) @binding(6) var<storage, read> table: array<f64>;
+@group(0) @binding(7) var<storage, read> params: array<f64>;
+@group(0) @binding(8) var<storage, read> counts: array<u32>;
+@group(0) @binding(9) var<storage, read_write> ctrl: array<atomic<u32>>;
+// After these: the pair histories' halves and the wall outputs (`walls`), each in parts
+// (`kernels::split_lists`).
 
 fn wall3(k: u32) -> vec3<f64> {
-    return vec3<f64>(walls[k], walls[k + 1u], walls[k + 2u]);
+    return vec3<f64>(walls_get(k), walls_get(k + 1u), walls_get(k + 2u));
 }
 
 // Pair slot q (particles i < j) from its history in half `h` (pair_contact.wgsl); where `owner`
@@ -94,7 +94,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var s = rows[R_WALL_BEGIN * n + i]; s < rows[R_WALL_END * n + i]; s++) {
         f -= wall3(WO_LEN * s + WO_FORCE);
         t += wall3(WO_LEN * s + WO_PARTICLE_TORQUE);
-        lim += walls[WO_LEN * s + WO_ROLLING];
+        lim += walls_get(WO_LEN * s + WO_ROLLING);
     }
     put_load3(L_FORCE * n + 3u * i, f);
     put_load3(L_TORQUE * n + 3u * i, t);

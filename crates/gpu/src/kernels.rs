@@ -1,7 +1,7 @@
 //! Every kernel's full WGSL source, composed in one place: the layout constants
 //! ([`layout::wgsl_constants`]), `vector.wgsl`, then the shared parts the kernel uses and its own
-//! file, then the bindings and accessors of the lists it binds in parts ([`split_lists`]). The
-//! context compiles exactly these sources, and the tests below parse and validate them with naga
+//! file, then the bindings and accessors of the lists it may bind in parts ([`split_lists`]: whole
+//! in the kernel, in parts in its `_in_parts` variant). The context compiles exactly these sources, and the tests below parse and validate them with naga
 //! (no device needed), so a kernel that does not compile fails `cargo test` anywhere, not only
 //! where a GPU is.
 
@@ -179,19 +179,31 @@ const KERNELS: &[(&str, &[&str])] = &[
 /// (2^31 - 1 on NVIDIA's Vulkan through wgpu, 128 MiB on lavapipe); the lists of a segment that
 /// grow with its pair and wall slots, the pair histories (48 bytes a slot in each of three
 /// lists), the wall outputs (80 bytes a wall slot) and the wall histories (48, in two), are the
-/// largest, so they are bound in parts and the scenes that fit the resident path grow this many
-/// times. Four keep the busiest kernel (`commit`, 29 bindings) within the 32 storage bindings
-/// lavapipe allows a kernel.
+/// largest, so they may be bound in parts ([`SPLIT`]) and the scenes that fit the resident path
+/// grow this many times. Four keep the busiest kernel (`commit_in_parts`, 29 bindings) within the
+/// 32 storage bindings lavapipe allows a kernel.
 pub(crate) const PARTS: usize = 4;
 
-/// The lists each kernel binds in [`PARTS`] parts: the list's name and whether the kernel writes
-/// it. The host binds the parts in this order after the kernel's own bindings (the stage path
-/// binds each list whole in its first part).
-const SPLIT: &[(&str, &[(&str, bool)])] = &[
-    ("pair_forces", &[("history", true), ("output", true)]),
-    ("wall_forces", &[("history", true), ("output", true)]),
+/// A kernel's split lists: each list's name and whether the kernel writes it.
+type Lists = &'static [(&'static str, bool)];
+
+/// The lists each kernel may bind in [`PARTS`] parts: the kernel, the name of its variant that
+/// binds them so (none: the stage path's `pair_forces`, whose lists fit one binding), and each
+/// list's name and whether the kernel writes it. The kernel itself binds each list whole, in one
+/// binding and with plain accessors; its variant in parts selects a part at every access, which
+/// costs (on lavapipe `particle_forces` took 60 ms a step in parts against 34 ms whole), so a
+/// segment uses the variants only where a list passes one binding. The host binds the lists in
+/// this order after the kernel's own bindings.
+const SPLIT: &[(&str, Option<&str>, Lists)] = &[
+    ("pair_forces", None, &[("history", true), ("output", true)]),
+    (
+        "wall_forces",
+        Some("wall_forces_in_parts"),
+        &[("history", true), ("output", true)],
+    ),
     (
         "build_pairs",
+        Some("build_pairs_in_parts"),
         &[
             ("history_even", true),
             ("history_odd", true),
@@ -200,10 +212,12 @@ const SPLIT: &[(&str, &[(&str, bool)])] = &[
     ),
     (
         "build_walls",
+        Some("build_walls_in_parts"),
         &[("old_history", false), ("new_history", true)],
     ),
     (
         "commit",
+        Some("commit_in_parts"),
         &[
             ("history_even", true),
             ("history_odd", true),
@@ -214,13 +228,18 @@ const SPLIT: &[(&str, &[(&str, bool)])] = &[
     ),
     (
         "particle_forces",
+        Some("particle_forces_in_parts"),
         &[
             ("history_even", true),
             ("history_odd", true),
             ("walls", false),
         ],
     ),
-    ("geometry_loads", &[("output", false)]),
+    (
+        "geometry_loads",
+        Some("geometry_loads_in_parts"),
+        &[("output", false)],
+    ),
 ];
 
 /// The numbers of a split list's part on a device that binds at most `max_binding` bytes: whole
@@ -232,24 +251,31 @@ pub(crate) fn part_numbers(max_binding: u64) -> usize {
     (numbers / row * row).max(row)
 }
 
-/// The WGSL of `lists` bound in [`PARTS`] parts from binding `first` on: each part's binding, then
-/// `NAME_get(k)` (and `NAME_put(k, v)` where written) over the list as one, number k being
-/// number `k % PART_NUMBERS` of part `k / PART_NUMBERS`. WGSL cannot pass a storage array to a
-/// function, so each list gets its own accessors.
-fn split_lists(first: usize, lists: &[(&str, bool)]) -> String {
+/// The WGSL of `lists` bound in `parts` parts (1 or [`PARTS`]) from binding `first` on: each
+/// part's binding, then `NAME_get(k)` (and `NAME_put(k, v)` where written) over the list as one,
+/// number k being number `k % PART_NUMBERS` of part `k / PART_NUMBERS` (in one part, number k of
+/// it). WGSL cannot pass a storage array to a function, so each list gets its own accessors.
+fn split_lists(first: usize, lists: &[(&str, bool)], parts: usize) -> String {
     let mut out = String::new();
     let mut binding = first;
     for &(name, writes) in lists {
         let access = if writes { "read_write" } else { "read" };
-        for p in 0..PARTS {
+        for p in 0..parts {
             out += &format!(
                 "@group(0) @binding({binding}) var<storage, {access}> {name}_{p}: array<f64>;\n"
             );
             binding += 1;
         }
+        if parts == 1 {
+            out += &format!("fn {name}_get(k: u32) -> f64 {{\n    return {name}_0[k];\n}}\n");
+            if writes {
+                out += &format!("fn {name}_put(k: u32, v: f64) {{\n    {name}_0[k] = v;\n}}\n");
+            }
+            continue;
+        }
         let cases = |body: &dyn Fn(usize) -> String| {
-            (0..PARTS)
-                .map(|p| match p + 1 == PARTS {
+            (0..parts)
+                .map(|p| match p + 1 == parts {
                     false => format!("        case {p}u: {{ {} }}\n", body(p)),
                     true => format!("        default: {{ {} }}\n", body(p)),
                 })
@@ -277,22 +303,28 @@ pub(crate) fn kernel_sources(max_binding: u64) -> Vec<(&'static str, String)> {
         layout::wgsl_constants(),
         part_numbers(max_binding)
     );
-    KERNELS
-        .iter()
-        .map(|&(name, parts)| {
-            let mut source = [constants.as_str(), VECTOR]
-                .into_iter()
-                .chain(parts.iter().copied())
-                .collect::<Vec<_>>()
-                .join("\n");
-            if let Some((_, lists)) = SPLIT.iter().find(|(kernel, _)| *kernel == name) {
-                // The parts come after the kernel's own bindings, numbered 0 on.
-                let own = source.matches("@binding(").count();
-                source += &split_lists(own, lists);
-            }
-            (name, source)
-        })
-        .collect()
+    let mut sources = Vec::new();
+    for &(name, parts) in KERNELS {
+        let source = [constants.as_str(), VECTOR]
+            .into_iter()
+            .chain(parts.iter().copied())
+            .collect::<Vec<_>>()
+            .join("\n");
+        let Some(&(_, in_parts, lists)) = SPLIT.iter().find(|(kernel, ..)| *kernel == name) else {
+            sources.push((name, source));
+            continue;
+        };
+        // The lists come after the kernel's own bindings, numbered 0 on.
+        let own = source.matches("@binding(").count();
+        sources.push((name, format!("{source}{}", split_lists(own, lists, 1))));
+        if let Some(in_parts) = in_parts {
+            sources.push((
+                in_parts,
+                format!("{source}{}", split_lists(own, lists, PARTS)),
+            ));
+        }
+    }
+    sources
 }
 
 #[cfg(test)]

@@ -438,23 +438,6 @@ impl GpuContext {
         self.pool.reused()
     }
 
-    /// `list` as the stage kernels bind a list they split (`kernels::split_lists`): whole in the
-    /// first part (a stage's lists fit one binding, `fits`), one number in each of the others.
-    fn whole_in_parts<'a>(
-        &self,
-        list: &'a wgpu::Buffer,
-        unused: &'a [wgpu::Buffer],
-    ) -> impl Iterator<Item = &'a wgpu::Buffer> {
-        std::iter::once(list).chain(unused)
-    }
-
-    /// One-number buffers for the parts of a split list past the first ([`Self::whole_in_parts`]).
-    fn unused_parts(&self) -> Vec<wgpu::Buffer> {
-        (1..kernels::PARTS)
-            .map(|_| self.storage(&[0.0f64]))
-            .collect()
-    }
-
     /// Runs `pipeline` over `threads` threads with `buffers` bound in order, then reads back the
     /// buffers listed in `read` (indices into `buffers`).
     fn run(

@@ -11,7 +11,6 @@ use dem::particles::Particles;
 use dem::sim::walls::WallLists;
 use dem::sim::{Anchors, Moved, SimulationParams, StepInputs};
 
-use crate::kernels::PARTS;
 use crate::layout::{self, element, geometry, pair_output, wall_output};
 use crate::pack::{
     block3, element_row, f64s, flat, geometry_row, history_at, history_of, ints_of, loads_of,
@@ -121,15 +120,15 @@ impl GpuStages {
             }
             .words(threads),
         );
-        let own = [&state, &props, &ints, &ij, &table, &par, &counts];
-        let (history_parts, output_parts) = (c.unused_parts(), c.unused_parts());
-        let buffers: Vec<&wgpu::Buffer> = own
-            .into_iter()
-            .chain(c.whole_in_parts(&history, &history_parts))
-            .chain(c.whole_in_parts(&output, &output_parts))
-            .collect();
-        let at = own.len();
-        let out = c.run(&c.pair_forces, &buffers, threads, &[at, at + PARTS])?;
+        // The kernel's own bindings, then its lists, whole (`kernels::SPLIT`).
+        let out = c.run(
+            &c.pair_forces,
+            &[
+                &state, &props, &ints, &ij, &table, &par, &counts, &history, &output,
+            ],
+            threads,
+            &[7, 8],
+        )?;
         let h = f64s(&out[0]);
         let o = f64s(&out[1]);
         for (q, pair) in lists.pairs.iter_mut().enumerate() {
@@ -198,27 +197,27 @@ impl GpuStages {
             .words(threads),
         );
         let status = c.storage(&vec![0u32; n]);
-        let own = [
-            &state,
-            &props,
-            &ints,
-            &flat_elements,
-            &geoms,
-            &cands,
-            &rows,
-            &table,
-            &par,
-            &counts,
-            &status,
-        ];
-        let (history_parts, output_parts) = (c.unused_parts(), c.unused_parts());
-        let buffers: Vec<&wgpu::Buffer> = own
-            .into_iter()
-            .chain(c.whole_in_parts(&history, &history_parts))
-            .chain(c.whole_in_parts(&output, &output_parts))
-            .collect();
-        let at = own.len();
-        let out = c.run(&c.wall_forces, &buffers, threads, &[at, at + PARTS, at - 1])?;
+        // The kernel's own bindings, then its lists, whole (`kernels::SPLIT`).
+        let out = c.run(
+            &c.wall_forces,
+            &[
+                &state,
+                &props,
+                &ints,
+                &flat_elements,
+                &geoms,
+                &cands,
+                &rows,
+                &table,
+                &par,
+                &counts,
+                &status,
+                &history,
+                &output,
+            ],
+            threads,
+            &[11, 12, 10],
+        )?;
         let status: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
         if status[..n].iter().any(|&s| s != 0) {
             // A particle touching more walls at once than the kernel keeps: the CPU has no limit.

@@ -6,7 +6,6 @@ use super::bodies::BodyBuffers;
 use super::bonds::BondBuffers;
 use super::world::{Merged, World};
 use super::{Capacity, Retry, BUCKETS_PER_PARTICLE, EMPTY};
-use crate::kernels::PARTS;
 use crate::layout;
 use crate::pack::Counts;
 use crate::{GpuContext, STATE_BYTES};
@@ -168,6 +167,8 @@ pub(super) struct Buffers {
     pub(super) geometry_loads: wgpu::Buffer,
     pub(super) bonds: Option<BondBuffers>,
     pub(super) bodies: Option<BodyBuffers>,
+    /// The parts each [`Split`] list is bound in: 1, or `kernels::PARTS` where one passes a binding.
+    pub(super) parts: usize,
 }
 
 impl Buffers {
@@ -268,6 +269,7 @@ impl Buffers {
         worlds: usize,
         s: &Sizes,
         cap: Capacity,
+        parts: usize,
     ) -> Buffers {
         let (n, pairs, walls) = (s.n, s.pairs, s.walls);
         let counts = |threads: usize| {
@@ -319,16 +321,16 @@ impl Buffers {
             status: c.zeros::<u32>(&mut zero, n),
             pair_ij: c.storage(&m.pair_ij),
             // The host's histories are those before step 0.
-            history_even: Split::with(c, &m.pair_history),
-            history_odd: Split::zeros(c, &mut zero, layout::history::LEN * pairs),
+            history_even: Split::with(c, &m.pair_history, parts),
+            history_odd: Split::zeros(c, &mut zero, layout::history::LEN * pairs, parts),
             new_ij: c.storage(&vec![EMPTY; layout::pair_ij::LEN * pairs]),
-            new_pair_history: Split::zeros(c, &mut zero, layout::history::LEN * pairs),
+            new_pair_history: Split::zeros(c, &mut zero, layout::history::LEN * pairs, parts),
             rows: c.storage(&m.rows),
             cands: c.storage(&m.cands),
-            wall_history: Split::with(c, &m.wall_history),
-            wall_output: Split::zeros(c, &mut zero, layout::wall_output::LEN * walls),
+            wall_history: Split::with(c, &m.wall_history, parts),
+            wall_output: Split::zeros(c, &mut zero, layout::wall_output::LEN * walls, parts),
             new_cands: c.storage(&vec![EMPTY; layout::cands::LEN * walls]),
-            new_wall_history: Split::zeros(c, &mut zero, layout::history::LEN * walls),
+            new_wall_history: Split::zeros(c, &mut zero, layout::history::LEN * walls, parts),
             table: c.storage(&m.table),
             elements: c.storage(&m.elements),
             geoms: c.storage(&m.geoms),
@@ -347,16 +349,18 @@ impl Buffers {
                 .zeros::<f64>(&mut zero, layout::geometry_loads::LEN * s.geometries.max(1)),
             bonds: m.bonds.as_ref().map(|mb| BondBuffers::new(c, mb, n)),
             bodies: m.bodies.as_ref().map(|mb| BodyBuffers::new(c, mb, n)),
+            parts,
         };
         c.queue.submit([zero.finish()]);
         buffers
     }
 }
 
-/// A list of f64 bound in [`PARTS`] parts of at most [`GpuContext::part_numbers`] numbers
-/// each, in order (`kernels::split_lists`): the pair and wall histories and the wall outputs,
-/// the largest lists, so that a scene's lists may be larger than one binding. The parts past the list's end hold one number
-/// (a binding cannot be empty). The caller checks that the list fits the parts.
+/// A list of f64 bound in parts (1, or `kernels::PARTS` where a list of the try passes one binding) of
+/// at most [`GpuContext::part_numbers`] numbers each, in order (`kernels::split_lists`): the pair
+/// and wall histories and the wall outputs, the largest lists, so that a scene's lists may be
+/// larger than one binding. The parts past the list's end hold one number (a binding cannot be
+/// empty). The caller checks that the list fits the parts.
 pub(super) struct Split(Vec<wgpu::Buffer>);
 
 impl Split {
@@ -365,29 +369,36 @@ impl Split {
         len.div_ceil(c.part_numbers).max(1)
     }
 
-    /// `data`, in parts.
-    fn with(c: &GpuContext, data: &[f64]) -> Split {
-        Split::padded(
-            c,
-            data.chunks(c.part_numbers).map(|d| c.storage(d)).collect(),
-        )
+    /// `data`, in `parts` parts.
+    fn with(c: &GpuContext, data: &[f64], parts: usize) -> Split {
+        let made = data.chunks(c.part_numbers).map(|d| c.storage(d)).collect();
+        Split::padded(c, made, parts)
     }
 
-    /// `len` zeros, in parts cleared on the device by `encoder` ([`GpuContext::zeros`]).
-    fn zeros(c: &GpuContext, encoder: &mut wgpu::CommandEncoder, len: usize) -> Split {
+    /// `len` zeros in `parts` parts, cleared on the device by `encoder` ([`GpuContext::zeros`]).
+    fn zeros(
+        c: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        len: usize,
+        parts: usize,
+    ) -> Split {
         let part = c.part_numbers;
-        let parts = (0..len.div_ceil(part))
+        let made = (0..len.div_ceil(part))
             .map(|p| c.zeros::<f64>(encoder, part.min(len - p * part)))
             .collect();
-        Split::padded(c, parts)
+        Split::padded(c, made, parts)
     }
 
-    fn padded(c: &GpuContext, mut parts: Vec<wgpu::Buffer>) -> Split {
-        debug_assert!(parts.len() <= PARTS, "a list in {} parts", parts.len());
-        while parts.len() < PARTS {
-            parts.push(c.storage(&[0.0f64]));
+    fn padded(c: &GpuContext, mut made: Vec<wgpu::Buffer>, parts: usize) -> Split {
+        debug_assert!(
+            made.len() <= parts,
+            "a list in {} parts of {parts}",
+            made.len()
+        );
+        while made.len() < parts {
+            made.push(c.storage(&[0.0f64]));
         }
-        Split(parts)
+        Split(made)
     }
 
     /// The parts, in order, as the kernels bind them.
@@ -408,12 +419,13 @@ pub(super) fn make_buffers(
     sizes: &Sizes,
     cap: Capacity,
     needed: u64,
+    parts: usize,
 ) -> Result<Buffers, Retry> {
     c.pool.make_room(needed, c.memory);
     loop {
         let memory = c.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = c.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let b = Buffers::new(c, m, worlds, sizes, cap);
+        let b = Buffers::new(c, m, worlds, sizes, cap, parts);
         let invalid = pollster::block_on(validation.pop());
         let out_of_memory = pollster::block_on(memory.pop());
         match (invalid, out_of_memory) {

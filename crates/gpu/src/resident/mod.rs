@@ -152,9 +152,37 @@ pub(crate) struct ResidentKernels {
     bond_sums: wgpu::ComputePipeline,
     bodies_first: wgpu::ComputePipeline,
     bodies_last: wgpu::ComputePipeline,
+    /// The variants that bind the largest lists in parts (`kernels::SPLIT`), for a segment
+    /// whose lists pass one binding.
+    in_parts: InParts,
+}
+
+/// The kernels' variants that bind the largest lists in parts (`kernels::SPLIT`).
+pub(crate) struct InParts {
+    wall_forces: wgpu::ComputePipeline,
+    build_pairs: wgpu::ComputePipeline,
+    build_walls: wgpu::ComputePipeline,
+    commit: wgpu::ComputePipeline,
+    particle_forces: wgpu::ComputePipeline,
+    geometry_loads: wgpu::ComputePipeline,
 }
 
 impl ResidentKernels {
+    /// `whole` where the try's split lists are bound in one part each, else `in_parts`, its
+    /// variant that binds them in `kernels::PARTS` (`buffers::Split`).
+    fn pick<'a>(
+        &self,
+        b: &buffers::Buffers,
+        whole: &'a wgpu::ComputePipeline,
+        in_parts: &'a wgpu::ComputePipeline,
+    ) -> &'a wgpu::ComputePipeline {
+        if b.parts == 1 {
+            whole
+        } else {
+            in_parts
+        }
+    }
+
     /// The pipelines from `take(name)`, which hands over a compiled kernel of
     /// `kernels::kernel_sources`.
     pub(crate) fn new(take: &mut dyn FnMut(&str) -> wgpu::ComputePipeline) -> ResidentKernels {
@@ -175,6 +203,14 @@ impl ResidentKernels {
             bond_forces: take("bond_forces"),
             bond_sums: take("bond_sums"),
             bodies_first: take("bodies_first"),
+            in_parts: InParts {
+                wall_forces: take("wall_forces_in_parts"),
+                build_pairs: take("build_pairs_in_parts"),
+                build_walls: take("build_walls_in_parts"),
+                commit: take("commit_in_parts"),
+                particle_forces: take("particle_forces_in_parts"),
+                geometry_loads: take("geometry_loads_in_parts"),
+            },
             bodies_last: take("bodies_last"),
         }
     }

@@ -50,7 +50,7 @@ pub(super) fn launch<'a>(
 }
 
 /// A launch of `pipeline` with `own` bound in order, then each of `split`'s parts
-/// (`kernels::split_lists`).
+/// (`kernels::split_lists`), as many as `pipeline` binds (`ResidentKernels::pick`).
 fn launch_split<'a>(
     c: &GpuContext,
     pipeline: &'a wgpu::ComputePipeline,
@@ -145,7 +145,7 @@ impl<'a> Launches<'a> {
             // Once at the end: a world that stopped earlier kept its rows and wall output.
             geometry_loads: launch_split(
                 c,
-                &k.geometry_loads,
+                k.pick(b, &k.geometry_loads, &k.in_parts.geometry_loads),
                 &[&b.dims, &b.rows, &b.cands, &b.geometry_loads, &b.params],
                 &[&b.wall_output],
                 // One workgroup a geometry.
@@ -189,7 +189,7 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                &k.build_pairs,
+                k.pick(b, &k.build_pairs, &k.in_parts.build_pairs),
                 &[
                     &b.state,
                     &b.props,
@@ -211,7 +211,7 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                &k.build_walls,
+                k.pick(b, &k.build_walls, &k.in_parts.build_walls),
                 &[
                     &b.state,
                     &b.counts_n,
@@ -237,7 +237,7 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                &k.commit,
+                k.pick(b, &k.commit, &k.in_parts.commit),
                 &[
                     &b.counts_n,
                     &b.ctrl,
@@ -267,7 +267,8 @@ impl<'a> Launches<'a> {
         [
             launch_split(
                 c,
-                &c.wall_forces,
+                c.resident
+                    .pick(b, &c.wall_forces, &c.resident.in_parts.wall_forces),
                 &[
                     &b.state,
                     &b.props,
@@ -286,7 +287,11 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                &c.resident.particle_forces,
+                c.resident.pick(
+                    b,
+                    &c.resident.particle_forces,
+                    &c.resident.in_parts.particle_forces,
+                ),
                 &[
                     &b.state,
                     &b.loads,
@@ -316,6 +321,16 @@ impl<'a> Launches<'a> {
                 s.n,
             ),
         ]
+    }
+}
+
+/// The parts a try binds its split lists in when the longest takes `parts`: one where each fits
+/// one binding (the kernels' plain variants), else all (their variants in parts).
+fn bound_in(parts: usize) -> usize {
+    if parts == 1 {
+        1
+    } else {
+        PARTS
     }
 }
 
@@ -349,7 +364,7 @@ impl GpuStages {
                 size(c.max_binding)
             )));
         }
-        // The largest lists are bound in parts (`Split`).
+        // The largest lists are bound in parts (`Split`) where one passes a binding.
         let mut parts = 1;
         for (what, numbers) in sizes.split_lists() {
             let needs = Split::parts_for(c, numbers);
@@ -374,7 +389,7 @@ impl GpuStages {
         }
         // Out of memory in a buffer's creation makes it invalid, and the write of its data then
         // a validation error: both caught here, neither the device's failure.
-        let b = make_buffers(c, &m, worlds.len(), &sizes, cap, needed)?;
+        let b = make_buffers(c, &m, worlds.len(), &sizes, cap, needed, bound_in(parts))?;
         phases.mark("buffers");
         // The count must bound what was made (for the packing); a miscount is a bug, said as a
         // decline so that it shows where it happens.
@@ -477,9 +492,9 @@ impl GpuStages {
         let mut out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
         // Each split list's parts as one (the one-number parts past its end come after it), in
         // its place among the others.
-        let wall_history = out.split_off(out.len() - PARTS).concat();
-        let odd = out.split_off(out.len() - PARTS).concat();
-        let even = out.split_off(out.len() - PARTS).concat();
+        let wall_history = out.split_off(out.len() - b.parts).concat();
+        let odd = out.split_off(out.len() - b.parts).concat();
+        let even = out.split_off(out.len() - b.parts).concat();
         out.insert(4, even);
         out.insert(5, odd);
         out.insert(8, wall_history);

@@ -334,6 +334,14 @@ fn bound_in(parts: usize) -> usize {
     }
 }
 
+/// A split list's parts read back, as one (without a copy where it is in one part).
+fn join(mut parts: Vec<Vec<u8>>) -> Vec<u8> {
+    match parts.len() {
+        1 => parts.pop().unwrap_or_default(),
+        _ => parts.concat(),
+    }
+}
+
 /// `bytes` in GB, or MB below one GB.
 fn size(bytes: u64) -> String {
     match bytes >= 1_000_000_000 {
@@ -449,23 +457,28 @@ impl GpuStages {
         let mut spare = vec![args.clone(), full_buffer.clone()];
         let stopped = self.run_chunks(worlds, &sizes, &b, &step, needed, &mut spare)?;
         phases.mark("steps");
-        let end = self.read_end(worlds, &m, &b, &l, spare, stopped);
-        phases.mark("read back and split");
+        let end = self.read_end(worlds, &m, &b, &l, stopped, &mut phases);
+        phases.mark("split");
+        if end.is_ok() {
+            // Every submission is done: the next segment may write over these buffers.
+            spare.extend(b.all().into_iter().cloned());
+            c.pool.keep(spare);
+        }
         phases.record();
         end
     }
 
     /// The end of a try whose steps ran (`stopped`: the overflow that ended them early, and
     /// where): the last step's check and the geometry loads, then the read-back of what each
-    /// world's end holds; the try's buffers go to the context's pool.
+    /// world's end holds.
     fn read_end(
         &self,
         worlds: &[World],
         m: &Merged,
         b: &Buffers,
         l: &Launches,
-        mut spare: Vec<wgpu::Buffer>,
         stopped: Option<(u32, usize)>,
+        phases: &mut crate::profile::HostPhases,
     ) -> Result<(Vec<SegmentEnd>, Option<u32>), Retry> {
         let c = &*self.ctx;
         let mut encoder = c.device.create_command_encoder(&Default::default());
@@ -490,18 +503,16 @@ impl GpuStages {
         let split = [&b.history_even, &b.history_odd, &b.wall_history];
         buffers.extend(split.iter().flat_map(|s| s.parts()));
         let mut out = c.read_back(encoder, &buffers).map_err(Retry::Failed)?;
+        phases.mark("read back");
         // Each split list's parts as one (the one-number parts past its end come after it), in
         // its place among the others.
-        let wall_history = out.split_off(out.len() - b.parts).concat();
-        let odd = out.split_off(out.len() - b.parts).concat();
-        let even = out.split_off(out.len() - b.parts).concat();
+        let wall_history = join(out.split_off(out.len() - b.parts));
+        let odd = join(out.split_off(out.len() - b.parts));
+        let even = join(out.split_off(out.len() - b.parts));
         out.insert(4, even);
         out.insert(5, odd);
         out.insert(8, wall_history);
         check_overflow(&out[0])?;
-        // Every submission is done: the next segment may write over these buffers.
-        spare.extend(b.all().into_iter().cloned());
-        c.pool.keep(spare);
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
         let failed: Vec<Option<u64>> = words
             [layout::ctrl::FAILED..layout::ctrl::FAILED + worlds.len()]

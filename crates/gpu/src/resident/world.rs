@@ -495,17 +495,14 @@ impl Merged {
     ) -> Vec<SegmentEnd> {
         use layout::{cands, geometry_loads, loads, pair_ij, rows as r, state};
         let n = self.n;
-        let s: Vec<f64> = bytemuck::pod_collect_to_vec(&out[1]);
-        let l: Vec<f64> = bytemuck::pod_collect_to_vec(&out[2]);
-        let ij: Vec<u32> = bytemuck::pod_collect_to_vec(&out[3]);
-        let halves: [Vec<f64>; 2] = [
-            bytemuck::pod_collect_to_vec(&out[4]),
-            bytemuck::pod_collect_to_vec(&out[5]),
-        ];
-        let rows: Vec<u32> = bytemuck::pod_collect_to_vec(&out[6]);
-        let wc: Vec<u32> = bytemuck::pod_collect_to_vec(&out[7]);
-        let wh: Vec<f64> = bytemuck::pod_collect_to_vec(&out[8]);
-        let gl: Vec<f64> = bytemuck::pod_collect_to_vec(&out[9]);
+        let s = numbers::<f64>(&out[1]);
+        let l = numbers::<f64>(&out[2]);
+        let ij = numbers::<u32>(&out[3]);
+        let halves = [numbers::<f64>(&out[4]), numbers::<f64>(&out[5])];
+        let rows = numbers::<u32>(&out[6]);
+        let wc = numbers::<u32>(&out[7]);
+        let wh = numbers::<f64>(&out[8]);
+        let gl = numbers::<f64>(&out[9]);
         worlds
             .iter()
             .zip(&self.offsets)
@@ -543,7 +540,7 @@ impl Merged {
                 };
                 // The world's last step wrote its histories to the half of its steps' parity
                 // (`history_halves.wgsl`).
-                let ph = &halves[(end.steps_done % 2) as usize];
+                let ph: &[f64] = &halves[(end.steps_done % 2) as usize];
                 for i in range.clone() {
                     let slots = rows[r::PAIR_BEGIN * n + i]..rows[r::PAIR_END * n + i];
                     for q in slots.start as usize..slots.end as usize {
@@ -582,5 +579,15 @@ impl Merged {
                 end
             })
             .collect()
+    }
+}
+
+/// `bytes` read back as numbers of `T`: in place where they are aligned for `T` (the allocator
+/// aligns a large read-back, the lists' case), else copied. A segment's end reads some tens of
+/// bytes a pair slot; copying them all once more cost about half the split's time.
+fn numbers<T: bytemuck::Pod>(bytes: &[u8]) -> std::borrow::Cow<'_, [T]> {
+    match bytemuck::try_cast_slice(bytes) {
+        Ok(v) => std::borrow::Cow::Borrowed(v),
+        Err(_) => std::borrow::Cow::Owned(bytemuck::pod_collect_to_vec(bytes)),
     }
 }

@@ -1,7 +1,7 @@
 //! Every kernel's full WGSL source, composed in one place: the layout constants
 //! ([`layout::wgsl_constants`]), `vector.wgsl`, then the shared parts the kernel uses and its own
-//! file, then the bindings and accessors of the lists it may bind in parts ([`split_lists`]: whole
-//! in the kernel, in parts in its `_in_parts` variant). The context compiles exactly these sources, and the tests below parse and validate them with naga
+//! file, then the bindings and accessors of the lists it may bind in parts ([`split_lists`]:
+//! whole in the kernel, in parts in its `_in_parts` variant). The context compiles exactly these sources, and the tests below parse and validate them with naga
 //! (no device needed), so a kernel that does not compile fails `cargo test` anywhere, not only
 //! where a GPU is.
 
@@ -191,7 +191,7 @@ type Lists = &'static [(&'static str, bool)];
 /// binds them so (none: the stage path's `pair_forces`, whose lists fit one binding), and each
 /// list's name and whether the kernel writes it. The kernel itself binds each list whole, in one
 /// binding and with plain accessors; its variant in parts selects a part at every access, which
-/// costs (on lavapipe `particle_forces` took 60 ms a step in parts against 34 ms whole), so a
+/// costs (on lavapipe the settle bench ran 1.5 times slower with every segment in parts), so a
 /// segment uses the variants only where a list passes one binding. The host binds the lists in
 /// this order after the kernel's own bindings.
 const SPLIT: &[(&str, Option<&str>, Lists)] = &[
@@ -241,6 +241,11 @@ const SPLIT: &[(&str, Option<&str>, Lists)] = &[
         &[("output", false)],
     ),
 ];
+
+/// Whether `kernel` is a variant that binds its lists in parts ([`SPLIT`]).
+pub(crate) fn in_parts(kernel: &str) -> bool {
+    SPLIT.iter().any(|(_, variant, _)| *variant == Some(kernel))
+}
 
 /// The numbers of a split list's part on a device that binds at most `max_binding` bytes: whole
 /// histories, so that a history's six numbers lie in one part (a wall output's ten may lie in

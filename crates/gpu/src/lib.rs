@@ -252,27 +252,33 @@ impl GpuContext {
         // A kernel the driver refuses is an error, not a panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         // Every kernel as `kernels::kernel_sources` composes it (the sources naga checks in the
-        // crate's tests).
-        let mut pipelines: std::collections::HashMap<&str, wgpu::ComputePipeline> =
-            kernels::kernel_sources(max_binding)
-                .into_iter()
-                .map(|(name, source)| {
-                    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                        label: Some(name),
-                        source: wgpu::ShaderSource::Wgsl(source.into()),
-                    });
-                    let pipeline =
-                        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some(name),
-                            layout: None,
-                            module: &module,
-                            entry_point: Some("main"),
-                            compilation_options: Default::default(),
-                            cache: None,
-                        });
-                    (name, pipeline)
-                })
-                .collect();
+        // crate's tests), but for the variants in parts where the device allows a kernel fewer
+        // storage bindings than one of them takes: a segment that needs them is then declined.
+        let sources = kernels::kernel_sources(max_binding);
+        let allowed = device.limits().max_storage_buffers_per_shader_stage as usize;
+        let in_parts = sources
+            .iter()
+            .filter(|(name, _)| kernels::in_parts(name))
+            .all(|(_, source)| source.matches("@binding(").count() <= allowed);
+        let mut pipelines: std::collections::HashMap<&str, wgpu::ComputePipeline> = sources
+            .into_iter()
+            .filter(|(name, _)| in_parts || !kernels::in_parts(name))
+            .map(|(name, source)| {
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(name),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+                let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(name),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+                (name, pipeline)
+            })
+            .collect();
         let mut take = |name: &str| {
             pipelines
                 .remove(name)
@@ -282,7 +288,7 @@ impl GpuContext {
         let pair_forces = take("pair_forces");
         let particle_sums = take("particle_sums");
         let wall_forces = take("wall_forces");
-        let resident = resident::ResidentKernels::new(&mut take);
+        let resident = resident::ResidentKernels::new(&mut take, in_parts);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!(
                 "the GPU {} refused the kernels: {}",

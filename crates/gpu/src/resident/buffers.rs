@@ -40,24 +40,30 @@ impl Sizes {
         }
     }
 
-    /// The largest buffer of the run, in bytes (each must fit one binding), but for the pair
-    /// and wall histories and the wall outputs, which are split across bindings ([`Split`]).
-    pub(super) fn largest(&self, m: &Merged, cap: Capacity) -> usize {
+    /// The largest buffer of the run, named, and its bytes (each must fit one binding), but for
+    /// the pair and wall histories and the wall outputs, which are split across bindings
+    /// ([`Split`]).
+    pub(super) fn largest(&self, m: &Merged, cap: Capacity) -> (&'static str, usize) {
         [
-            STATE_BYTES * self.n,
-            4 * (self.steps + 1),
-            8 * m.element_track.len(),
-            8 * m.geoms_track.len(),
-            8 * m.table.len(),
-            4 * (layout::rows::REVERSE_ENTRIES * self.n + self.pairs),
-            4 * self.buckets * cap.bucket,
-            8 * layout::element::LEN * self.elements,
+            ("particle states", STATE_BYTES * self.n),
+            ("forced rebuilds", 4 * (self.steps + 1)),
+            ("element poses", 8 * m.element_track.len()),
+            ("geometry poses", 8 * m.geoms_track.len()),
+            ("material pairs", 8 * m.table.len()),
+            ("pair slots", 4 * layout::pair_ij::LEN * self.pairs),
+            ("wall candidates", 4 * layout::cands::LEN * self.walls),
+            (
+                "rows",
+                4 * (layout::rows::REVERSE_ENTRIES * self.n + self.pairs),
+            ),
+            ("cell buckets", 4 * self.buckets * cap.bucket),
+            ("elements", 8 * layout::element::LEN * self.elements),
         ]
         .into_iter()
-        .chain(m.bonds.as_ref().map(|b| b.largest()))
-        .chain(m.bodies.as_ref().map(|b| b.largest()))
-        .max()
-        .unwrap_or(0)
+        .chain(m.bonds.as_ref().map(|b| ("bonds", b.largest())))
+        .chain(m.bodies.as_ref().map(|b| ("clump bodies", b.largest())))
+        .max_by_key(|l| l.1)
+        .unwrap_or(("lists", 0))
     }
 }
 

@@ -153,8 +153,9 @@ pub(crate) struct ResidentKernels {
     bodies_first: wgpu::ComputePipeline,
     bodies_last: wgpu::ComputePipeline,
     /// The variants that bind the largest lists in parts (`kernels::SPLIT`), for a segment
-    /// whose lists pass one binding.
-    in_parts: InParts,
+    /// whose lists pass one binding; None where the device allows a kernel fewer storage
+    /// bindings than they take (such a segment is declined).
+    pub(crate) in_parts: Option<InParts>,
 }
 
 /// The kernels' variants that bind the largest lists in parts (`kernels::SPLIT`).
@@ -168,24 +169,27 @@ pub(crate) struct InParts {
 }
 
 impl ResidentKernels {
-    /// `whole` where the try's split lists are bound in one part each, else `in_parts`, its
-    /// variant that binds them in `kernels::PARTS` (`buffers::Split`).
+    /// `whole` where the try's split lists are bound in one part each, else its variant that
+    /// binds them in `kernels::PARTS` (`buffers::Split`), which `in_parts` picks (a try in parts
+    /// runs only where the variants were compiled: `try_run` declines it otherwise).
     fn pick<'a>(
-        &self,
+        &'a self,
         b: &buffers::Buffers,
         whole: &'a wgpu::ComputePipeline,
-        in_parts: &'a wgpu::ComputePipeline,
+        in_parts: impl Fn(&'a InParts) -> &'a wgpu::ComputePipeline,
     ) -> &'a wgpu::ComputePipeline {
-        if b.parts == 1 {
-            whole
-        } else {
-            in_parts
+        match (&self.in_parts, b.parts) {
+            (Some(v), parts) if parts > 1 => in_parts(v),
+            _ => whole,
         }
     }
 
     /// The pipelines from `take(name)`, which hands over a compiled kernel of
     /// `kernels::kernel_sources`.
-    pub(crate) fn new(take: &mut dyn FnMut(&str) -> wgpu::ComputePipeline) -> ResidentKernels {
+    pub(crate) fn new(
+        take: &mut dyn FnMut(&str) -> wgpu::ComputePipeline,
+        in_parts: bool,
+    ) -> ResidentKernels {
         ResidentKernels {
             begin: take("begin"),
             check: take("check"),
@@ -203,14 +207,14 @@ impl ResidentKernels {
             bond_forces: take("bond_forces"),
             bond_sums: take("bond_sums"),
             bodies_first: take("bodies_first"),
-            in_parts: InParts {
+            in_parts: in_parts.then(|| InParts {
                 wall_forces: take("wall_forces_in_parts"),
                 build_pairs: take("build_pairs_in_parts"),
                 build_walls: take("build_walls_in_parts"),
                 commit: take("commit_in_parts"),
                 particle_forces: take("particle_forces_in_parts"),
                 geometry_loads: take("geometry_loads_in_parts"),
-            },
+            }),
             bodies_last: take("bodies_last"),
         }
     }
@@ -244,6 +248,16 @@ impl GpuContext {
             (&k.bodies_last, "bodies_last"),
         ]
         .into_iter()
+        .chain(k.in_parts.iter().flat_map(|v| {
+            [
+                (&v.wall_forces, "wall_forces_in_parts"),
+                (&v.build_pairs, "build_pairs_in_parts"),
+                (&v.build_walls, "build_walls_in_parts"),
+                (&v.commit, "commit_in_parts"),
+                (&v.particle_forces, "particle_forces_in_parts"),
+                (&v.geometry_loads, "geometry_loads_in_parts"),
+            ]
+        }))
         .find(|(q, _)| std::ptr::eq(*q, p))
         .map_or("unknown", |(_, name)| name)
     }

@@ -145,7 +145,7 @@ impl<'a> Launches<'a> {
             // Once at the end: a world that stopped earlier kept its rows and wall output.
             geometry_loads: launch_split(
                 c,
-                k.pick(b, &k.geometry_loads, &k.in_parts.geometry_loads),
+                k.pick(b, &k.geometry_loads, |v| &v.geometry_loads),
                 &[&b.dims, &b.rows, &b.cands, &b.geometry_loads, &b.params],
                 &[&b.wall_output],
                 // One workgroup a geometry.
@@ -189,7 +189,7 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                k.pick(b, &k.build_pairs, &k.in_parts.build_pairs),
+                k.pick(b, &k.build_pairs, |v| &v.build_pairs),
                 &[
                     &b.state,
                     &b.props,
@@ -211,7 +211,7 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                k.pick(b, &k.build_walls, &k.in_parts.build_walls),
+                k.pick(b, &k.build_walls, |v| &v.build_walls),
                 &[
                     &b.state,
                     &b.counts_n,
@@ -237,7 +237,7 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                k.pick(b, &k.commit, &k.in_parts.commit),
+                k.pick(b, &k.commit, |v| &v.commit),
                 &[
                     &b.counts_n,
                     &b.ctrl,
@@ -267,8 +267,7 @@ impl<'a> Launches<'a> {
         [
             launch_split(
                 c,
-                c.resident
-                    .pick(b, &c.wall_forces, &c.resident.in_parts.wall_forces),
+                c.resident.pick(b, &c.wall_forces, |v| &v.wall_forces),
                 &[
                     &b.state,
                     &b.props,
@@ -287,11 +286,8 @@ impl<'a> Launches<'a> {
             ),
             launch_split(
                 c,
-                c.resident.pick(
-                    b,
-                    &c.resident.particle_forces,
-                    &c.resident.in_parts.particle_forces,
-                ),
+                c.resident
+                    .pick(b, &c.resident.particle_forces, |v| &v.particle_forces),
                 &[
                     &b.state,
                     &b.loads,
@@ -342,11 +338,12 @@ fn join(mut parts: Vec<Vec<u8>>) -> Vec<u8> {
     }
 }
 
-/// `bytes` in GB, or MB below one GB.
+/// `bytes` in GB, MB below one GB, or bytes below one MB.
 fn size(bytes: u64) -> String {
-    match bytes >= 1_000_000_000 {
-        true => format!("{:.2} GB", bytes as f64 * 1e-9),
-        false => format!("{:.1} MB", bytes as f64 * 1e-6),
+    match bytes {
+        1_000_000_000.. => format!("{:.2} GB", bytes as f64 * 1e-9),
+        1_000_000.. => format!("{:.1} MB", bytes as f64 * 1e-6),
+        _ => format!("{bytes} bytes"),
     }
 }
 
@@ -364,10 +361,11 @@ impl GpuStages {
         let largest = sizes.largest(&m, cap);
         // A pair slot's row index (`H_LEN * q`, `IJ_LEN * q`) must fit u32.
         let row = layout::history::LEN.max(layout::pair_ij::LEN);
-        if !c.fits(largest) || sizes.pairs >= u32::MAX as usize / row {
+        if !c.fits(largest.1) || sizes.pairs >= u32::MAX as usize / row {
             return Err(Retry::Decline(format!(
-                "its largest list ({}) does not fit one binding of {} ({})",
-                size(largest as u64),
+                "its {} ({}) do not fit one binding of {} ({})",
+                largest.0,
+                size(largest.1 as u64),
                 c.adapter,
                 size(c.max_binding)
             )));
@@ -381,7 +379,15 @@ impl GpuStages {
                     "its {what} ({}) do not fit {PARTS} bindings of {} ({} each)",
                     size(8 * numbers as u64),
                     c.adapter,
-                    size(c.max_binding)
+                    size(8 * c.part_numbers as u64)
+                )));
+            }
+            if needs > 1 && c.resident.in_parts.is_none() {
+                return Err(Retry::Decline(format!(
+                    "its {what} ({}) pass one binding of {} ({}), and the device allows a kernel too few storage bindings for the kernels that bind them in parts",
+                    size(8 * numbers as u64),
+                    c.adapter,
+                    size(8 * c.part_numbers as u64)
                 )));
             }
             parts = parts.max(needs);
@@ -453,7 +459,7 @@ impl GpuStages {
         let mut encoder = c.device.create_command_encoder(&Default::default());
         encode(&mut encoder, &l.rebuild.iter().collect::<Vec<_>>());
         c.queue.submit([encoder.finish()]);
-        phases.mark("first build");
+        phases.mark("submit");
         let mut spare = vec![args.clone(), full_buffer.clone()];
         let stopped = self.run_chunks(worlds, &sizes, &b, &step, needed, &mut spare)?;
         phases.mark("steps");

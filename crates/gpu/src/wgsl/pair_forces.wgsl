@@ -13,8 +13,8 @@
 @group(0) @binding(5) var<storage, read> params: array<f64>;
 @group(0) @binding(6) var<storage, read> counts: array<u32>;
 
-// After these: `history` and `output`, the pair slots' histories and outputs, each in parts
-// (`kernels::split_lists`; the stage path binds each whole in the first).
+// After these: `history` and `output`, the pair slots' histories and outputs
+// (`kernels::split_lists`; this kernel has no variant in parts: the stage path binds each whole).
 
 fn clear_output(q: u32) {
     for (var k = 0u; k < PO_LEN; k++) {

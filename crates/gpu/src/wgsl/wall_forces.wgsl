@@ -30,8 +30,8 @@ fn clear(c: u32) {
     }
 }
 
-// After these: `history` and `output`, the wall slots' histories and outputs, each in parts
-// (`kernels::split_lists`).
+// After these: `history` and `output`, the wall slots' histories and outputs, each whole or, in
+// wall_forces_in_parts, in parts (`kernels::split_lists`).
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -97,9 +97,9 @@ fn host_totals() -> &'static Mutex<HostTotals> {
 }
 
 /// The wall-clock time of the phases of one try of a segment on the host (`resident::run`):
-/// what a segment costs besides its steps (merging the worlds, making and writing the buffers,
-/// the bind groups, submitting the writes and the lists' first build, reading the end back and
-/// splitting it), which a world resident across segments would save in part. Cheap enough to
+/// what a segment costs besides its steps (merging the worlds, making and writing the buffers
+/// (their writes submitted at that phase's end), the bind groups, submitting the lists' first
+/// build, reading the end back and splitting it), which a world resident across segments would save in part. Cheap enough to
 /// take always; added up only when profiling, and only for tries that reach their end.
 pub(crate) struct HostPhases {
     last: std::time::Instant,

@@ -640,7 +640,8 @@ fn same_bits_in_parts(
 /// A device that binds fewer bytes than a segment's largest lists take gets them in parts
 /// (`kernels::PARTS`, `Split`), with the same bits as bound whole.
 /// - The crowded spheres' pair rows grow from 4 slots to 128 (their histories from 56 kB to
-///   1.8 MB) while their largest other list, the cell buckets, stays at 262 kB: at 500 kB their
+///   1.8 MB) while their largest other lists, the pair slots and the cell buckets, stay at or
+///   under 300 kB: at 500 kB their
 ///   histories end in all four parts (300 kB in the fourth), through every overflow, retry and
 ///   early end.
 /// - The falling column's wall outputs (8 kB) and pair and wall histories (4.8 kB each) pass

@@ -178,6 +178,10 @@ impl ResidentKernels {
         whole: &'a wgpu::ComputePipeline,
         in_parts: impl Fn(&'a InParts) -> &'a wgpu::ComputePipeline,
     ) -> &'a wgpu::ComputePipeline {
+        debug_assert!(
+            b.parts == 1 || self.in_parts.is_some(),
+            "a try in parts without the variants in parts"
+        );
         match (&self.in_parts, b.parts) {
             (Some(v), parts) if parts > 1 => in_parts(v),
             _ => whole,

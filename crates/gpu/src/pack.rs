@@ -209,8 +209,14 @@ pub(crate) fn wall_output_at(v: &[f64], c: usize) -> WallOutput {
     }
 }
 
-pub(crate) fn f64s(bytes: &[u8]) -> Vec<f64> {
-    bytemuck::pod_collect_to_vec(bytes)
+/// `bytes` read back as numbers of `T`: in place where they are aligned for `T` (the allocator
+/// aligns a large read-back, the lists' case), else copied. A segment's end reads some tens of
+/// bytes a pair slot; copying them all once more cost about half its split's time.
+pub(crate) fn numbers<T: bytemuck::Pod>(bytes: &[u8]) -> std::borrow::Cow<'_, [T]> {
+    match bytemuck::try_cast_slice(bytes) {
+        Ok(v) => std::borrow::Cow::Borrowed(v),
+        Err(_) => std::borrow::Cow::Owned(bytemuck::pod_collect_to_vec(bytes)),
+    }
 }
 
 /// The material pair table (`layout::table`), one row a pair.

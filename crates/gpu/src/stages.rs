@@ -13,7 +13,7 @@ use dem::sim::{Anchors, Moved, SimulationParams, StepInputs};
 
 use crate::layout::{self, element, geometry, pair_output, wall_output};
 use crate::pack::{
-    block3, element_row, f64s, flat, geometry_row, history_at, history_of, ints_of, loads_of,
+    block3, element_row, flat, geometry_row, history_at, history_of, ints_of, loads_of, numbers,
     pair_output_at, pair_output_of, pair_table, params_of, props_of, rows_of, stage_params,
     state_of, wall_output_at, wall_output_of, Counts,
 };
@@ -62,13 +62,13 @@ impl GpuStages {
             threads,
             &[0, 7, 8],
         )?;
-        let s = f64s(&out[0]);
+        let s = numbers::<f64>(&out[0]);
         for i in 0..n {
             p.position[i] = block3(&s, layout::state::POSITION, n, i);
             p.velocity[i] = block3(&s, layout::state::VELOCITY, n, i);
             p.angular_velocity[i] = block3(&s, layout::state::ANGULAR_VELOCITY, n, i);
         }
-        let moved = f64s(&out[1]);
+        let moved = numbers::<f64>(&out[1]);
         let outside: Vec<u32> = bytemuck::pod_collect_to_vec(&out[2]);
         Ok(Some(
             match (0..n).find(|&i| !moved[i].is_finite() || outside[i] != 0) {
@@ -129,8 +129,8 @@ impl GpuStages {
             threads,
             &[7, 8],
         )?;
-        let h = f64s(&out[0]);
-        let o = f64s(&out[1]);
+        let h = numbers::<f64>(&out[0]);
+        let o = numbers::<f64>(&out[1]);
         for (q, pair) in lists.pairs.iter_mut().enumerate() {
             pair.history = history_at(&h, q);
             lists.output[q] = pair_output_at(&o, q);
@@ -223,8 +223,8 @@ impl GpuStages {
             // A particle touching more walls at once than the kernel keeps: the CPU has no limit.
             return Ok(false);
         }
-        let h = f64s(&out[0]);
-        let o = f64s(&out[1]);
+        let h = numbers::<f64>(&out[0]);
+        let o = numbers::<f64>(&out[1]);
         for (k, w) in walls.candidates_mut().iter_mut().enumerate() {
             w.history = history_at(&h, k);
         }
@@ -284,8 +284,8 @@ impl GpuStages {
             threads,
             &[0, 1],
         )?;
-        let s = f64s(&out[0]);
-        let l = f64s(&out[1]);
+        let s = numbers::<f64>(&out[0]);
+        let l = numbers::<f64>(&out[1]);
         use layout::{loads, state};
         for i in 0..n {
             p.velocity[i] = block3(&s, state::VELOCITY, n, i);

@@ -173,11 +173,15 @@ pub(super) struct Buffers {
     pub(super) geometry_loads: wgpu::Buffer,
     pub(super) bonds: Option<BondBuffers>,
     pub(super) bodies: Option<BodyBuffers>,
-    /// The parts each [`Split`] list is bound in: 1, or `kernels::PARTS` where one passes a binding.
-    pub(super) parts: usize,
 }
 
 impl Buffers {
+    /// The parts each [`Split`] list is bound in (all alike): 1, or `kernels::PARTS` where one
+    /// passes a binding.
+    pub(super) fn parts(&self) -> usize {
+        self.history_even.0.len()
+    }
+
     /// The buffers a segment's end reads (its read-back and the end's `check` and
     /// `geometry_loads`) and the steps change: what a snapshot at a step of parity `half` copies
     /// ([`Snapshots`]). Of the pair histories only that half: a world still stepping there has
@@ -355,7 +359,6 @@ impl Buffers {
                 .zeros::<f64>(&mut zero, layout::geometry_loads::LEN * s.geometries.max(1)),
             bonds: m.bonds.as_ref().map(|mb| BondBuffers::new(c, mb, n)),
             bodies: m.bodies.as_ref().map(|mb| BodyBuffers::new(c, mb, n)),
-            parts,
         };
         c.queue.submit([zero.finish()]);
         buffers

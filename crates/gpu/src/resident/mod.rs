@@ -179,10 +179,10 @@ impl ResidentKernels {
         in_parts: impl Fn(&'a InParts) -> &'a wgpu::ComputePipeline,
     ) -> &'a wgpu::ComputePipeline {
         debug_assert!(
-            b.parts == 1 || self.in_parts.is_some(),
+            b.parts() == 1 || self.in_parts.is_some(),
             "a try in parts without the variants in parts"
         );
-        match (&self.in_parts, b.parts) {
+        match (&self.in_parts, b.parts()) {
             (Some(v), parts) if parts > 1 => in_parts(v),
             _ => whole,
         }

@@ -512,9 +512,9 @@ impl GpuStages {
         phases.mark("read back");
         // Each split list's parts as one (the one-number parts past its end come after it), in
         // its place among the others.
-        let wall_history = join(out.split_off(out.len() - b.parts));
-        let odd = join(out.split_off(out.len() - b.parts));
-        let even = join(out.split_off(out.len() - b.parts));
+        let wall_history = join(out.split_off(out.len() - b.parts()));
+        let odd = join(out.split_off(out.len() - b.parts()));
+        let even = join(out.split_off(out.len() - b.parts()));
         out.insert(4, even);
         out.insert(5, odd);
         out.insert(8, wall_history);

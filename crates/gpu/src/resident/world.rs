@@ -22,8 +22,8 @@ use super::bonds::{MergedBonds, WorldBonds};
 use super::{Capacity, EMPTY};
 use crate::layout::{self, element, geometry, overflow};
 use crate::pack::{
-    block3, element_row, geometry_row, history_at, loads_of, pair_table, params_of, props_of,
-    put_history, state_of, vec3_at,
+    block3, element_row, geometry_row, history_at, loads_of, numbers, pair_table, params_of,
+    props_of, put_history, state_of, vec3_at,
 };
 
 /// One simulation's segment, packed for the device.
@@ -579,15 +579,5 @@ impl Merged {
                 end
             })
             .collect()
-    }
-}
-
-/// `bytes` read back as numbers of `T`: in place where they are aligned for `T` (the allocator
-/// aligns a large read-back, the lists' case), else copied. A segment's end reads some tens of
-/// bytes a pair slot; copying them all once more cost about half the split's time.
-fn numbers<T: bytemuck::Pod>(bytes: &[u8]) -> std::borrow::Cow<'_, [T]> {
-    match bytemuck::try_cast_slice(bytes) {
-        Ok(v) => std::borrow::Cow::Borrowed(v),
-        Err(_) => std::borrow::Cow::Owned(bytemuck::pod_collect_to_vec(bytes)),
     }
 }
